@@ -1,0 +1,23 @@
+"""Spherical-harmonic engine: real orthonormal basis without Condon-Shortley phase, Blender world
+frame (Z up), coefficient index k = l*l + l + m, arrays (..., K, C). numpy in -> numpy out,
+torch in -> torch out (differentiable). See ../shared/CONVENTIONS.md for the frame and basis.
+"""
+from .basis import basis
+from .grid import pixel_directions, pixel_solid_angles, row_solid_angles
+from .indexing import degrees_orders, lmax_from_count, num_coeffs
+from .irradiance import convolve_lambert, irradiance, irradiance_matrix, irradiance_rh, lambert_kernel
+from .rotation import rotate, rotate_z, rotation_matrices
+from .transform import project, reconstruct
+from .window import auto_window_width, min_over_grid, window, window_weights
+
+__all__ = [
+    "basis", "project", "reconstruct", "irradiance", "irradiance_rh", "irradiance_matrix",
+    "irradiance_map", "convolve_lambert", "lambert_kernel", "window", "window_weights",
+    "auto_window_width", "min_over_grid", "rotate", "rotate_z", "rotation_matrices", "num_coeffs",
+    "lmax_from_count", "degrees_orders", "pixel_directions", "pixel_solid_angles", "row_solid_angles",
+]
+
+
+def irradiance_map(coeffs, height: int, width: int):
+    """(..., H, W, C) irradiance at every pixel's direction (normal = view direction)."""
+    return reconstruct(convolve_lambert(coeffs), height, width)
