@@ -21,3 +21,4 @@ __all__ = [
 def irradiance_map(coeffs, height: int, width: int):
     """(..., H, W, C) irradiance at every pixel's direction (normal = view direction)."""
     return reconstruct(convolve_lambert(coeffs), height, width)
+from .convert import filament_sh_txt, from_paper, to_filament, to_paper, to_threejs, to_unity  # noqa: E402
