@@ -1,0 +1,33 @@
+"""Locating data that installed packages ship (nothing is downloaded).
+
+The eight Blender studio-light HDRIs (1024 x 512 EXR) are in the bpy wheel; they are the public
+evaluation set (never train on them). Found without importing bpy (which takes seconds).
+"""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+from .errors import PanoLightError
+
+STUDIO_HDRIS = ("city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset")
+
+
+def studio_hdri_dir() -> Path:
+    """Folder holding Blender's studio-light world HDRIs; PanoLightError if bpy is not installed."""
+    spec = importlib.util.find_spec("bpy")
+    if spec is None or not spec.submodule_search_locations:
+        raise PanoLightError("the Blender studio HDRIs come with the bpy package, which is not installed "
+                             "(run scripts/setup.sh, or pip install bpy==5.0.1)")
+    for root in spec.submodule_search_locations:
+        hits = sorted(Path(root).glob("*/datafiles/studiolights/world"))
+        if hits:
+            return hits[-1]
+    raise PanoLightError("bpy is installed but its datafiles/studiolights/world folder was not found")
+
+
+def studio_hdri(name: str) -> Path:
+    """Path of one Blender studio HDRI by name (city, courtyard, forest, interior, night, studio, sunrise, sunset)."""
+    if name not in STUDIO_HDRIS:
+        raise PanoLightError(f"unknown studio HDRI {name!r}; choose from {', '.join(STUDIO_HDRIS)}")
+    return studio_hdri_dir() / f"{name}.exr"

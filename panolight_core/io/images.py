@@ -1,0 +1,219 @@
+"""Reading and writing panoramas: OpenEXR, Radiance .hdr, PNG (8/16 bit) and JPEG.
+
+read_image returns (H, W, 3) float32 *linear* RGB: 8/16-bit files are sRGB-decoded, HDR files are
+taken as linear Rec.709. Every failure raises ImageError naming the file and the problem.
+"""
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..color import linear_to_srgb, srgb_to_linear
+from ..errors import ImageError, PanoLightWarning
+from . import hdr as _hdr
+
+MAX_SIDE = 1 << 16  # larger images are refused as absurd
+MAX_PIXELS = 1 << 29  # 32768 x 16384
+HDR_FORMATS = ("exr", "hdr")
+LDR_FORMATS = ("png", "jpeg")
+_EXTENSIONS = {".exr": "exr", ".hdr": "hdr", ".pic": "hdr", ".rgbe": "hdr", ".png": "png", ".jpg": "jpeg",
+               ".jpeg": "jpeg"}
+
+
+def sniff_format(path) -> str:
+    """'exr' | 'hdr' | 'png' | 'jpeg' from the file's first bytes; raises ImageError otherwise."""
+    p = Path(path)
+    if not p.exists():
+        raise ImageError(p, "file not found")
+    if p.is_dir():
+        raise ImageError(p, "is a directory, not an image file")
+    if p.stat().st_size == 0:
+        raise ImageError(p, "file is empty (0 bytes)")
+    with open(p, "rb") as f:
+        head = f.read(16)
+    if head.startswith(b"\x76\x2f\x31\x01"):
+        return "exr"
+    if head.startswith(b"#?RADIANCE") or head.startswith(b"#?RGBE"):
+        return "hdr"
+    if head.startswith(b"\x89PNG\r\n\x1a\n"):
+        return "png"
+    if head.startswith(b"\xff\xd8\xff"):
+        return "jpeg"
+    raise ImageError(p, f"not a supported image (OpenEXR, Radiance .hdr, PNG or JPEG); starts with {head[:8]!r}")
+
+
+def is_hdr(path) -> bool:
+    """True for OpenEXR / Radiance files (by content)."""
+    return sniff_format(path) in HDR_FORMATS
+
+
+def _check_size(path, h: int, w: int, equirect: bool):
+    if h <= 0 or w <= 0:
+        raise ImageError(path, f"image has zero size ({w} x {h})")
+    if h > MAX_SIDE or w > MAX_SIDE or h * w > MAX_PIXELS:
+        raise ImageError(path, f"image size {w} x {h} is larger than supported ({MAX_SIDE} per side, "
+                               f"{MAX_PIXELS} pixels)")
+    if equirect and w != 2 * h:
+        raise ImageError(path, f"equirectangular panoramas must be 2:1 (width = 2 x height); got {w} x {h}")
+
+
+def _read_exr(path) -> np.ndarray:
+    import OpenEXR
+
+    head = OpenEXR.File(str(path), header_only=True).header()
+    (x0, y0), (x1, y1) = head["dataWindow"]
+    yield int(y1 - y0 + 1), int(x1 - x0 + 1)
+    channels = OpenEXR.File(str(path)).channels()
+    if "RGB" in channels:
+        yield channels["RGB"].pixels
+    elif "RGBA" in channels:
+        yield channels["RGBA"].pixels[..., :3]
+    elif "Y" in channels:
+        yield np.repeat(channels["Y"].pixels[..., None], 3, axis=-1)
+    else:
+        raise ValueError(f"no R, G, B (or Y) channels; channels are {sorted(channels)}")
+
+
+def _read_hdr(path):
+    data = Path(path).read_bytes()
+    h, w, _ = _hdr.parse_header(data)
+    yield h, w
+    yield _hdr.decode(data)
+
+
+def _read_pil(path):
+    from PIL import Image
+
+    with Image.open(path) as im:
+        yield im.height, im.width
+        if im.format == "PNG" and im.mode in ("I;16", "I;16B", "I") or _png_bit_depth(path) == 16:
+            yield _read_png16(path)
+            return
+        im.load()
+        rgb = np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
+    yield srgb_to_linear(rgb).astype(np.float32)
+
+
+def _png_bit_depth(path) -> int:
+    with open(path, "rb") as f:
+        head = f.read(26)
+    return head[24] if head.startswith(b"\x89PNG") and len(head) >= 25 else 8
+
+
+def _read_png16(path) -> np.ndarray:
+    import png
+
+    w, h, rows, info = png.Reader(filename=str(path)).asDirect()
+    arr = np.vstack([np.asarray(r, dtype=np.uint16) for r in rows]).reshape(h, w, info["planes"])
+    if info["planes"] in (1, 2):
+        arr = np.repeat(arr[..., :1], 3, axis=-1)
+    arr = arr[..., :3].astype(np.float32) / float(2 ** info["bitdepth"] - 1)
+    return srgb_to_linear(arr).astype(np.float32)
+
+
+_READERS = {"exr": _read_exr, "hdr": _read_hdr, "png": _read_pil, "jpeg": _read_pil}
+
+
+def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negative: str = "clamp") -> np.ndarray:
+    """Read a panorama as (H, W, 3) float32 linear RGB.
+
+    equirect: require a 2:1 image. nonfinite: "error" (default) refuses NaN/Inf pixels, "repair"
+    sets NaN and -Inf to 0 and +Inf to the largest finite value, with a PanoLightWarning.
+    negative: "clamp" (default) sets negative radiance to 0 with a PanoLightWarning, "error" refuses it.
+    The size is checked from the header before pixels are decoded.
+    """
+    if nonfinite not in ("error", "repair") or negative not in ("clamp", "error"):
+        raise ValueError("nonfinite must be 'error' or 'repair'; negative must be 'clamp' or 'error'")
+    p = Path(path)
+    fmt = sniff_format(p)
+    reader = _READERS[fmt](p)
+    try:
+        h, w = next(reader)
+    except ImageError:
+        raise
+    except Exception as exc:  # decoder libraries raise many types for bad headers
+        raise ImageError(p, f"cannot read {fmt.upper()} header (corrupt or truncated file): {exc}") from None
+    _check_size(p, h, w, equirect)
+    try:
+        img = next(reader)
+    except Exception as exc:
+        raise ImageError(p, f"cannot decode {fmt.upper()} pixels (corrupt or truncated file): {exc}") from None
+    img = np.ascontiguousarray(img, dtype=np.float32)
+    if img.shape != (h, w, 3):
+        raise ImageError(p, f"decoded shape {img.shape} does not match header size {w} x {h}")
+    return _sanitise(p, img, nonfinite, negative)
+
+
+def _sanitise(path, img: np.ndarray, nonfinite: str, negative: str) -> np.ndarray:
+    finite = np.isfinite(img)
+    if not finite.all():
+        n_bad = int((~finite).any(axis=-1).sum())
+        if nonfinite == "error":
+            raise ImageError(path, f"{n_bad} pixel(s) contain NaN or Inf (pass nonfinite='repair' / "
+                                   f"--repair-nonfinite to replace them)")
+        top = float(img[finite].max()) if finite.any() else 0.0
+        img = np.nan_to_num(img, nan=0.0, posinf=top, neginf=0.0)
+        warnings.warn(f"{path}: replaced NaN/Inf in {n_bad} pixel(s) (NaN, -Inf -> 0; +Inf -> {top:g})",
+                      PanoLightWarning, stacklevel=3)
+    neg = img < 0
+    if neg.any():
+        n_neg, low = int(neg.any(axis=-1).sum()), float(img.min())
+        if negative == "error":
+            raise ImageError(path, f"{n_neg} pixel(s) have negative radiance (minimum {low:g})")
+        img = np.maximum(img, 0.0)
+        warnings.warn(f"{path}: clamped negative radiance to 0 in {n_neg} pixel(s) (minimum was {low:g})",
+                      PanoLightWarning, stacklevel=3)
+    return img
+
+
+def write_image(path, image, *, bit_depth: int = 8, half: bool = False, quality: int = 95) -> Path:
+    """Write (H, W, 3) linear RGB by extension: .exr (float32, or half), .hdr, .png (8/16-bit sRGB), .jpg.
+
+    Parent folders must exist; the file is written to a temporary name and renamed, so a failure never
+    leaves a half-written file behind. Returns the path.
+    """
+    p = Path(path)
+    fmt = _EXTENSIONS.get(p.suffix.lower())
+    if fmt is None:
+        raise ImageError(p, f"unknown image extension {p.suffix!r} (use .exr, .hdr, .png, .jpg)")
+    img = np.asarray(image)
+    if img.ndim != 3 or img.shape[-1] not in (3, 4) or 0 in img.shape:
+        raise ImageError(p, f"cannot write an image of shape {img.shape}; expected (H, W, 3)")
+    img = img[..., :3]
+    if not p.parent.is_dir():
+        raise ImageError(p, f"output folder {p.parent} does not exist")
+    tmp = p.with_name(f".{p.name}.tmp{os.getpid()}{p.suffix}")
+    try:
+        if fmt == "exr":
+            import OpenEXR
+
+            data = np.ascontiguousarray(img, dtype=np.float16 if half else np.float32)
+            header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+            with OpenEXR.File(header, {"RGB": data}) as f:
+                f.write(str(tmp))
+        elif fmt == "hdr":
+            tmp.write_bytes(_hdr.encode(np.maximum(np.nan_to_num(img.astype(np.float64)), 0.0)))
+        else:
+            enc = linear_to_srgb(img.astype(np.float64))
+            if fmt == "png" and bit_depth == 16:
+                import png
+
+                q = np.round(enc * 65535.0).astype(np.uint16)
+                png.Writer(q.shape[1], q.shape[0], bitdepth=16, greyscale=False).write(
+                    open(tmp, "wb"), q.reshape(q.shape[0], -1).tolist())
+            elif bit_depth == 8:
+                from PIL import Image
+
+                q = np.round(enc * 255.0).astype(np.uint8)
+                kw = {"quality": int(quality)} if fmt == "jpeg" else {}
+                Image.fromarray(q, "RGB").save(tmp, format="JPEG" if fmt == "jpeg" else "PNG", **kw)
+            else:
+                raise ImageError(p, f"bit_depth {bit_depth} is not supported for {fmt.upper()} (8, or 16 for PNG)")
+        os.replace(tmp, p)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return p
