@@ -26,9 +26,9 @@ def basis(directions, lmax: int, check_unit: bool = True):
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     n = d.numel() if xp.name == "torch" else d.size
     if check_unit and n:
-        err = abs(x * x + y * y + z * z - 1.0).max()
-        if float(err) > 1e-3 or err != err:
-            raise ValueError(f"directions must be unit vectors (largest | |d|^2 - 1 | = {float(err):.3g})")
+        err = float(xp.to_numpy(abs(x * x + y * y + z * z - 1.0).max()))
+        if not err <= 1e-3:
+            raise ValueError(f"directions must be unit vectors (largest | |d|^2 - 1 | = {err:.3g})")
     q = legendre_table(z, lmax)
     # c[m] = Re((x+iy)^m) = sin^m(theta) cos(m phi), s[m] = Im(...) = sin^m(theta) sin(m phi)
     c, s = [z * 0 + 1.0], [z * 0]

@@ -162,7 +162,6 @@ def grid_tables(height: int, width: int, lmax: int, weights: str = "cell") -> Gr
         legendre_q=np.ascontiguousarray(leg[q_m + lmax, :, q_l].T),
         q_from_k=q_from_k,
     )
-    for a in (out.trig, out.legendre, out.weighted, out.k_j, out.k_l, out.k_q, out.weighted_q,
-              out.legendre_q, out.q_from_k):
-        a.setflags(write=False)
+    for a in (out.trig, out.legendre, out.weighted, out.weighted_q, out.legendre_q, out.q_from_k):
+        a.setflags(write=False)  # float tables; the int index arrays stay writable so torch can index with them
     return out
