@@ -1,0 +1,145 @@
+import warnings
+
+import numpy as np
+import pytest
+
+from panolight_core.errors import ImageError, PanoLightWarning
+from panolight_core.io import read_image, sniff_format, write_image
+from panolight_core.io import hdr as hdr_codec
+
+
+@pytest.fixture
+def pano(rng):
+    img = (rng.random((16, 32, 3)) * 4.0).astype(np.float32)
+    img[3, 5] = [1e4, 2e3, 1e2]  # HDR peak
+    return img
+
+
+@pytest.mark.parametrize("ext,kw,tol", [("exr", {}, 0.0), ("exr", {"half": True}, 1e-3), ("hdr", {}, 1 / 128)])
+def test_hdr_round_trips(tmp_path, pano, ext, kw, tol):
+    p = write_image(tmp_path / f"a.{ext}", pano, **kw)
+    back = read_image(p)
+    assert back.dtype == np.float32 and back.shape == pano.shape
+    # EXR half: relative per value; RGBE: 8-bit mantissas share one exponent, so error ~ pixel max / 256
+    scale = pano.max(axis=-1, keepdims=True) if ext == "hdr" else np.abs(pano)
+    assert np.all(np.abs(back - pano) <= tol * scale + 1e-6)
+
+
+@pytest.mark.parametrize("ext,bits,tol", [("png", 8, 0.5 / 255 * 13), ("png", 16, 1e-4), ("jpg", 8, 0.25)])
+def test_ldr_round_trips_are_srgb_linearised(tmp_path, rng, ext, bits, tol):
+    ramp = np.linspace(0, 1, 32, dtype=np.float32)
+    ldr = np.stack(np.broadcast_arrays(ramp[None, :], ramp[:16, None] * 2, 0.5 * np.ones((16, 32), np.float32)), -1)
+    ldr = np.clip(ldr, 0, 1) if ext == "jpg" else rng.random((16, 32, 3)).astype(np.float32)
+    back = read_image(write_image(tmp_path / f"a.{ext}", ldr, bit_depth=bits))
+    np.testing.assert_allclose(back, ldr, atol=tol)
+    if ext != "jpg":
+        assert np.abs(back - ldr).mean() < tol / 4
+
+
+def test_radiance_rle_scanlines_decode(pano):
+    """Encode new-style RLE scanlines by hand (runs and literals) and decode them."""
+    img = np.zeros((2, 16, 3), dtype=np.float32)
+    img[:, :8] = 1.0
+    img[:, 8:] = np.linspace(0.1, 0.9, 8)[None, :, None]
+    flat = hdr_codec.encode(img)
+    header_end = flat.index(b"+X 16\n") + len(b"+X 16\n")
+    rgbe = np.frombuffer(flat[header_end:], dtype=np.uint8).reshape(2, 16, 4)
+    body = b""
+    for y in range(2):
+        body += bytes([2, 2, 0, 16])
+        for ch in range(4):
+            row = rgbe[y, :, ch]
+            body += bytes([128 + 8, row[0]]) + bytes([8]) + row[8:].tobytes()
+    np.testing.assert_allclose(hdr_codec.decode(flat[:header_end] + body), hdr_codec.decode(flat))
+    with pytest.raises(ValueError, match="truncated|corrupt"):
+        hdr_codec.decode(flat[:header_end] + body[:-5])
+
+
+def test_missing_empty_directory_and_unknown(tmp_path):
+    with pytest.raises(ImageError, match="not found") as e:
+        read_image(tmp_path / "nope.exr")
+    assert "nope.exr" in str(e.value)
+    (tmp_path / "empty.exr").write_bytes(b"")
+    with pytest.raises(ImageError, match="empty"):
+        read_image(tmp_path / "empty.exr")
+    with pytest.raises(ImageError, match="directory"):
+        read_image(tmp_path)
+    (tmp_path / "notes.exr").write_text("hello, not an image")
+    with pytest.raises(ImageError, match="not a supported image"):
+        read_image(tmp_path / "notes.exr")
+
+
+def test_content_not_extension_decides(tmp_path, pano):
+    png = write_image(tmp_path / "a.png", np.clip(pano, 0, 1))
+    renamed = tmp_path / "really_png.exr"
+    renamed.write_bytes(png.read_bytes())
+    assert sniff_format(renamed) == "png"
+    np.testing.assert_allclose(read_image(renamed), read_image(png))
+
+
+@pytest.mark.parametrize("ext", ["exr", "hdr", "png", "jpg"])
+def test_truncated_files(tmp_path, pano, ext):
+    p = write_image(tmp_path / f"a.{ext}", np.clip(pano, 0, 1) if ext in ("png", "jpg") else pano)
+    data = p.read_bytes()
+    cut = tmp_path / f"cut.{ext}"
+    cut.write_bytes(data[: len(data) // 2])
+    with pytest.raises(ImageError, match="corrupt or truncated") as e:
+        read_image(cut)
+    assert str(cut) in str(e.value)
+
+
+def test_not_2_to_1_and_zero_and_absurd_sizes(tmp_path):
+    p = write_image(tmp_path / "square.exr", np.ones((8, 8, 3), np.float32))
+    with pytest.raises(ImageError, match="2:1"):
+        read_image(p)
+    assert read_image(p, equirect=False).shape == (8, 8, 3)
+    (tmp_path / "zero.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n")
+    with pytest.raises(ImageError, match="zero size"):
+        read_image(tmp_path / "zero.hdr")
+    (tmp_path / "huge.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 200000\n" + b"\0" * 64)
+    with pytest.raises(ImageError, match="larger than supported"):
+        read_image(tmp_path / "huge.hdr")
+
+
+def test_nonfinite_rejected_or_repaired(tmp_path, pano):
+    bad = pano.copy()
+    bad[0, 0, 0] = np.nan
+    bad[1, 1] = np.inf
+    bad[2, 2, 1] = -np.inf
+    p = write_image(tmp_path / "bad.exr", bad)
+    with pytest.raises(ImageError, match="3 pixel.*NaN or Inf"):
+        read_image(p)
+    with pytest.warns(PanoLightWarning, match="replaced NaN/Inf in 3 pixel"):
+        fixed = read_image(p, nonfinite="repair")
+    assert np.all(np.isfinite(fixed))
+    assert fixed[0, 0, 0] == 0 and fixed[2, 2, 1] == 0 and fixed[1, 1, 0] == pano.max()
+
+
+def test_negative_radiance_clamped_with_warning_or_rejected(tmp_path, pano):
+    neg = pano.copy()
+    neg[4, 4] = -0.5
+    p = write_image(tmp_path / "neg.exr", neg)
+    with pytest.warns(PanoLightWarning, match="clamped negative radiance to 0 in 1 pixel"):
+        img = read_image(p)
+    assert img.min() == 0
+    with pytest.raises(ImageError, match="negative radiance"):
+        read_image(p, negative="error")
+
+
+def test_clean_file_gives_no_warning(tmp_path, pano):
+    p = write_image(tmp_path / "ok.exr", pano)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_image(p)
+
+
+def test_write_errors_and_atomicity(tmp_path, pano):
+    with pytest.raises(ImageError, match="unknown image extension"):
+        write_image(tmp_path / "a.tiff", pano)
+    with pytest.raises(ImageError, match="does not exist"):
+        write_image(tmp_path / "missing" / "a.exr", pano)
+    with pytest.raises(ImageError, match="shape"):
+        write_image(tmp_path / "a.exr", np.zeros((4, 4)))
+    with pytest.raises(ImageError, match="bit_depth"):
+        write_image(tmp_path / "a.jpg", pano, bit_depth=16)
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # no partial files left behind
