@@ -108,4 +108,7 @@ def irradiance_rh(coeffs, normals):
     m = irradiance_matrix(coeffs)  # (C, 4, 4)
     ones = n[..., :1] * 0 + 1.0
     eta = xp.concatenate([n, ones], axis=-1)  # (..., 4)
-    return xp.einsum("...i,cij,...j->...c", eta, m, eta)
+    n_c = m.shape[-3]
+    flat = eta.reshape(-1, 4)
+    em = (flat @ m.swapaxes(-3, -2).reshape(4, n_c * 4)).reshape(-1, n_c, 4)  # eta^T M per channel
+    return (em * flat[:, None, :]).sum(-1).reshape(tuple(n.shape[:-1]) + (n_c,))

@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Sets up ./.venv if needed, then runs the whole test suite. Extra arguments go to pytest.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+bash "$root/scripts/setup.sh"
+cd "$root"
+set +e
+"$root/.venv/bin/python" -m pytest "$@"
+rc=$?
+set -e
+if [ "$rc" -eq 5 ]; then
+    echo "test.sh: pytest collected no tests; treating as failure" >&2
+    exit 1
+fi
+exit "$rc"
