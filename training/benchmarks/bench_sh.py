@@ -110,6 +110,7 @@ def main(argv=None):
     ap.add_argument("--lmax", type=int, nargs="+", default=[2, 8, 20])
     ap.add_argument("--budget", type=float, default=1.5, help="seconds of repeats per measurement (default 1.5)")
     ap.add_argument("--json", help="also write the results as JSON here")
+    ap.add_argument("--plot", help="also save a PNG plot of projection time against lmax here")
     args = ap.parse_args(argv)
     h, w = args.height, 2 * args.height
     rng = np.random.default_rng(0)
@@ -165,7 +166,33 @@ def main(argv=None):
     if args.json:
         with open(args.json, "w") as f:
             json.dump(results, f, indent=2)
+    if args.plot:
+        plot(results, args.plot)
     return results
+
+
+def plot(results, path):
+    """Log-scale projection time per method against lmax, with the read floor as a line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
+    methods = sorted({r["method"] for r in results["projection"]}, key=lambda m: (not m.startswith("ours"), m))
+    for m in methods:
+        rows = [r for r in results["projection"] if r["method"] == m]
+        ax.plot([r["lmax"] for r in rows], [r["ms"] for r in rows], "o-", label=m, lw=2.5 if "ours" in m else 1.2)
+    ax.axhline(results["read_floor_ms"], color="k", ls=":", label="read floor (one pass over the image)")
+    ax.set_yscale("log")
+    ax.set_xlabel("SH order lmax")
+    ax.set_ylabel("median ms per projection")
+    ax.set_title(f"SH projection of a {results['width']} x {results['height']} x 3 float32 panorama")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
 
 
 if __name__ == "__main__":
