@@ -21,26 +21,12 @@ class _Numpy:
     name = "numpy"
 
     @staticmethod
-    def asarray(x, dtype=None):
-        a = np.asarray(x)
-        if dtype is not None:
-            return a.astype(dtype, copy=False)
-        if not np.issubdtype(a.dtype, np.floating):
-            a = a.astype(np.float64)
-        return a
-
-    @staticmethod
     def const(table: np.ndarray, like):
         """A read-only float64 numpy table converted to the dtype of ``like`` (conversions cached)."""
         return _cached_cast(table, like.dtype.str) if table.dtype != like.dtype else table
 
     stack = staticmethod(np.stack)
     concatenate = staticmethod(np.concatenate)
-    einsum = staticmethod(lambda eq, *ops: np.einsum(eq, *ops, optimize=True))
-    sqrt = staticmethod(np.sqrt)
-    clip = staticmethod(np.clip)
-    where = staticmethod(np.where)
-    zeros_like = staticmethod(np.zeros_like)
 
     @staticmethod
     def to_numpy(x):
@@ -49,8 +35,8 @@ class _Numpy:
     contiguous = staticmethod(np.ascontiguousarray)
 
     @staticmethod
-    def empty(shape, like):
-        return np.empty(shape, dtype=like.dtype)
+    def zeros(shape, like):
+        return np.zeros(shape, dtype=like.dtype)
 
 
 class _Torch:
@@ -60,9 +46,6 @@ class _Torch:
         import torch
 
         self.t = torch
-
-    def asarray(self, x, dtype=None):
-        return x if dtype is None else x.to(dtype)
 
     def const(self, table: np.ndarray, like):
         np_dtype = str(like.dtype).replace("torch.", "")
@@ -75,21 +58,6 @@ class _Torch:
     def concatenate(self, xs, axis=0):
         return self.t.cat(list(xs), dim=axis)
 
-    def einsum(self, eq, *ops):
-        return self.t.einsum(eq, *ops)
-
-    def sqrt(self, x):
-        return self.t.sqrt(x)
-
-    def clip(self, x, lo, hi):
-        return self.t.clamp(x, lo, hi)
-
-    def where(self, c, a, b):
-        return self.t.where(c, a, b)
-
-    def zeros_like(self, x):
-        return self.t.zeros_like(x)
-
     @staticmethod
     def to_numpy(x):
         return x.detach().cpu().numpy()
@@ -98,8 +66,8 @@ class _Torch:
     def contiguous(x):
         return x.contiguous()
 
-    def empty(self, shape, like):
-        return self.t.empty(shape, dtype=like.dtype, device=like.device)
+    def zeros(self, shape, like):
+        return self.t.zeros(shape, dtype=like.dtype, device=like.device)
 
 
 _CAST_CACHE: dict = {}

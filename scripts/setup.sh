@@ -21,9 +21,12 @@ fi
 [ -n "$py" ] || { echo "setup: Python 3.11 is required (bpy 5.0.1 and the local torch wheel are built for it)" >&2; exit 1; }
 echo "setup: creating/updating $venv with $("$py" --version)" >&2
 [ -x "$venv/bin/python" ] || "$py" -m venv "$venv"
-pip="$venv/bin/python -m pip --disable-pip-version-check -q"
+pip_install() {
+    # pip warns once per package about index folders this machine does not have; keep real errors only.
+    "$venv/bin/python" -m pip --disable-pip-version-check -q install "$@" 2> >(grep -v "is ignored: it is neither" >&2)
+}
 # torch first, pinned to the local CPU wheel: any other spec would pull several GB of CUDA packages.
-$pip install "torch==2.13.0"
-$pip install -e ".[train,mitsuba,blender,bench,dev]"
+pip_install "torch==2.13.0"
+pip_install -e ".[train,mitsuba,blender,bench,dev]"
 echo "$want" > "$stamp"
 echo "setup: done" >&2

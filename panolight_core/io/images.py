@@ -89,7 +89,7 @@ def _read_pil(path):
 
     with Image.open(path) as im:
         yield im.height, im.width
-        if im.format == "PNG" and im.mode in ("I;16", "I;16B", "I") or _png_bit_depth(path) == 16:
+        if im.format == "PNG" and (im.mode in ("I;16", "I;16B", "I") or _png_bit_depth(path) == 16):
             yield _read_png16(path)
             return
         im.load()

@@ -91,8 +91,7 @@ def reconstruct(coeffs, height: int, width: int):
         out = xp.const(tab.legendre_q, c) @ z  # (H, Q) @ (..., Q, W*C)
         return out.reshape(lead + (height, width, n_c))
     n_m = 2 * lmax + 1
-    dense = xp.empty(lead + (n_m, lmax + 1, n_c), like=c)
-    dense[...] = 0
+    dense = xp.zeros(lead + (n_m, lmax + 1, n_c), like=c)
     dense[..., tab.k_j, tab.k_l, :] = c
     g = xp.const(tab.legendre, c) @ dense  # (M, H, L+1) @ (..., M, L+1, C) -> (..., M, H, C)
     g = xp.contiguous(g.swapaxes(-3, -2).swapaxes(-2, -1))  # (..., H, C, M)

@@ -39,6 +39,17 @@ def test_constant_white_map(size, weights):
     np.testing.assert_allclose(e, math.pi, rtol=1e-6)
 
 
+@pytest.mark.parametrize("lmax", [0, 2, 8, 9, 20])
+def test_tiny_images_give_finite_results(rng, lmax):
+    for h in (1, 2):
+        img = rng.random((h, 2 * h, 3))
+        c = sh.project(img, lmax)
+        assert c.shape == ((lmax + 1) ** 2, 3) and np.all(np.isfinite(c))
+        np.testing.assert_allclose(c[0], img.reshape(-1, 3).T @ sh.pixel_solid_angles(h, 2 * h).ravel()
+                                   / math.sqrt(4 * math.pi), rtol=1e-12)
+        assert np.all(np.isfinite(sh.reconstruct(c, h, 2 * h)))
+
+
 def test_centre_weights_leak_into_l20_as_conventions_warns():
     """The plain solid-angle weighting of centre samples is O(1/H^2) off; the cell projection is exact."""
     c_centre = sh.project(np.ones((8, 16, 3)), 2, weights="centre")
