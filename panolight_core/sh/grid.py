@@ -28,13 +28,16 @@ def check_grid(height: int, width: int) -> tuple[int, int]:
     return int(height), int(width)
 
 
+@lru_cache(maxsize=8)
 def pixel_directions(height: int, width: int) -> np.ndarray:
-    """(H, W, 3) float64 unit view directions of the pixel centres."""
+    """(H, W, 3) float64 unit view directions of the pixel centres (cached, read-only)."""
     height, width = check_grid(height, width)
     theta = np.pi * (np.arange(height) + 0.5) / height
     u = (np.arange(width) + 0.5) / width
     st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
-    return np.stack(np.broadcast_arrays(-st * np.cos(2 * np.pi * u), st * np.sin(2 * np.pi * u), ct), axis=-1)
+    out = np.stack(np.broadcast_arrays(-st * np.cos(2 * np.pi * u), st * np.sin(2 * np.pi * u), ct), axis=-1)
+    out.setflags(write=False)
+    return out
 
 
 def row_solid_angles(height: int, width: int) -> np.ndarray:
@@ -44,9 +47,12 @@ def row_solid_angles(height: int, width: int) -> np.ndarray:
     return (edges[:-1] - edges[1:]) * (2.0 * np.pi / width)
 
 
+@lru_cache(maxsize=8)
 def pixel_solid_angles(height: int, width: int) -> np.ndarray:
-    """(H, W) exact pixel solid angles in steradians; they sum to 4 pi."""
-    return np.broadcast_to(row_solid_angles(height, width)[:, None], (height, width)).copy()
+    """(H, W) exact pixel solid angles in steradians, summing to 4 pi (cached, read-only)."""
+    out = np.broadcast_to(row_solid_angles(height, width)[:, None], (height, width)).copy()
+    out.setflags(write=False)
+    return out
 
 
 def row_quadrature_weights(height: int, width: int) -> np.ndarray:
