@@ -11,9 +11,7 @@ import io as _io
 
 import numpy as np
 
-from .color import linear_to_srgb, luminance, srgb_to_linear
-
-SATURATION_LEVEL = 254.0 / 255.0  # an 8-bit channel at 254 or 255 counts as clipped
+from .color import SRGB8_TO_LINEAR, linear_to_srgb, luminance, srgb_to_linear
 
 
 def auto_exposure(hdr: np.ndarray, ev: float = 0.0) -> float:
@@ -42,5 +40,12 @@ def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None
 def ldr_to_linear(ldr: np.ndarray) -> np.ndarray:
     """uint8 sRGB (or float sRGB in [0, 1]) -> float32 linear in [0, 1]."""
     a = np.asarray(ldr)
-    v = a.astype(np.float32) / 255.0 if a.dtype == np.uint8 else a.astype(np.float32)
-    return srgb_to_linear(v).astype(np.float32)
+    if a.dtype == np.uint8:
+        return SRGB8_TO_LINEAR[a]
+    return srgb_to_linear(a.astype(np.float32)).astype(np.float32)
+
+
+def clipped_mask(ldr: np.ndarray) -> np.ndarray:
+    """(H, W) bool: pixels whose brightest uint8 channel is 254 or 255 (clipped by the camera)."""
+    a = np.asarray(ldr)
+    return np.maximum(np.maximum(a[..., 0], a[..., 1]), a[..., 2]) >= 254

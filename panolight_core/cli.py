@@ -2,157 +2,252 @@
 from __future__ import annotations
 
 import argparse
-import hashlib
 import sys
-import time
 import warnings
 from pathlib import Path
 
-import numpy as np
-
-from . import __version__, sh
+from . import __version__
 from .errors import PanoLightError, PanoLightWarning
-from .sh.window import FAMILIES as WINDOW_FAMILIES, default_width
+from .order import DEFAULT_TOLERANCE
+from .sh.window import FAMILIES as WINDOW_FAMILIES
 
-EPILOG_PROJECT = """\
+OUTPUTS_HELP = """\
+outputs (in OUTDIR; nothing is written anywhere else):
+  lighting.json   SH radiance coefficients (Blender world frame, Z up), estimator, input hash, timings,
+                  the chosen order and why, clipped regions found (schema: panolight_core/schemas)
+  radiance.exr    the SH radiance map at --resolution
+  irradiance.exr  diffuse irradiance: what a white Lambertian surface facing each direction receives
+  preview.png     input | SH radiance | a white diffuse sphere lit by the estimate, each auto-exposed
+"""
+
+EPILOG_ESTIMATE = f"""\
 examples:
-  panolight project studio.exr -o out/studio            # lmax 2, writes 4 files into out/studio
-  panolight project sky.hdr -o out/sky --lmax 8 --window auto
-  panolight demo                                         # the same on a Blender studio HDRI
+  panolight estimate photo.jpg -o out/photo               # LDR: sRGB -> linear + clipped-highlight recovery
+  panolight estimate studio.exr -o out/studio --lmax 8    # HDR: exact projection, 81 coefficients
+  panolight estimate room.jpg --lmax auto --tolerance 0.005
+  panolight estimate sky.hdr --window auto                # deringing only as strong as needed
 
-outputs (in OUTDIR, nothing is written elsewhere):
-  lighting.json   SH radiance coefficients (Blender world frame, Z up), schema-validated
-  radiance.exr    the SH radiance map reconstructed at --resolution
-  irradiance.exr  the diffuse irradiance map (what a white Lambertian surface facing each direction receives)
-  preview.png     input | SH radiance | irradiance, each auto-exposed (median -> 0.18); black = negative (ringing)
+{OUTPUTS_HELP}
+estimators: analytic (default through 'auto'), naive (sRGB -> linear, no recovery), ambient (constant).
+LDR results are relative to the camera's clip level (1 = white); --exposure EV scales them by 2^EV.
+"""
 
-HDR inputs (.exr, .hdr) are projected exactly. LDR inputs (.png, .jpg) are sRGB-linearised only: clipped
-highlights (sun, lamps) stay clipped, so their lighting is too dim; the estimator issue adds recovery.
+EPILOG_BATCH = """\
+examples:
+  panolight batch shots/ -o out/                         # every .exr .hdr .png .jpg in shots/
+  panolight batch --list todo.txt -o out/ --shard 2/4    # second of four farm jobs over the same list
+
+Each input gets OUTDIR/<name>/ with the files of 'panolight estimate'. Bad files are reported and
+skipped; the exit status is 1 if any input failed. A report goes to OUTDIR/batch_report.json
+(batch_report-I-of-N.json with --shard). Shards split the sorted input list deterministically: every
+N-th input starting at the I-th, so N copies with --shard 1/N .. N/N cover it exactly once.
+"""
+
+EPILOG_EVAL = """\
+Runs the EVALUATION.md protocol on the eight Blender studio HDRIs (shipped in the bpy package) and
+writes OUTDIR/eval.md, eval.json and speed_accuracy.png. Expect about a minute with the defaults.
 """
 
 
-def _log(msg: str, quiet: bool):
-    if not quiet:
-        print(msg, file=sys.stderr, flush=True)
+def _log(quiet: bool):
+    return (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
 
 
 def _resolution(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"resolution must look like 256x128, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"resolution must look like 512x256, got {text!r}") from None
     if w != 2 * h or h < 1 or h > 8192:
         raise argparse.ArgumentTypeError(f"resolution must be 2:1 with height 1..8192, got {text!r}")
     return w, h
 
 
-def _window_arg(text: str) -> str:
+def _lmax(text: str) -> str:
+    if text == "auto":
+        return text
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--lmax must be an integer 0..100 or 'auto', got {text!r}") from None
+    if not 0 <= v <= 100:
+        raise argparse.ArgumentTypeError(f"--lmax must be in 0..100, got {v}")
+    return text
+
+
+def _window(text: str) -> str:
     if text not in ("none", "auto") + WINDOW_FAMILIES:
         raise argparse.ArgumentTypeError(f"window must be none, auto, sinc4, lanczos or hanning, got {text!r}")
     return text
 
 
-def run_project(args) -> int:
-    from .io import is_hdr, read_image, write_image
-    from .lighting import make_lighting, write_lighting
-    from .preview import strip
+def _estimate_kwargs(args) -> dict:
+    return {"lmax": args.lmax, "estimator": args.estimator, "exposure_ev": args.exposure, "window": args.window,
+            "window_width": args.window_width, "tolerance": args.tolerance, "resolution": args.resolution,
+            "repair_nonfinite": args.repair_nonfinite}
 
-    src = Path(args.input)
-    out = Path(args.output)
-    t0 = time.perf_counter()
-    _log(f"[1/4] reading {src}", args.quiet)
-    img = read_image(src, nonfinite="repair" if args.repair_nonfinite else "error")
-    hdr = is_hdr(src)
-    t_read = time.perf_counter() - t0
-    _log(f"[2/4] projecting {img.shape[1]}x{img.shape[0]} onto SH lmax {args.lmax}", args.quiet)
-    t1 = time.perf_counter()
-    coeffs = sh.project(img.astype(np.float64), args.lmax)
-    window = None
-    if args.window != "none":
-        if args.window == "auto":
-            width = sh.auto_window_width(coeffs, target="radiance")
-            window = {"kind": "sinc4", "width": None if width == float("inf") else width, "mode": "auto"}
-            if width != float("inf"):
-                coeffs = sh.window(coeffs, "sinc4", width)
-        else:
-            width = args.window_width or default_width(args.lmax)
-            coeffs = sh.window(coeffs, args.window, width)
-            window = {"kind": args.window, "width": width, "mode": "fixed"}
-    t_project = time.perf_counter() - t1
-    w, h = args.resolution
-    _log(f"[3/4] reconstructing radiance and irradiance at {w}x{h}", args.quiet)
-    radiance = sh.reconstruct(coeffs, h, w).astype(np.float32)
-    irradiance = sh.irradiance_map(coeffs, h, w).astype(np.float32)
-    out.mkdir(parents=True, exist_ok=True)
-    _log(f"[4/4] writing {out}/", args.quiet)
-    digest = hashlib.sha256(src.read_bytes()).hexdigest()
-    doc = make_lighting(
-        coeffs, units="relative" if not hdr else "input radiance units",
-        source={"path": str(src), "sha256": digest, "width": int(img.shape[1]), "height": int(img.shape[0]),
-                "dynamic_range": "hdr" if hdr else "ldr-srgb-linearised"},
-        estimator={"name": "projection", "version": __version__, "weights": "cell"},
-        window=window,
-        timings={"read_s": round(t_read, 6), "project_s": round(t_project, 6)},
-    )
-    write_lighting(out / "lighting.json", doc)
-    write_image(out / "radiance.exr", radiance)
-    write_image(out / "irradiance.exr", irradiance)
-    panels = [("input", img), (f"SH radiance (lmax {args.lmax})", radiance), ("irradiance", irradiance)]
-    _write_png(out / "preview.png", strip(panels))
-    _log(f"done in {time.perf_counter() - t0:.2f} s: lighting.json, radiance.exr, irradiance.exr, preview.png",
-         args.quiet)
+
+def run_estimate(args) -> int:
+    from .pipeline import run_estimate as job
+
+    out = Path(args.output) if args.output else Path("out") / Path(args.input).stem
+    doc = job(args.input, out, log=_log(args.quiet), **_estimate_kwargs(args))
+    if not args.quiet:
+        t = doc["timings"]
+        print(f"done: {out}/ (lmax {doc['lmax']}, {doc['estimator']['name']}; read {t['read_s'] * 1e3:.0f} ms, "
+              f"estimate {t['estimate_s'] * 1e3:.0f} ms)", file=sys.stderr)
     return 0
 
 
-def _write_png(path: Path, rgb8: np.ndarray):
-    from PIL import Image
+def run_project(args) -> int:
+    args.estimator = "naive"
+    return run_estimate(args)
 
-    Image.fromarray(rgb8, "RGB").save(path)
+
+def run_batch(args) -> int:
+    from .batch import collect_inputs, parse_shard, run_batch as batch
+    from .pipeline import run_estimate as job
+
+    shard_spec = parse_shard(args.shard)
+    inputs = collect_inputs(args.inputs, args.list, args.recursive)
+    if not inputs:
+        raise PanoLightError("no input panoramas found (give files, folders, or --list FILE)")
+    kwargs = _estimate_kwargs(args)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PanoLightWarning)
+        report = batch(inputs, Path(args.output), lambda src, dst: job(src, dst, **kwargs), shard_spec, args.quiet)
+    print(f"batch: {report['ok']} ok, {report['failed']} failed of {report['this_shard']} "
+          f"(shard {report['shard']} of {report['total_inputs']} inputs); report: {report['report_path']}",
+          file=sys.stderr)
+    for r in report["results"]:
+        if r["status"] != "ok":
+            print(f"  failed: {r['error']}", file=sys.stderr)
+    return 1 if report["failed"] else 0
+
+
+def run_eval(args) -> int:
+    from . import evaluation
+
+    result = evaluation.run(evs=args.evs, estimators=args.estimators, lmax=args.lmax, jpeg_quality=args.jpeg,
+                            repeats=args.repeats, log=_log(args.quiet))
+    paths = evaluation.write(result, args.output)
+    print(evaluation.markdown(result))
+    print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr)
+    return 0
 
 
 def run_demo(args) -> int:
+    """Make a phone-like JPEG from a bundled HDRI, estimate its lighting, compare with the HDR truth."""
+    import numpy as np
+
+    from . import metrics, sh
+    from .camera import hdr_to_ldr
     from .data import studio_hdri
+    from .io import read_image
+    from .lighting import read_lighting
+    from .pipeline import run_estimate as job
 
-    args.input = str(studio_hdri(args.scene))
-    return run_project(args)
+    out = Path(args.output or Path("out") / args.scene)
+    out.mkdir(parents=True, exist_ok=True)
+    log = _log(args.quiet)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PanoLightWarning)
+        hdr = read_image(studio_hdri(args.scene)).astype(np.float64)
+    from PIL import Image
+
+    src = out / "input.jpg"
+    Image.fromarray(hdr_to_ldr(hdr, args.ev)).save(src, quality=90)
+    log(f"demo: made {src} from Blender's '{args.scene}' HDRI (auto exposure, ev {args.ev:+g}, JPEG q90)")
+    args.input = str(src)
+    args.output = str(out)
+    run_estimate(args)
+    coeffs, _ = read_lighting(out / "lighting.json")
+    gt = sh.project(hdr, sh.lmax_from_count(coeffs.shape[0]))
+    naive = sh.project(read_image(src), sh.lmax_from_count(coeffs.shape[0]))
+    print(f"demo: against the HDR ground truth, m-RMSE {metrics.m_rmse(gt, coeffs):.3f} "
+          f"(naive {metrics.m_rmse(gt, naive):.3f}), irr-RMSE {metrics.irr_rmse(gt, coeffs):.3f} "
+          f"(naive {metrics.irr_rmse(gt, naive):.3f}); see {out}/preview.png")
+    return 0
 
 
-def _add_project_options(p):
-    p.add_argument("-o", "--output", default=None, help="output folder (created if missing; default out/<input name>)")
-    p.add_argument("--lmax", type=int, default=2, help="SH order, 0..100 (default 2: 9 coefficients per channel)")
-    p.add_argument("--window", type=_window_arg, default="none",
+def _add_estimate_options(p, default_estimator="auto"):
+    p.add_argument("-o", "--output", default=None, help="output folder (created; default out/<input name>)")
+    p.add_argument("--lmax", type=_lmax, default="2",
+                   help="SH order 0..100, or 'auto': the smallest order 0..8 within --tolerance (default 2)")
+    p.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE,
+                   help=f"with --lmax auto: allowed diffuse relighting error relative to order 8 "
+                        f"(default {DEFAULT_TOLERANCE})")
+    p.add_argument("--estimator", default=default_estimator,
+                   help="analytic | naive | ambient | neural | auto (default auto = the best available)")
+    p.add_argument("--exposure", type=float, default=0.0, metavar="EV",
+                   help="scale the estimated lighting by 2^EV (default 0)")
+    p.add_argument("--window", type=_window, default="none",
                    help="deringing: none (default), auto (weakest sinc^4 window with non-negative radiance), "
-                        "or a fixed sinc4 | lanczos | hanning window")
+                        "or a fixed sinc4 | lanczos | hanning")
     p.add_argument("--window-width", type=float, default=None, help="width of a fixed window (default 2 (lmax+1))")
     p.add_argument("--resolution", type=_resolution, default=(512, 256),
                    help="size of radiance.exr / irradiance.exr, WxH (default 512x256)")
-    p.add_argument("--repair-nonfinite", action="store_true",
-                   help="replace NaN/Inf pixels instead of refusing the file")
+    p.add_argument("--repair-nonfinite", action="store_true", help="replace NaN/Inf pixels instead of refusing")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
 
 
 def build_parser() -> argparse.ArgumentParser:
+    fmt = argparse.RawDescriptionHelpFormatter
     parser = argparse.ArgumentParser(
-        prog="panolight",
-        description="PanoLight: HDR lighting from 360-degree panoramas as spherical harmonics.",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="Run 'panolight <command> --help' for the options of each command.")
+        prog="panolight", formatter_class=fmt,
+        description="PanoLight: HDR lighting from 360-degree panoramas, as spherical harmonics.",
+        epilog="start with:  panolight demo      then:  panolight estimate YOUR_PANORAMA.jpg\n"
+               "Run 'panolight <command> --help' for the options of each command.")
     parser.add_argument("--version", action="version", version=f"panolight {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="command")
-    p = sub.add_parser("project", help="project an equirect panorama onto SH and write lighting + previews",
-                       description="Project an equirectangular panorama (2:1; .exr/.hdr/.png/.jpg) onto spherical "
-                                   "harmonics and write its lighting file, reconstructions and a preview.",
-                       epilog=EPILOG_PROJECT, formatter_class=argparse.RawDescriptionHelpFormatter)
+
+    p = sub.add_parser("estimate", help="estimate the lighting of one panorama", formatter_class=fmt,
+                       description="Estimate the lighting of an equirectangular panorama (2:1; .jpg/.png LDR or "
+                                   ".exr/.hdr HDR) and write it with reconstructions and a preview.",
+                       epilog=EPILOG_ESTIMATE)
     p.add_argument("input", help="panorama file (equirectangular, width = 2 x height)")
-    _add_project_options(p)
-    p.set_defaults(func=run_project)
-    d = sub.add_parser("demo", help="run 'project' on a Blender studio HDRI shipped in the bpy package",
-                       description="Run 'project' on one of the eight HDRIs shipped in the bpy package.",
-                       epilog=EPILOG_PROJECT, formatter_class=argparse.RawDescriptionHelpFormatter)
-    d.add_argument("--scene", default="courtyard", help="city, courtyard (default), forest, interior, night, "
-                                                        "studio, sunrise or sunset")
-    _add_project_options(d)
+    _add_estimate_options(p)
+    p.set_defaults(func=run_estimate)
+
+    b = sub.add_parser("batch", help="estimate many panoramas (folders, lists, render-farm shards)",
+                       formatter_class=fmt, description="Run 'estimate' over many panoramas.", epilog=EPILOG_BATCH)
+    b.add_argument("inputs", nargs="*", help="panorama files and/or folders")
+    b.add_argument("--list", help="a text file with one input path per line ('#' comments allowed)")
+    b.add_argument("--recursive", action="store_true", help="also search sub-folders of the given folders")
+    b.add_argument("--shard", help="run only shard I of N, written I/N (1 <= I <= N)")
+    _add_estimate_options(b)
+    b.set_defaults(func=run_batch)
+
+    e = sub.add_parser("eval", help="score every estimator on the eight Blender studio HDRIs", formatter_class=fmt,
+                       description="Evaluate estimators with the EVALUATION.md metrics and protocol.",
+                       epilog=EPILOG_EVAL)
+    e.add_argument("-o", "--output", default="out/eval", help="output folder (default out/eval)")
+    e.add_argument("--evs", type=float, nargs="+", default=[-2.0, 0.0, 2.0], help="exposures (default -2 0 2)")
+    e.add_argument("--estimators", nargs="+", default=None, help="default: every available estimator")
+    e.add_argument("--lmax", type=int, default=2, help="SH order of the comparison (default 2)")
+    e.add_argument("--jpeg", type=int, default=None, metavar="QUALITY", help="JPEG-compress the inputs (e.g. 90)")
+    e.add_argument("--repeats", type=int, default=3, help="timed runs per estimate (median reported; default 3)")
+    e.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    e.set_defaults(func=run_eval)
+
+    d = sub.add_parser("demo", help="estimate the lighting of a JPEG made from a bundled HDRI, against the truth",
+                       formatter_class=fmt,
+                       description="Make an auto-exposed JPEG from one of the eight HDRIs shipped in the bpy "
+                                   "package, estimate its lighting, and compare with the HDR's exact SH.",
+                       epilog=OUTPUTS_HELP)
+    d.add_argument("--scene", default="courtyard",
+                   help="city, courtyard (default), forest, interior, night, studio, sunrise or sunset")
+    d.add_argument("--ev", type=float, default=0.0, help="exposure of the made JPEG in stops (default 0)")
+    _add_estimate_options(d)
     d.set_defaults(func=run_demo)
+
+    pr = sub.add_parser("project", help="exact SH projection of a panorama (estimate --estimator naive)",
+                        formatter_class=fmt, description="Project a panorama onto SH without any recovery: "
+                                                         "the same as 'estimate --estimator naive'.",
+                        epilog=OUTPUTS_HELP)
+    pr.add_argument("input", help="panorama file (equirectangular, width = 2 x height)")
+    _add_estimate_options(pr, default_estimator="naive")
+    pr.set_defaults(func=run_project)
     return parser
 
 
@@ -162,11 +257,6 @@ def main(argv=None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
-    if hasattr(args, "output") and args.output is None:
-        name = Path(args.input).stem if getattr(args, "input", None) else args.scene
-        args.output = str(Path("out") / name)
-    if hasattr(args, "lmax") and not 0 <= args.lmax <= 100:
-        parser.error(f"--lmax must be in 0..100, got {args.lmax}")
     with warnings.catch_warnings():
         warnings.simplefilter("always", PanoLightWarning)
         warnings.showwarning = lambda m, c, f, l, file=None, line=None: print(f"warning: {m}", file=sys.stderr)

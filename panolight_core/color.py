@@ -12,6 +12,10 @@ def srgb_to_linear(v):
     return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
 
 
+SRGB8_TO_LINEAR = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)  # lookup table for uint8
+SRGB8_TO_LINEAR.setflags(write=False)
+
+
 def linear_to_srgb(v):
     """Linear values -> sRGB-encoded; input is clipped to [0, 1] first."""
     v = np.clip(np.asarray(v), 0.0, 1.0)

@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from . import sh
-from .color import LUMINANCE_WEIGHTS
+from .color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
 
 CLIP_LEVEL = 0.99  # linear value of sRGB 254/255 is 0.991: at or above counts as clipped
 CORE_RADIUS = math.radians(0.2666)  # the sun's angular radius
@@ -35,15 +35,26 @@ RING_FACTOR = 3.0
 
 
 def area_downsample(img: np.ndarray, height: int) -> np.ndarray:
-    """Area-average an (H, W, C) equirect to (height, 2 height, C) float64 (returned as is if H <= height)."""
+    """Area-average an (H, W, C) equirect to (height, 2 height, C) float64 (as is if H <= height).
+
+    Integer factors add strided slices (numpy reduces short strided axes slowly); other sizes use
+    block means over rounded boundaries.
+    """
     h, w = img.shape[:2]
     if h <= height:
         return img.astype(np.float64)
     if h % height == 0 and w % (2 * height) == 0:
         fy, fx = h // height, w // (2 * height)
-        # sum rows in the input dtype first (cheap), then columns, then scale in float64
-        rows = img.reshape(height, fy, w, -1).sum(axis=1, dtype=np.float32 if img.dtype != np.float64 else None)
-        return rows.reshape(height, 2 * height, fx, -1).sum(axis=2, dtype=np.float64) / (fy * fx)
+        acc_t = np.float64 if img.dtype == np.float64 else np.float32
+        r = img.reshape(height, fy, w, -1)
+        rows = r[:, 0].astype(acc_t)
+        for i in range(1, fy):
+            rows += r[:, i]
+        c = rows.reshape(height, 2 * height, fx, -1)
+        out = c[:, :, 0].astype(np.float64)
+        for i in range(1, fx):
+            out += c[:, :, i]
+        return out / (fy * fx)
     ys = np.linspace(0, h, height + 1).astype(int)
     xs = np.linspace(0, w, 2 * height + 1).astype(int)
     rows = np.add.reduceat(img.astype(np.float64), ys[:-1], axis=0) / np.diff(ys)[:, None, None]
@@ -183,23 +194,34 @@ def power_law_gain(solid_angle: float, exponent: float, core_radius: float = COR
     return max(1.0, energy / (math.pi * t_c * t_c))
 
 
-def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: float = CORE_RADIUS,
-                       clipped: np.ndarray | None = None):
-    """Re-inflate clipped regions of an sRGB-linearised LDR panorama (values in [0, 1]).
+def ldr_work_maps(ldr: np.ndarray, work_height: int) -> tuple[np.ndarray, np.ndarray]:
+    """uint8 sRGB pixels -> (linear radiance (h, 2h, 3), clipped fraction (h, 2h)) at h = work_height.
 
-    linear: (H, W, 3) float linear RGB. clipped: optional (H, W) bool of clipped pixels (computed from
-    ``linear`` >= CLIP_LEVEL when not given; from uint8 input it is simply max channel >= 254).
+    A pixel is clipped when its brightest channel is 254 or 255.
+    """
+    a = np.asarray(ldr)
+    clip = np.maximum(np.maximum(a[..., 0], a[..., 1]), a[..., 2]) >= 254
+    rad = area_downsample(SRGB8_TO_LINEAR[a], work_height)
+    frac = area_downsample(clip[..., None].astype(np.float32), work_height)[..., 0]
+    return rad, frac
+
+
+def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: float = CORE_RADIUS):
+    """Re-inflate clipped regions of an LDR panorama.
+
+    linear: (H, W, 3) uint8 sRGB pixels (preferred: clipping is then exact and the path is fused), or
+    float sRGB-linearised values in [0, 1] (pixels >= CLIP_LEVEL count as clipped).
     Returns (map, blobs): map is (work_height, 2 work_height, 3) float64 radiance in the input's
-    exposure units; blobs lists each clipped region's direction, solid angle (sr), ring exponent p,
-    colour and recovered mean radiance G (clip level = 1), which fills the blob in the ring's colour.
+    exposure units (clip level = 1); blobs lists each clipped region's direction, solid angle (sr), ring
+    exponent p, colour and recovered mean radiance G, which fills the blob in the ring's colour.
     """
     img = np.asarray(linear)
-    if clipped is None:
-        sat = np.maximum(np.maximum(img[..., 0], img[..., 1]), img[..., 2]) >= CLIP_LEVEL
+    if img.dtype == np.uint8:
+        rad, frac = ldr_work_maps(img, work_height)
     else:
-        sat = np.asarray(clipped, dtype=bool)
-    rad = area_downsample(img, work_height)
-    frac = area_downsample(sat[..., None].astype(np.float32), work_height)[..., 0]
+        sat = np.maximum(np.maximum(img[..., 0], img[..., 1]), img[..., 2]) >= CLIP_LEVEL
+        rad = area_downsample(img, work_height)
+        frac = area_downsample(sat[..., None].astype(np.float32), work_height)[..., 0]
     labels, feats = blob_features(rad, frac)
     if not feats:
         return rad, []

@@ -37,3 +37,43 @@ def strip(panels: list[tuple[str, np.ndarray]], height: int = 256) -> np.ndarray
     for t in tiles[1:]:
         out += [gap, t]
     return np.concatenate(out, axis=1)
+
+
+def diffuse_sphere(coeffs: np.ndarray, size: int = 256, albedo: float = 0.8) -> np.ndarray:
+    """(size, size, 3) linear image of a white Lambertian sphere lit by SH radiance ``coeffs``.
+
+    The camera sits at the panorama's centre looking along +X (the middle of the panorama) with +Z up,
+    so image right is -Y: the sphere is what an object placed in front of the viewer would look like.
+    Outside the sphere the pixels are a neutral grey at the sphere's median brightness.
+    """
+    from . import sh
+
+    t = (np.arange(size) + 0.5) / size * 2.0 - 1.0
+    a, b = np.meshgrid(t, -t)
+    r2 = a * a + b * b
+    inside = r2 < 1.0
+    c = np.sqrt(np.clip(1.0 - r2, 0.0, 1.0))
+    normals = np.stack([-c, -a, b], axis=-1)[inside]
+    out = np.zeros((size, size, 3))
+    shade = albedo / np.pi * sh.irradiance(np.asarray(coeffs, dtype=np.float64), normals)
+    out[inside] = shade
+    bg = np.median(shade, axis=0) if shade.size else np.zeros(3)
+    out[~inside] = np.clip(bg.mean(), 0.0, None) * 0.5
+    return out
+
+
+def estimate_preview(image: np.ndarray, radiance: np.ndarray, coeffs: np.ndarray, lmax: int,
+                     height: int = 256) -> np.ndarray:
+    """uint8 strip: input | SH radiance | diffuse sphere under the estimated light (each auto-exposed)."""
+    panels = strip([("input", image), (f"SH radiance (lmax {lmax})", radiance)], height)
+    sphere = diffuse_sphere(coeffs, height)
+    tile = tonemap(sphere, exposure_for(sphere))
+    from PIL import Image, ImageDraw
+
+    tile_img = Image.fromarray(tile)
+    draw = ImageDraw.Draw(tile_img)
+    label = "diffuse sphere (view +X)"
+    draw.rectangle((0, 0, 8 + 7 * len(label), 16), fill=(0, 0, 0))
+    draw.text((4, 2), label, fill=(255, 255, 255))
+    gap = np.full((height, 4, 3), 255, dtype=np.uint8)
+    return np.concatenate([panels, gap, np.asarray(tile_img)], axis=1)

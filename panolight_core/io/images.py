@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..color import linear_to_srgb, srgb_to_linear
+from ..color import SRGB8_TO_LINEAR, linear_to_srgb, srgb_to_linear
 from ..errors import ImageError, PanoLightWarning
 from . import hdr as _hdr
 
@@ -84,7 +84,7 @@ def _read_hdr(path):
     yield _hdr.decode(data)
 
 
-def _read_pil(path):
+def _read_pil(path, as_uint8=False):
     from PIL import Image
 
     with Image.open(path) as im:
@@ -93,8 +93,8 @@ def _read_pil(path):
             yield _read_png16(path)
             return
         im.load()
-        rgb = np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
-    yield srgb_to_linear(rgb).astype(np.float32)
+        rgb = np.asarray(im.convert("RGB"))
+    yield rgb if as_uint8 else SRGB8_TO_LINEAR[rgb]
 
 
 def _png_bit_depth(path) -> int:
@@ -117,9 +117,12 @@ def _read_png16(path) -> np.ndarray:
 _READERS = {"exr": _read_exr, "hdr": _read_hdr, "png": _read_pil, "jpeg": _read_pil}
 
 
-def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negative: str = "clamp") -> np.ndarray:
+def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negative: str = "clamp",
+               ldr_as_uint8: bool = False) -> np.ndarray:
     """Read a panorama as (H, W, 3) float32 linear RGB.
 
+    ldr_as_uint8: return 8-bit PNG/JPEG files as their (H, W, 3) uint8 sRGB values instead (no
+    linearisation; estimators that need the clipped pixels exactly use this). Other formats are unaffected.
     equirect: require a 2:1 image. nonfinite: "error" (default) refuses NaN/Inf pixels, "repair"
     sets NaN and -Inf to 0 and +Inf to the largest finite value, with a PanoLightWarning.
     negative: "clamp" (default) sets negative radiance to 0 with a PanoLightWarning, "error" refuses it.
@@ -129,7 +132,7 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
         raise ValueError("nonfinite must be 'error' or 'repair'; negative must be 'clamp' or 'error'")
     p = Path(path)
     fmt = sniff_format(p)
-    reader = _READERS[fmt](p)
+    reader = _read_pil(p, as_uint8=True) if ldr_as_uint8 and fmt in LDR_FORMATS else _READERS[fmt](p)
     try:
         h, w = next(reader)
     except ImageError:
@@ -141,10 +144,11 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
         img = next(reader)
     except Exception as exc:
         raise ImageError(p, f"cannot decode {fmt.upper()} pixels (corrupt or truncated file): {exc}") from None
-    img = np.ascontiguousarray(img, dtype=np.float32)
     if img.shape != (h, w, 3):
         raise ImageError(p, f"decoded shape {img.shape} does not match header size {w} x {h}")
-    return _sanitise(p, img, nonfinite, negative)
+    if img.dtype == np.uint8:
+        return np.ascontiguousarray(img)
+    return _sanitise(p, np.ascontiguousarray(img, dtype=np.float32), nonfinite, negative)
 
 
 def _sanitise(path, img: np.ndarray, nonfinite: str, negative: str) -> np.ndarray:

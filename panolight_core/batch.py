@@ -1,0 +1,130 @@
+"""Many panoramas: input collection, deterministic sharding, a progress line and a report."""
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import time
+from pathlib import Path
+
+from .errors import PanoLightError
+
+EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
+
+
+def collect_inputs(paths, list_file=None, recursive: bool = False) -> list[Path]:
+    """Files named directly, panoramas found in named folders (by extension), and lines of ``list_file``
+    (blank lines and '#' comments skipped). Sorted and de-duplicated, so every copy of a sharded job
+    sees the same order. Missing entries are kept: they are reported as failures, not dropped."""
+    found = []
+    entries = [Path(p) for p in paths]
+    if list_file is not None:
+        lf = Path(list_file)
+        if not lf.is_file():
+            raise PanoLightError(f"{lf}: input list not found")
+        base = lf.parent
+        for line in lf.read_text(encoding="utf-8").splitlines():
+            line = line.strip()
+            if line and not line.startswith("#"):
+                p = Path(line)
+                entries.append(p if p.is_absolute() else base / p)
+    for p in entries:
+        if p.is_dir():
+            pattern = "**/*" if recursive else "*"
+            found += [f for f in p.glob(pattern) if f.is_file() and f.suffix.lower() in EXTENSIONS]
+        else:
+            found.append(p)
+    return sorted({f.resolve() for f in found}, key=str)
+
+
+def parse_shard(text: str | None) -> tuple[int, int]:
+    """'I/N' with 1 <= I <= N -> (I, N); None -> (1, 1)."""
+    if text is None:
+        return 1, 1
+    try:
+        i, n = (int(v) for v in text.split("/"))
+    except ValueError:
+        raise PanoLightError(f"--shard must look like I/N (e.g. 2/4), got {text!r}") from None
+    if not 1 <= i <= n:
+        raise PanoLightError(f"--shard I/N needs 1 <= I <= N, got {text!r}")
+    return i, n
+
+
+def shard(items: list, index: int, count: int) -> list:
+    """The items of shard ``index`` (1-based) of ``count``: every count-th item starting at index - 1."""
+    return items[index - 1::count]
+
+
+def output_names(inputs: list[Path]) -> dict[Path, str]:
+    """Folder name per input: its stem, plus a short hash of its full path where stems collide.
+    Computed over the full (unsharded) list so all shards agree."""
+    stems: dict[str, int] = {}
+    for p in inputs:
+        stems[p.stem] = stems.get(p.stem, 0) + 1
+    return {p: p.stem if stems[p.stem] == 1 else f"{p.stem}-{hashlib.sha1(str(p).encode()).hexdigest()[:8]}"
+            for p in inputs}
+
+
+class Progress:
+    """A one-line progress bar on stderr (a line per item when stderr is not a terminal)."""
+
+    def __init__(self, total: int, quiet: bool = False, stream=None):
+        self.total, self.done, self.quiet = total, 0, quiet
+        self.stream = stream or sys.stderr
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.start = time.perf_counter()
+
+    def step(self, name: str, status: str):
+        self.done += 1
+        if self.quiet:
+            return
+        elapsed = time.perf_counter() - self.start
+        eta = elapsed / self.done * (self.total - self.done)
+        width = 24
+        filled = int(width * self.done / max(1, self.total))
+        bar = "#" * filled + "-" * (width - filled)
+        line = f"[{bar}] {self.done}/{self.total} {status:<6} {name}  (eta {eta:.0f} s)"
+        if self.tty:
+            self.stream.write("\r" + line[:120].ljust(120))
+            if self.done == self.total:
+                self.stream.write("\n")
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+
+def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: bool = False) -> dict:
+    """Run ``job(src, dst_dir)`` for this shard's inputs, continuing past failures.
+
+    Writes out_dir/batch_report.json (or batch_report-I-of-N.json) and returns the report: per input its
+    status ("ok" or "failed"), output folder or error message, and seconds.
+    """
+    names = output_names(inputs)
+    mine = shard(inputs, *shard_spec)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    prog = Progress(len(mine), quiet)
+    results = []
+    for src in mine:
+        t = time.perf_counter()
+        dst = out_dir / names[src]
+        try:
+            job(src, dst)
+            results.append({"input": str(src), "status": "ok", "output": str(dst),
+                            "seconds": round(time.perf_counter() - t, 4)})
+            prog.step(src.name, "ok")
+        except PanoLightError as exc:
+            results.append({"input": str(src), "status": "failed", "error": str(exc),
+                            "seconds": round(time.perf_counter() - t, 4)})
+            prog.step(src.name, "FAILED")
+        except Exception as exc:  # keep going past anything one file can cause; the report names it
+            results.append({"input": str(src), "status": "failed", "error": f"{type(exc).__name__}: {exc}",
+                            "seconds": round(time.perf_counter() - t, 4)})
+            prog.step(src.name, "FAILED")
+    i, n = shard_spec
+    report = {"shard": f"{i}/{n}", "total_inputs": len(inputs), "this_shard": len(mine),
+              "ok": sum(r["status"] == "ok" for r in results),
+              "failed": sum(r["status"] != "ok" for r in results), "results": results}
+    name = "batch_report.json" if n == 1 else f"batch_report-{i}-of-{n}.json"
+    (out_dir / name).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    report["report_path"] = str(out_dir / name)
+    return report

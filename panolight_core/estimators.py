@@ -1,0 +1,93 @@
+"""Lighting estimators: panorama pixels -> SH radiance coefficients (K, 3), Blender world frame.
+
+Inputs are the pixels ``read_image(..., ldr_as_uint8=True)`` returns: uint8 sRGB for 8-bit LDR files,
+float32 linear radiance for HDR (and 16-bit) files.
+
+- ambient:  L_00 of the naive projection only (a constant environment).
+- naive:    sRGB -> linear, then the exact projection (no highlight recovery).
+- analytic: HDR -> the exact projection; LDR -> sRGB -> linear, clipped highlights re-inflated by the
+            physical power-law model of ``highlights``, projection of the recovered map.
+- auto:     the best estimator available (analytic until a learned one ships).
+LDR results are in units of the camera's clip level (1 = white); HDR results in the file's units.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import __version__, sh
+from .camera import ldr_to_linear
+from .errors import PanoLightError
+from .highlights import recover_highlights
+
+NAMES = ("ambient", "naive", "analytic")
+WORK_HEIGHT = 128
+
+
+@dataclass
+class Estimate:
+    """An estimate: coefficients (K, 3) float64 radiance SH, the estimator and what it found."""
+
+    coeffs: np.ndarray
+    estimator: str
+    info: dict = field(default_factory=dict)
+
+    @property
+    def lmax(self) -> int:
+        return sh.lmax_from_count(self.coeffs.shape[0])
+
+
+def _linear(pixels: np.ndarray) -> np.ndarray:
+    return ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
+
+
+def ambient(pixels: np.ndarray, lmax: int) -> Estimate:
+    c = sh.project(_linear(pixels), lmax).astype(np.float64)
+    c[1:] = 0.0
+    return Estimate(c, "ambient")
+
+
+def naive(pixels: np.ndarray, lmax: int) -> Estimate:
+    return Estimate(sh.project(_linear(pixels), lmax).astype(np.float64), "naive")
+
+
+def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
+    if pixels.dtype != np.uint8:
+        return Estimate(sh.project(pixels, lmax).astype(np.float64), "analytic", {"input": "hdr"})
+    work = max(WORK_HEIGHT, 4 * (lmax + 1))
+    recovered, blobs = recover_highlights(pixels, work)
+    return Estimate(sh.project(recovered, lmax), "analytic",
+                    {"input": "ldr", "work_height": work, "clipped_regions": blobs})
+
+
+_REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic}
+
+
+def available() -> tuple[str, ...]:
+    """Estimator names usable here (``auto`` resolves to the last, most capable one)."""
+    return tuple(_REGISTRY)
+
+
+def resolve(name: str) -> str:
+    """Map ``auto`` to a concrete estimator; raise PanoLightError for unknown or unavailable names."""
+    if name == "auto":
+        return "analytic"
+    if name == "neural":
+        raise PanoLightError("the neural estimator is not available yet: no trained weights ship with this "
+                             "version; use --estimator analytic (or auto)")
+    if name not in _REGISTRY:
+        raise PanoLightError(f"unknown estimator {name!r}; choose from {', '.join(available() + ('auto',))}")
+    return name
+
+
+def estimate(pixels: np.ndarray, lmax: int = 2, estimator: str = "auto") -> Estimate:
+    """Run an estimator on panorama pixels (uint8 sRGB LDR or float linear HDR); records its time."""
+    name = resolve(estimator)
+    if pixels.ndim != 3 or pixels.shape[-1] != 3:
+        raise PanoLightError(f"panorama pixels must be (H, W, 3), got {pixels.shape}")
+    t0 = time.perf_counter()
+    est = _REGISTRY[name](pixels, lmax)
+    est.info.update({"name": name, "version": __version__, "estimate_s": time.perf_counter() - t0})
+    return est

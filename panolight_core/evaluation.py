@@ -1,0 +1,146 @@
+"""The EVALUATION.md protocol on the eight Blender studio HDRIs, for every available estimator.
+
+For each scene and ev: ground truth = exact projection of the HDR (lmax 2); input = the camera model's
+8-bit LDR (optionally JPEG); each estimator's coefficients are scored with m-RMSE, irr-RMSE and the
+dominant-light angle, and timed (median of ``repeats`` runs on the in-memory LDR, decode excluded: the
+decode-inclusive figure is in training/benchmarks/bench_estimate.py).
+The estimated light direction is the brightest direction of the estimate's radiance (256 x 128 grid);
+a constant estimate (ambient) has none.
+"""
+from __future__ import annotations
+
+import json
+import statistics
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from . import metrics, sh
+from .camera import hdr_to_ldr
+from .color import LUMINANCE_WEIGHTS
+from .data import STUDIO_HDRIS, studio_hdri
+from .errors import PanoLightWarning
+from .estimators import available, estimate
+from .io import read_image
+
+SUN_SCENES = ("city", "courtyard", "forest", "sunrise", "sunset")
+
+
+def estimated_direction(coeffs: np.ndarray):
+    """Brightest direction of the SH radiance on a 256 x 128 grid; None for a constant map."""
+    c = np.asarray(coeffs, dtype=np.float64)
+    if not np.any(c[1:]):
+        return None
+    lum = sh.reconstruct(c, metrics.GRID_H, metrics.GRID_W) @ LUMINANCE_WEIGHTS
+    iy, ix = np.unravel_index(np.argmax(lum), lum.shape)
+    return sh.pixel_directions(metrics.GRID_H, metrics.GRID_W)[iy, ix]
+
+
+def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 2, jpeg_quality=None,
+        repeats: int = 3, log=None) -> dict:
+    """Evaluate; returns {"rows": [...], "summary": {...}, "settings": {...}}."""
+    log = log or (lambda msg: None)
+    estimators = list(estimators or available())
+    rows = []
+    for scene in scenes:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PanoLightWarning)  # the HDRIs hold a few tiny negatives
+            hdr = read_image(studio_hdri(scene)).astype(np.float64)
+        gt = sh.project(hdr, lmax)
+        true_dir = metrics.dominant_light_direction(hdr)
+        for ev in evs:
+            ldr = hdr_to_ldr(hdr, ev, jpeg_quality)
+            for name in estimators:
+                times = []
+                for _ in range(max(1, repeats)):
+                    t = time.perf_counter()
+                    est = estimate(ldr, lmax, name)
+                    times.append(time.perf_counter() - t)
+                d = estimated_direction(est.coeffs)
+                rows.append({"scene": scene, "ev": ev, "estimator": name,
+                             "m_rmse": metrics.m_rmse(gt, est.coeffs), "irr_rmse": metrics.irr_rmse(gt, est.coeffs),
+                             "light_angle_deg": None if d is None else metrics.angle_deg(true_dir, d),
+                             "ms": 1e3 * statistics.median(times)})
+            log(f"{scene} ev {ev:+g}: " + ", ".join(
+                f"{r['estimator']} {r['m_rmse']:.3f}" for r in rows if r["scene"] == scene and r["ev"] == ev))
+    summary = {}
+    for name in estimators:
+        for ev in evs:
+            sel = [r for r in rows if r["estimator"] == name and r["ev"] == ev]
+            angles = [r["light_angle_deg"] for r in sel if r["light_angle_deg"] is not None and r["scene"] in SUN_SCENES]
+            summary[f"{name}@{ev:+g}"] = {
+                "estimator": name, "ev": ev,
+                "mean_m_rmse": float(np.mean([r["m_rmse"] for r in sel])),
+                "mean_irr_rmse": float(np.mean([r["irr_rmse"] for r in sel])),
+                "mean_sun_angle_deg": float(np.mean(angles)) if angles else None,
+                "median_ms": float(statistics.median([r["ms"] for r in sel]))}
+    return {"rows": rows, "summary": summary,
+            "settings": {"scenes": list(scenes), "evs": list(evs), "estimators": estimators, "lmax": lmax,
+                         "jpeg_quality": jpeg_quality, "repeats": repeats}}
+
+
+def _fmt(v, digits=3):
+    return "n/a" if v is None else f"{v:.{digits}f}"
+
+
+def markdown(result: dict) -> str:
+    """Per-ev tables (scene x estimator, m-RMSE / irr-RMSE / light angle) plus a summary table."""
+    s = result["settings"]
+    out = [f"# PanoLight evaluation (lmax {s['lmax']}, {'JPEG q' + str(s['jpeg_quality']) if s['jpeg_quality'] else '8-bit PNG-like'} "
+           f"inputs, EVALUATION.md protocol)", ""]
+    for ev in s["evs"]:
+        out += [f"## ev {ev:+g}", "", "| scene | " + " | ".join(s["estimators"]) + " |",
+                "|---|" + "---:|" * len(s["estimators"])]
+        for scene in s["scenes"]:
+            cells = []
+            for name in s["estimators"]:
+                r = next(r for r in result["rows"] if r["scene"] == scene and r["ev"] == ev and r["estimator"] == name)
+                cells.append(f"{r['m_rmse']:.2f} / {r['irr_rmse']:.2f} / {_fmt(r['light_angle_deg'], 1)}")
+            out.append(f"| {scene} | " + " | ".join(cells) + " |")
+        means = [result["summary"][f"{n}@{ev:+g}"] for n in s["estimators"]]
+        out.append("| **mean** | " + " | ".join(f"**{m['mean_m_rmse']:.3f} / {m['mean_irr_rmse']:.3f}**" for m in means) + " |")
+        out += ["", "cells: m-RMSE / irr-RMSE / dominant-light angle in degrees (lower is better)", ""]
+    out += ["## Summary", "", "| estimator | ev | mean m-RMSE | mean irr-RMSE | mean sun angle (5 sun scenes) | median ms |",
+            "|---|---:|---:|---:|---:|---:|"]
+    for m in result["summary"].values():
+        out.append(f"| {m['estimator']} | {m['ev']:+g} | {m['mean_m_rmse']:.3f} | {m['mean_irr_rmse']:.3f} | "
+                   f"{_fmt(m['mean_sun_angle_deg'], 1)} | {m['median_ms']:.1f} |")
+    return "\n".join(out) + "\n"
+
+
+def plot(result: dict, path) -> None:
+    """Speed/accuracy scatter: median ms per panorama against mean m-RMSE and irr-RMSE, per ev."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), dpi=110)
+    markers = {-2.0: "v", 0.0: "o", 2.0: "^"}
+    for ax, key, label in ((axes[0], "mean_m_rmse", "mean m-RMSE"), (axes[1], "mean_irr_rmse", "mean irr-RMSE")):
+        for i, name in enumerate(result["settings"]["estimators"]):
+            for ev in result["settings"]["evs"]:
+                m = result["summary"][f"{name}@{ev:+g}"]
+                ax.scatter(m["median_ms"], m[key], color=f"C{i}", marker=markers.get(ev, "s"), s=50,
+                           label=f"{name}" if ev == result["settings"]["evs"][0] else None)
+        ax.set_xscale("log")
+        ax.set_xlabel("median ms per panorama (1024 x 512, in memory)")
+        ax.set_ylabel(label + " (lower is better)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(title="estimator (v ev-2, o ev0, ^ ev+2)", fontsize=8)
+    fig.suptitle("Speed against accuracy on the eight Blender studio HDRIs")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def write(result: dict, out_dir) -> list[Path]:
+    """Write eval.md, eval.json and speed_accuracy.png into ``out_dir``; returns their paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "eval.md").write_text(markdown(result), encoding="utf-8")
+    (out / "eval.json").write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
+    plot(result, out / "speed_accuracy.png")
+    return [out / "eval.md", out / "eval.json", out / "speed_accuracy.png"]
