@@ -128,7 +128,7 @@ def run_batch(args) -> int:
 def run_eval(args) -> int:
     from . import evaluation
 
-    result = evaluation.run(evs=args.evs, estimators=args.estimators, lmax=args.lmax, jpeg_quality=args.jpeg,
+    result = evaluation.run(evs=args.evs, estimators=args.estimators, lmax=args.lmax, jpeg_quality=args.jpeg or None,
                             repeats=args.repeats, log=_log(args.quiet))
     paths = evaluation.write(result, args.output)
     print(evaluation.markdown(result))
@@ -225,7 +225,8 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--evs", type=float, nargs="+", default=[-2.0, 0.0, 2.0], help="exposures (default -2 0 2)")
     e.add_argument("--estimators", nargs="+", default=None, help="default: every available estimator")
     e.add_argument("--lmax", type=int, default=2, help="SH order of the comparison (default 2)")
-    e.add_argument("--jpeg", type=int, default=None, metavar="QUALITY", help="JPEG-compress the inputs (e.g. 90)")
+    e.add_argument("--jpeg", type=int, default=90, metavar="QUALITY",
+                   help="JPEG quality of the inputs (default 90, as EVALUATION.md's reference numbers; 0 = none)")
     e.add_argument("--repeats", type=int, default=3, help="timed runs per estimate (median reported; default 3)")
     e.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     e.set_defaults(func=run_eval)

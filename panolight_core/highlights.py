@@ -14,8 +14,8 @@ level; steep glare (p ~ 2-3) gives back a bright source; a larger clipped area (
 extrapolates further.
 
 Known limits: a source with no glare around it (a lamp behind a diffuser, a sun in a clamped HDRI)
-is under- or over-estimated, since the ring is all the model sees; see training/calibrate_highlights.py
-for its behaviour on synthetic skies and rooms. Everything runs on an area-averaged map of
+is under- or over-estimated, since the ring is all the model sees; training/eval_synthetic.py
+reports its behaviour on synthetic skies and rooms. Everything runs on an area-averaged map of
 ``work_height`` rows (128 by default), so a 16k panorama costs no more than a 1k one beyond decoding.
 """
 
@@ -26,39 +26,13 @@ import math
 import numpy as np
 
 from . import sh
+from .resample import area_downsample
 from .color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
 
 CLIP_LEVEL = 0.99  # linear value of sRGB 254/255 is 0.991: at or above counts as clipped
 CORE_RADIUS = math.radians(0.2666)  # the sun's angular radius
 MAX_EXPONENT = 4.0
 RING_FACTOR = 3.0
-
-
-def area_downsample(img: np.ndarray, height: int) -> np.ndarray:
-    """Area-average an (H, W, C) equirect to (height, 2 height, C) float64 (as is if H <= height).
-
-    Integer factors add strided slices (numpy reduces short strided axes slowly); other sizes use
-    block means over rounded boundaries.
-    """
-    h, w = img.shape[:2]
-    if h <= height:
-        return img.astype(np.float64)
-    if h % height == 0 and w % (2 * height) == 0:
-        fy, fx = h // height, w // (2 * height)
-        acc_t = np.float64 if img.dtype == np.float64 else np.float32
-        r = img.reshape(height, fy, w, -1)
-        rows = r[:, 0].astype(acc_t)
-        for i in range(1, fy):
-            rows += r[:, i]
-        c = rows.reshape(height, 2 * height, fx, -1)
-        out = c[:, :, 0].astype(np.float64)
-        for i in range(1, fx):
-            out += c[:, :, i]
-        return out / (fy * fx)
-    ys = np.linspace(0, h, height + 1).astype(int)
-    xs = np.linspace(0, w, 2 * height + 1).astype(int)
-    rows = np.add.reduceat(img.astype(np.float64), ys[:-1], axis=0) / np.diff(ys)[:, None, None]
-    return np.add.reduceat(rows, xs[:-1], axis=1) / np.diff(xs)[None, :, None]
 
 
 def label_blobs(mask: np.ndarray) -> tuple[np.ndarray, int]:

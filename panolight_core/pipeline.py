@@ -10,7 +10,7 @@ import numpy as np
 
 from . import sh
 from .camera import ldr_to_linear
-from .estimators import Estimate, estimate
+from .estimators import Estimate, estimate, resolve
 from .io import read_image, write_image
 from .lighting import make_lighting, write_lighting
 from .order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE, select_order
@@ -29,6 +29,7 @@ def run_estimate(src, out_dir, *, lmax="2", estimator: str = "auto", exposure_ev
     """
     log = log or (lambda msg: None)
     src, out_dir = Path(src), Path(out_dir)
+    resolve(estimator)  # a wrong estimator name fails before any reading
     t0 = time.perf_counter()
     log(f"reading {src}")
     pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error")

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .color import linear_to_srgb, luminance
+from .resample import area_downsample
 
 
 def exposure_for(image: np.ndarray) -> float:
@@ -27,6 +28,7 @@ def strip(panels: list[tuple[str, np.ndarray]], height: int = 256) -> np.ndarray
 
     tiles = []
     for name, img in panels:
+        img = area_downsample(np.asarray(img), height)  # average in linear light before tone mapping
         tile = Image.fromarray(tonemap(img, exposure_for(img))).resize((2 * height, height), Image.BILINEAR)
         draw = ImageDraw.Draw(tile)
         draw.rectangle((0, 0, 8 + 7 * len(name), 16), fill=(0, 0, 0))

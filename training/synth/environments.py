@@ -80,6 +80,7 @@ def outdoor(rng, height=256):
     img = sky_rgb.copy()
     sun_color = np.array([1.0, 0.85 + 0.15 * math.sin(elev), 0.65 + 0.35 * math.sin(elev)])
     e_sun_n = 0.0
+    cover = np.zeros((height, w))
     if not overcast:
         e_sun_n = rng.uniform(2, 10) * e_sky_h
         cover = _disk(dirs, sun_dir, SUN_RADIUS, omega)
@@ -96,8 +97,9 @@ def outdoor(rng, height=256):
     occ = (dirs[..., 2] > 0) & (dirs[..., 2] < _smooth_noise(rng, height, w, 10, 0.8)[...] * rng.uniform(0.0, 0.25))
     img[occ] = ((rng.uniform(0.05, 0.3) / math.pi) * (0.5 * e_sky_h + e_sun_n * 0.3 * rng.random())
                 * ground_tint)[None, :] * np.ones((int(occ.sum()), 1))
+    sun_visible = bool(not overcast and not (occ & (cover > 0)).any())
     return img, {"kind": "outdoor", "overcast": overcast, "sun_direction": sun_dir.tolist(),
-                 "sun_to_sky": e_sun_n / e_sky_h}
+                 "sun_to_sky": e_sun_n / e_sky_h, "sun_visible": sun_visible}
 
 
 def indoor(rng, height=256):

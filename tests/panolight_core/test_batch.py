@@ -1,0 +1,58 @@
+import json
+
+import numpy as np
+import pytest
+
+from panolight_core.batch import collect_inputs, output_names, parse_shard, shard
+from panolight_core.cli import main
+from panolight_core.errors import PanoLightError
+from panolight_core.io import write_image
+
+
+def test_collect_sort_dedupe_and_list(tmp_path):
+    (tmp_path / "a").mkdir()
+    for name in ("b.jpg", "a.exr", "notes.txt"):
+        (tmp_path / "a" / name).write_bytes(b"x")
+    lst = tmp_path / "todo.txt"
+    lst.write_text("# comment\n\na/a.exr\nmissing.png\n")
+    found = collect_inputs([tmp_path / "a"], lst)
+    assert [p.name for p in found] == ["a.exr", "b.jpg", "missing.png"]
+    with pytest.raises(PanoLightError, match="input list not found"):
+        collect_inputs([], tmp_path / "nope.txt")
+
+
+def test_shards_cover_everything_once():
+    items = list(range(23))
+    parts = [shard(items, i, 4) for i in range(1, 5)]
+    assert sorted(x for p in parts for x in p) == items
+    assert parse_shard("2/4") == (2, 4) and parse_shard(None) == (1, 1)
+    for bad in ("0/4", "5/4", "x", "1-2"):
+        with pytest.raises(PanoLightError, match="shard"):
+            parse_shard(bad)
+
+
+def test_output_names_disambiguate_same_stems(tmp_path):
+    a, b, c = tmp_path / "x" / "pano.jpg", tmp_path / "y" / "pano.jpg", tmp_path / "z.jpg"
+    names = output_names([a, b, c])
+    assert names[c] == "z" and names[a] != names[b] and names[a].startswith("pano-")
+
+
+def test_batch_keeps_going_and_reports(tmp_path, rng):
+    src = tmp_path / "in"
+    src.mkdir()
+    for i in range(3):
+        write_image(src / f"p{i}.png", rng.random((16, 32, 3)))
+    (src / "broken.jpg").write_bytes(b"\xff\xd8\xff\xe0 this is not a jpeg")
+    out = tmp_path / "out"
+    rc = main(["batch", str(src), "-o", str(out), "-q", "--resolution", "32x16"])
+    assert rc == 1
+    report = json.loads((out / "batch_report.json").read_text())
+    assert report["ok"] == 3 and report["failed"] == 1
+    bad = next(r for r in report["results"] if r["status"] == "failed")
+    assert "broken.jpg" in bad["error"]
+    assert sorted(p.name for p in out.iterdir()) == ["batch_report.json", "p0", "p1", "p2"]
+    # two shards together do the same inputs, with their own reports
+    out2 = tmp_path / "out2"
+    assert main(["batch", str(src / "p0.png"), str(src / "p1.png"), "-o", str(out2), "-q", "--shard", "1/2"]) == 0
+    assert main(["batch", str(src / "p0.png"), str(src / "p1.png"), "-o", str(out2), "-q", "--shard", "2/2"]) == 0
+    assert sorted(p.name for p in out2.iterdir()) == ["batch_report-1-of-2.json", "batch_report-2-of-2.json", "p0", "p1"]
