@@ -22,6 +22,7 @@ reports its behaviour on synthetic skies and rooms. Everything runs on an area-a
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -33,6 +34,8 @@ CLIP_LEVEL = 0.99  # linear value of sRGB 254/255 is 0.991: at or above counts a
 CORE_RADIUS = math.radians(0.2666)  # the sun's angular radius
 MAX_EXPONENT = 4.0
 RING_FACTOR = 3.0
+RING_GAP = 1.0  # work cells skipped between a blob's edge and its ring: edge cells are partly clipped and JPEG rings within a block of a clipped edge
+MAX_FITTED_BLOBS = 64  # ring fits for the largest clipped regions; smaller speckles keep the clip level
 
 
 def label_blobs(mask: np.ndarray) -> tuple[np.ndarray, int]:
@@ -119,25 +122,27 @@ def blob_features(small: np.ndarray, frac: np.ndarray):
     np.minimum.at(row_lo, lab, ys)
     np.maximum.at(row_hi, lab, ys)
     d_theta, d_phi = math.pi / h, 2 * math.pi / w
+    fitted = set(np.argsort(-area)[:MAX_FITTED_BLOBS].tolist())
     blobs = []
     for b in range(count):
         norm = float(np.linalg.norm(centres[b]))
-        if area[b] <= 0 or norm < 1e-9 * area[b]:
+        if area[b] <= 0 or norm < 1e-9 * area[b] or b not in fitted:
             blobs.append(None)
             continue
         centre = centres[b] / norm
         t_c = min(math.sqrt(area[b] / math.pi), math.pi / 2)
         reach = RING_FACTOR * t_c + d_phi
-        pad = int(math.ceil(reach / d_theta)) + 1
+        pad_gap = RING_GAP * d_theta
+        pad = int(math.ceil((reach + pad_gap) / d_theta)) + 1
         rows = np.arange(max(0, row_lo[b] - pad), min(h, row_hi[b] + pad + 1))
         sin_min = max(math.sin(math.pi * (rows[0]) / h), math.sin(math.pi * (rows[-1] + 1) / h), 1e-9) \
             if rows[0] > 0 and rows[-1] < h - 1 else 0.0
         x_c = int((0.5 - math.atan2(centre[1], centre[0]) / (2 * math.pi)) % 1.0 * w)
-        half = w if sin_min <= 0 else int(math.ceil(reach / (sin_min * d_phi))) + 2
+        half = w if sin_min <= 0 else int(math.ceil((reach + pad_gap) / (sin_min * d_phi))) + 2
         cols = np.arange(w) if 2 * half + 1 >= w else (x_c + np.arange(-half, half + 1)) % w
         win = np.ix_(rows, cols)
         ang = np.arccos(np.clip(dirs[win] @ centre, -1.0, 1.0))
-        ring = clear[win] & (ang > t_c) & (ang < reach) & (lum[win] > 0)
+        ring = clear[win] & (ang > t_c + RING_GAP * d_theta) & (ang < reach + RING_GAP * d_theta) & (lum[win] > 0)
         if ring.sum() >= 3:
             om = omega[win][ring]
             p = float(np.clip(_ring_fit(ang[ring], lum[win][ring], om), 0.0, MAX_EXPONENT))
@@ -168,16 +173,45 @@ def power_law_gain(solid_angle: float, exponent: float, core_radius: float = COR
     return max(1.0, energy / (math.pi * t_c * t_c))
 
 
+_POOL = None
+
+
+def _pool():
+    global _POOL
+    if _POOL is None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        _POOL = ThreadPoolExecutor(max_workers=max(1, min(4, os.cpu_count() or 1)),
+                                   thread_name_prefix="panolight")
+    return _POOL
+
+
+def _ldr_chunk(a: np.ndarray, rows: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    clip = np.maximum(np.maximum(a[..., 0], a[..., 1]), a[..., 2]) >= 254
+    rad = area_downsample(SRGB8_TO_LINEAR[a], rows, width)
+    frac = area_downsample(clip[..., None].astype(np.float32), rows, width)[..., 0]
+    return rad, frac
+
+
 def ldr_work_maps(ldr: np.ndarray, work_height: int) -> tuple[np.ndarray, np.ndarray]:
     """uint8 sRGB pixels -> (linear radiance (h, 2h, 3), clipped fraction (h, 2h)) at h = work_height.
 
-    A pixel is clipped when its brightest channel is 254 or 255.
+    A pixel is clipped when its brightest channel is 254 or 255. Large images are split into row
+    bands (aligned to the averaging blocks) processed on a small thread pool: numpy releases the GIL
+    for the lookup and the sums, so two cores halve the time.
     """
     a = np.asarray(ldr)
-    clip = np.maximum(np.maximum(a[..., 0], a[..., 1]), a[..., 2]) >= 254
-    rad = area_downsample(SRGB8_TO_LINEAR[a], work_height)
-    frac = area_downsample(clip[..., None].astype(np.float32), work_height)[..., 0]
-    return rad, frac
+    h, w = a.shape[:2]
+    width = 2 * work_height
+    bands = max(1, min(4, os.cpu_count() or 1))
+    if h <= work_height or h % work_height or w % width or h * w < (1 << 20) or bands == 1 \
+            or work_height % bands:
+        return _ldr_chunk(a, min(work_height, h), width if h > work_height else w)
+    step = h // bands
+    out_rows = work_height // bands
+    parts = [_pool().submit(_ldr_chunk, a[i * step:(i + 1) * step], out_rows, width) for i in range(bands)]
+    results = [f.result() for f in parts]
+    return np.concatenate([r[0] for r in results]), np.concatenate([r[1] for r in results])
 
 
 def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: float = CORE_RADIUS):

@@ -4,28 +4,31 @@ from __future__ import annotations
 import numpy as np
 
 
-def area_downsample(img: np.ndarray, height: int) -> np.ndarray:
-    """Area-average an (H, W, C) equirect to (height, 2 height, C) float64 (as is if H <= height).
+def area_downsample(img: np.ndarray, height: int, width: int | None = None) -> np.ndarray:
+    """Area-average an (H, W, C) image to (height, width, C) float64 (as is if H <= height).
+
+    width defaults to 2 height (an equirect panorama).
 
     Integer factors add strided slices (numpy reduces short strided axes slowly); other sizes use
     block means over rounded boundaries.
     """
     h, w = img.shape[:2]
+    width = 2 * height if width is None else width
     if h <= height:
         return img.astype(np.float64)
-    if h % height == 0 and w % (2 * height) == 0:
-        fy, fx = h // height, w // (2 * height)
+    if h % height == 0 and w % width == 0:
+        fy, fx = h // height, w // width
         acc_t = np.float64 if img.dtype == np.float64 else np.float32
         r = img.reshape(height, fy, w, -1)
         rows = r[:, 0].astype(acc_t)
         for i in range(1, fy):
             rows += r[:, i]
-        c = rows.reshape(height, 2 * height, fx, -1)
+        c = rows.reshape(height, width, fx, -1)
         out = c[:, :, 0].astype(np.float64)
         for i in range(1, fx):
             out += c[:, :, i]
         return out / (fy * fx)
     ys = np.linspace(0, h, height + 1).astype(int)
-    xs = np.linspace(0, w, 2 * height + 1).astype(int)
+    xs = np.linspace(0, w, width + 1).astype(int)
     rows = np.add.reduceat(img.astype(np.float64), ys[:-1], axis=0) / np.diff(ys)[:, None, None]
     return np.add.reduceat(rows, xs[:-1], axis=1) / np.diff(xs)[None, :, None]

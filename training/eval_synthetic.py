@@ -4,7 +4,7 @@ The public HDRIs are only eight scenes; this checks the clipped-highlight model 
 skies (clear and overcast, sun at 3-75 degrees) and rooms (lamps, windows), whose true lighting is
 known exactly, at ev -2, 0, +2. Nothing is fitted: it reports mean m-RMSE / irr-RMSE per kind of scene.
 
-    python -m training.eval_synthetic [--count 60] [--height 256] [--seed 100000]
+    python -m training.eval_synthetic [--count 60] [--height 256] [--seed 100000] [--jpeg 90]
 """
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ def main(argv=None):
     ap.add_argument("--count", type=int, default=60, help="environments (default 60)")
     ap.add_argument("--height", type=int, default=256)
     ap.add_argument("--seed", type=int, default=100000, help="first seed (default 100000)")
+    ap.add_argument("--jpeg", type=int, default=90, help="JPEG quality of the inputs (default 90; 0 = none)")
     args = ap.parse_args(argv)
     scores: dict = {}
     for seed in range(args.seed, args.seed + args.count):
@@ -32,7 +33,7 @@ def main(argv=None):
         kind = params["kind"] + (" overcast" if params.get("overcast") else "")
         gt = sh.project(hdr, 2)
         for ev in EVS:
-            ldr = hdr_to_ldr(hdr, ev)
+            ldr = hdr_to_ldr(hdr, ev, args.jpeg or None)
             for name in ("naive", "analytic"):
                 c = estimate(ldr, 2, name).coeffs
                 scores.setdefault((kind, ev, name), []).append((metrics.m_rmse(gt, c), metrics.irr_rmse(gt, c)))

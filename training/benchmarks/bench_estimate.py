@@ -1,0 +1,71 @@
+"""End-to-end estimate speed: read a 2048 x 1024 JPEG from disk and estimate its lighting.
+
+The JPEG is made from each Blender studio HDRI (upsampled 2x, the EVALUATION.md camera at ev 0,
+quality 90) in a temporary folder. Each estimator is timed on decode + estimate, interleaved over the
+scenes and repeated; medians are printed with their ratio to the 50 ms target (issue 3).
+
+    python -m training.benchmarks.bench_estimate [--repeats 15] [--scenes city sunset ...]
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from panolight_core.camera import hdr_to_ldr
+from panolight_core.data import STUDIO_HDRIS, studio_hdri
+from panolight_core.estimators import available, estimate
+from panolight_core.io import read_image
+
+TARGET_MS = 50.0
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeats", type=int, default=15)
+    ap.add_argument("--scenes", nargs="+", default=list(STUDIO_HDRIS))
+    args = ap.parse_args(argv)
+    from PIL import Image
+
+    with tempfile.TemporaryDirectory() as tmp:
+        files = []
+        for scene in args.scenes:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                hdr = read_image(studio_hdri(scene))
+            big = np.repeat(np.repeat(hdr, 2, axis=0), 2, axis=1)
+            path = Path(tmp) / f"{scene}.jpg"
+            Image.fromarray(hdr_to_ldr(big, 0)).save(path, quality=90)
+            files.append(path)
+        names = available()
+        times = {n: [] for n in names + ("decode only",)}
+        for f in files:  # warm-up
+            for n in names:
+                estimate(read_image(f, ldr_as_uint8=True), 2, n)
+        for _ in range(args.repeats):
+            for f in files:
+                t = time.perf_counter()
+                read_image(f, ldr_as_uint8=True)
+                times["decode only"].append(time.perf_counter() - t)
+                for n in names:
+                    t = time.perf_counter()
+                    estimate(read_image(f, ldr_as_uint8=True), 2, n)
+                    times[n].append(time.perf_counter() - t)
+    print(f"# decode + estimate, 2048 x 1024 JPEG q90, lmax 2; {len(files)} scenes x {args.repeats} repeats\n")
+    print("| estimator | median ms | p90 ms | x 50 ms target |")
+    print("|---|---:|---:|---:|")
+    out = {}
+    for n, ts in times.items():
+        med, p90 = 1e3 * statistics.median(ts), 1e3 * float(np.percentile(ts, 90))
+        out[n] = med
+        print(f"| {n} | {med:.1f} | {p90:.1f} | {med / TARGET_MS:.2f} |")
+    return out
+
+
+if __name__ == "__main__":
+    main()
