@@ -145,7 +145,6 @@ def run_demo(args) -> int:
     from .data import studio_hdri
     from .io import read_image
     from .lighting import read_lighting
-    from .pipeline import run_estimate as job
 
     out = Path(args.output or Path("out") / args.scene)
     out.mkdir(parents=True, exist_ok=True)

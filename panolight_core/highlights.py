@@ -28,6 +28,7 @@ import numpy as np
 
 from . import sh
 from .resample import area_downsample
+from .camera import clipped_mask
 from .color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
 
 CLIP_LEVEL = 0.99  # linear value of sRGB 254/255 is 0.991: at or above counts as clipped
@@ -187,7 +188,7 @@ def _pool():
 
 
 def _ldr_chunk(a: np.ndarray, rows: int, width: int) -> tuple[np.ndarray, np.ndarray]:
-    clip = np.maximum(np.maximum(a[..., 0], a[..., 1]), a[..., 2]) >= 254
+    clip = clipped_mask(a)
     rad = area_downsample(SRGB8_TO_LINEAR[a], rows, width)
     frac = area_downsample(clip[..., None].astype(np.float32), rows, width)[..., 0]
     return rad, frac

@@ -37,7 +37,7 @@ def main(argv=None):
             for name in ("naive", "analytic"):
                 c = estimate(ldr, 2, name).coeffs
                 scores.setdefault((kind, ev, name), []).append((metrics.m_rmse(gt, c), metrics.irr_rmse(gt, c)))
-    print(f"| scene kind | ev | n | naive m-RMSE / irr-RMSE | analytic m-RMSE / irr-RMSE |")
+    print("| scene kind | ev | n | naive m-RMSE / irr-RMSE | analytic m-RMSE / irr-RMSE |")
     print("|---|---:|---:|---:|---:|")
     for kind in sorted({k[0] for k in scores}):
         for ev in EVS:

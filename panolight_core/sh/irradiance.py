@@ -91,10 +91,9 @@ def _rh_constants():
     a1, a2 = 2.0 * math.pi / 3.0, math.pi / 4.0
     k00 = 0.5 / math.sqrt(math.pi)
     k1 = math.sqrt(3.0 / (4.0 * math.pi))
-    k2 = 0.5 * math.sqrt(15.0 / math.pi)  # xy, yz, xz
     k20 = 0.25 * math.sqrt(5.0 / math.pi)  # (3z^2 - 1)
     k22 = 0.25 * math.sqrt(15.0 / math.pi)  # (x^2 - y^2)
-    c1 = a2 * k22  # = a2 * k2 / 2
+    c1 = a2 * k22  # = A_2 * (the xy/yz/xz constant) / 2
     c2 = a1 * k1 / 2.0  # off-diagonal entries appear twice in the quadratic form
     c3 = 3.0 * a2 * k20
     c4 = math.pi * k00

@@ -1,6 +1,5 @@
 import json
 
-import numpy as np
 import pytest
 
 from panolight_core.batch import collect_inputs, output_names, parse_shard, shard

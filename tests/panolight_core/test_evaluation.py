@@ -1,7 +1,5 @@
 import json
 
-import pytest
-
 from panolight_core import evaluation
 from panolight_core.cli import main
 
