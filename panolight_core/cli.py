@@ -13,21 +13,24 @@ from .sh.window import FAMILIES as WINDOW_FAMILIES
 
 OUTPUTS_HELP = """\
 outputs (in OUTDIR; nothing is written anywhere else):
-  lighting.json   SH radiance coefficients (Blender world frame, Z up), estimator, input hash, timings,
-                  the chosen order and why, clipped regions found (schema: panolight_core/schemas)
-  radiance.exr    the SH radiance map at --resolution
-  irradiance.exr  diffuse irradiance: what a white Lambertian surface facing each direction receives
+  lighting.json   SH radiance coefficients and explicit lights (Blender world frame, Z up), estimator, input
+                  hash, timings, the chosen model/order/deringing and why (schema: panolight_core/schemas)
+  radiance.exr    the SH part's radiance map at --resolution (the lights are in lighting.json)
+  irradiance.exr  diffuse irradiance of the whole model (lights + SH) for a surface facing each direction
   preview.png     input | SH radiance | a white diffuse sphere lit by the estimate, each auto-exposed
 """
 
 EPILOG_ESTIMATE = f"""\
 examples:
-  panolight estimate photo.jpg -o out/photo               # LDR: sRGB -> linear + clipped-highlight recovery
-  panolight estimate studio.exr -o out/studio --lmax 8    # HDR: exact projection, 81 coefficients
-  panolight estimate room.jpg --lmax auto --tolerance 0.005
-  panolight estimate sky.hdr --window auto                # deringing only as strong as needed
+  panolight estimate photo.jpg -o out/photo               # lights + the SH order the scene needs (default)
+  panolight estimate studio.exr --model sh --lmax 8       # a fixed recipe: 81 SH coefficients, no lights
+  panolight estimate room.jpg --tolerance 0.005           # stricter: a higher order if the scene needs it
+  panolight estimate sky.hdr --model sh --window auto     # SH only, deringed just enough
 
 {OUTPUTS_HELP}
+models: auto finds compact bright sources (sun, lamps, windows) and stores them as explicit lights (direction,
+colour, intensity, angular size, sun/area) in lighting.json; the rest goes to SH at the smallest order whose
+diffuse relighting error is within --tolerance. lighting.json records what was chosen and why.
 estimators: analytic (default through 'auto'), naive (sRGB -> linear, no recovery), ambient (constant).
 LDR results are relative to the camera's clip level (1 = white); --exposure EV scales them by 2^EV.
 """
@@ -82,7 +85,8 @@ def _window(text: str) -> str:
 
 
 def _estimate_kwargs(args) -> dict:
-    return {"lmax": args.lmax, "estimator": args.estimator, "exposure_ev": args.exposure, "window": args.window,
+    return {"lmax": args.lmax, "estimator": args.estimator, "model": args.model, "exposure_ev": args.exposure,
+            "window": args.window,
             "window_width": args.window_width, "tolerance": args.tolerance, "resolution": args.resolution,
             "repair_nonfinite": args.repair_nonfinite}
 
@@ -101,6 +105,7 @@ def run_estimate(args) -> int:
 
 def run_project(args) -> int:
     args.estimator = "naive"
+    args.model = "sh"
     return run_estimate(args)
 
 
@@ -130,8 +135,12 @@ def run_eval(args) -> int:
 
     result = evaluation.run(evs=args.evs, estimators=args.estimators, lmax=args.lmax, jpeg_quality=args.jpeg or None,
                             repeats=args.repeats, log=_log(args.quiet))
+    if not args.no_adaptive:
+        result["adaptive"] = evaluation.run_adaptive(log=_log(args.quiet))
     paths = evaluation.write(result, args.output)
     print(evaluation.markdown(result))
+    if result.get("adaptive"):
+        print(evaluation.markdown_adaptive(result["adaptive"]))
     print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr)
     return 0
 
@@ -171,8 +180,12 @@ def run_demo(args) -> int:
 
 def _add_estimate_options(p, default_estimator="auto"):
     p.add_argument("-o", "--output", default=None, help="output folder (created; default out/<input name>)")
-    p.add_argument("--lmax", type=_lmax, default="2",
-                   help="SH order 0..100, or 'auto': the smallest order 0..8 within --tolerance (default 2)")
+    p.add_argument("--model", choices=("auto", "sh"), default="auto",
+                   help="auto (default): explicit lights for compact bright sources (sun, lamps) plus the SH "
+                        "order the rest needs, deringed only if ringing would show; sh: SH only")
+    p.add_argument("--lmax", type=_lmax, default=None,
+                   help="SH order 0..100, or 'auto': the smallest order 0..8 within --tolerance "
+                        "(default: auto with --model auto, 2 with --model sh)")
     p.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE,
                    help=f"with --lmax auto: allowed diffuse relighting error relative to order 8 "
                         f"(default {DEFAULT_TOLERANCE})")
@@ -181,8 +194,8 @@ def _add_estimate_options(p, default_estimator="auto"):
     p.add_argument("--exposure", type=float, default=0.0, metavar="EV",
                    help="scale the estimated lighting by 2^EV (default 0)")
     p.add_argument("--window", type=_window, default="none",
-                   help="deringing: none (default), auto (weakest sinc^4 window with non-negative radiance), "
-                        "or a fixed sinc4 | lanczos | hanning")
+                   help="force deringing: auto (weakest sinc^4 window with non-negative radiance) or a fixed "
+                        "sinc4 | lanczos | hanning; default none leaves it to --model")
     p.add_argument("--window-width", type=float, default=None, help="width of a fixed window (default 2 (lmax+1))")
     p.add_argument("--resolution", type=_resolution, default=(512, 256),
                    help="size of radiance.exr / irradiance.exr, WxH (default 512x256)")
@@ -227,6 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--jpeg", type=int, default=90, metavar="QUALITY",
                    help="JPEG quality of the inputs (default 90, as EVALUATION.md's reference numbers; 0 = none)")
     e.add_argument("--repeats", type=int, default=3, help="timed runs per estimate (median reported; default 3)")
+    e.add_argument("--no-adaptive", action="store_true", help="skip the adaptive-model table (lights + auto order)")
     e.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     e.set_defaults(func=run_eval)
 

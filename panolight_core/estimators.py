@@ -28,11 +28,16 @@ WORK_HEIGHT = 64  # rows of the highlight work map; 64 and 128 score alike on sy
 
 @dataclass
 class Estimate:
-    """An estimate: coefficients (K, 3) float64 radiance SH, the estimator and what it found."""
+    """An estimate: coefficients (K, 3) float64 radiance SH, the estimator and what it found.
+
+    radiance: the linear equirect map the coefficients are the projection of (the input itself for HDR,
+    the recovered work map for the analytic LDR path); the adaptive model fits lights to it.
+    """
 
     coeffs: np.ndarray
     estimator: str
     info: dict = field(default_factory=dict)
+    radiance: np.ndarray | None = None
 
     @property
     def lmax(self) -> int:
@@ -44,22 +49,25 @@ def _linear(pixels: np.ndarray) -> np.ndarray:
 
 
 def ambient(pixels: np.ndarray, lmax: int) -> Estimate:
-    c = sh.project(_linear(pixels), lmax).astype(np.float64)
+    lin = _linear(pixels)
+    c = sh.project(lin, lmax).astype(np.float64)
     c[1:] = 0.0
-    return Estimate(c, "ambient")
+    flat = np.broadcast_to(c[0] / np.sqrt(4.0 * np.pi), lin.shape)
+    return Estimate(c, "ambient", radiance=flat)
 
 
 def naive(pixels: np.ndarray, lmax: int) -> Estimate:
-    return Estimate(sh.project(_linear(pixels), lmax).astype(np.float64), "naive")
+    lin = _linear(pixels)
+    return Estimate(sh.project(lin, lmax).astype(np.float64), "naive", radiance=lin)
 
 
 def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
     if pixels.dtype != np.uint8:
-        return Estimate(sh.project(pixels, lmax).astype(np.float64), "analytic", {"input": "hdr"})
+        return Estimate(sh.project(pixels, lmax).astype(np.float64), "analytic", {"input": "hdr"}, pixels)
     work = max(WORK_HEIGHT, 4 * (lmax + 1))
     recovered, blobs = recover_highlights(pixels, work)
     return Estimate(sh.project(recovered, lmax), "analytic",
-                    {"input": "ldr", "work_height": work, "clipped_regions": blobs})
+                    {"input": "ldr", "work_height": work, "clipped_regions": blobs}, recovered)
 
 
 _REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic}

@@ -26,6 +26,12 @@ def _relative_weighted_rmse(g: np.ndarray, q: np.ndarray) -> float:
     return num / den if den != 0 else math.inf
 
 
+def irr_rmse_maps(gt_irradiance: np.ndarray, pred_irradiance: np.ndarray) -> float:
+    """irr-RMSE between two (H, W, 3) irradiance maps (for models that are not pure SH, e.g. lights + SH)."""
+    return _relative_weighted_rmse(np.asarray(gt_irradiance, dtype=np.float64),
+                                   np.asarray(pred_irradiance, dtype=np.float64))
+
+
 def m_rmse(gt_coeffs, pred_coeffs) -> float:
     """Median-scaled, solid-angle weighted RMSE of the radiance maps, divided by the mean GT radiance."""
     g = sh.reconstruct(np.asarray(gt_coeffs, dtype=np.float64), GRID_H, GRID_W)

@@ -41,8 +41,9 @@ def strip(panels: list[tuple[str, np.ndarray]], height: int = 256) -> np.ndarray
     return np.concatenate(out, axis=1)
 
 
-def diffuse_sphere(coeffs: np.ndarray, size: int = 256, albedo: float = 0.8) -> np.ndarray:
-    """(size, size, 3) linear image of a white Lambertian sphere lit by SH radiance ``coeffs``.
+def diffuse_sphere(model, size: int = 256, albedo: float = 0.8) -> np.ndarray:
+    """(size, size, 3) linear image of a white Lambertian sphere lit by ``model``: SH radiance
+    coefficients (K, 3), or anything with an ``irradiance(normals)`` method (adaptive.LightingModel).
 
     The camera sits at the panorama's centre looking along +X (the middle of the panorama) with +Z up,
     so image right is -Y: the sphere is what an object placed in front of the viewer would look like.
@@ -57,18 +58,25 @@ def diffuse_sphere(coeffs: np.ndarray, size: int = 256, albedo: float = 0.8) -> 
     c = np.sqrt(np.clip(1.0 - r2, 0.0, 1.0))
     normals = np.stack([-c, -a, b], axis=-1)[inside]
     out = np.zeros((size, size, 3))
-    shade = albedo / np.pi * sh.irradiance(np.asarray(coeffs, dtype=np.float64), normals)
+    if hasattr(model, "irradiance"):
+        shade = albedo / np.pi * model.irradiance(normals)
+    else:
+        shade = albedo / np.pi * sh.irradiance(np.asarray(model, dtype=np.float64), normals)
     out[inside] = shade
     bg = np.median(shade, axis=0) if shade.size else np.zeros(3)
     out[~inside] = np.clip(bg.mean(), 0.0, None) * 0.5
     return out
 
 
-def estimate_preview(image: np.ndarray, radiance: np.ndarray, coeffs: np.ndarray, lmax: int,
+def estimate_preview(image: np.ndarray, radiance: np.ndarray, model, lmax: int,
                      height: int = 256) -> np.ndarray:
-    """uint8 strip: input | SH radiance | diffuse sphere under the estimated light (each auto-exposed)."""
-    panels = strip([("input", image), (f"SH radiance (lmax {lmax})", radiance)], height)
-    sphere = diffuse_sphere(coeffs, height)
+    """uint8 strip: input | SH radiance | diffuse sphere under the estimated light (each auto-exposed).
+
+    model: SH coefficients or an adaptive.LightingModel (its lights then light the sphere too)."""
+    n_lights = len(getattr(model, "lights", []))
+    label = f"SH radiance (lmax {lmax})" + (f" + {n_lights} light(s)" if n_lights else "")
+    panels = strip([("input", image), (label, radiance)], height)
+    sphere = diffuse_sphere(model, height)
     tile = tonemap(sphere, exposure_for(sphere))
     from PIL import Image, ImageDraw
 

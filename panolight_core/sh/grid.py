@@ -40,6 +40,14 @@ def pixel_directions(height: int, width: int) -> np.ndarray:
     return out
 
 
+def directions_at(rows, cols, height: int, width: int) -> np.ndarray:
+    """(..., 3) float64 view directions of the pixel centres (rows, cols) of an H x W equirect image."""
+    theta = np.pi * (np.asarray(rows) + 0.5) / height
+    u = (np.asarray(cols) + 0.5) / width
+    st = np.sin(theta)
+    return np.stack([-st * np.cos(2 * np.pi * u), st * np.sin(2 * np.pi * u), np.cos(theta)], axis=-1)
+
+
 def row_solid_angles(height: int, width: int) -> np.ndarray:
     """(H,) exact solid angle of one pixel in each row: (cos(pi y/H) - cos(pi (y+1)/H)) 2 pi / W."""
     height, width = check_grid(height, width)
