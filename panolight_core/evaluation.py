@@ -90,8 +90,8 @@ def run_adaptive(scenes=STUDIO_HDRIS, log=None) -> list[dict]:
 
     Both are scored with irr-RMSE against the exact irradiance of the HDR (its SH irradiance at order
     EXACT_ORDER; lights render analytically, so an lmax-2 ground truth would understate them). Reports
-    the lights found, the order and deringing chosen and why, the sun direction (the strongest light's
-    peak) against EVALUATION.md's dominant direction, parameter counts and evaluation time.
+    the lights found, the order and deringing chosen and why, the sun direction (the peak of the first
+    light: lights are found brightest peak first) against EVALUATION.md's dominant direction, parameter counts and evaluation time.
     """
     from .adaptive import fit_model
 
@@ -138,7 +138,7 @@ def run_adaptive(scenes=STUDIO_HDRIS, log=None) -> list[dict]:
 def markdown_adaptive(rows: list[dict]) -> str:
     out = ["## Adaptive model (HDR inputs): lights + the order each scene needs, against fixed lmax 2", "",
            "irr-RMSE against the exact irradiance (SH order 24); eval ms = irradiance at 131072 normals; "
-           "sun angle = the strongest light's peak against EVALUATION.md's dominant direction.", "",
+           "sun angle = the peak of the first (brightest-peaked) light against EVALUATION.md's dominant direction.", "",
            "| scene | lights (types) | energy in lights | lmax | deringed | sun angle | irr-RMSE adaptive | "
            "irr-RMSE fixed lmax 2 | params | eval ms | fit ms |",
            "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
