@@ -91,7 +91,8 @@ def run_adaptive(scenes=STUDIO_HDRIS, log=None) -> list[dict]:
     Both are scored with irr-RMSE against the exact irradiance of the HDR (its SH irradiance at order
     EXACT_ORDER; lights render analytically, so an lmax-2 ground truth would understate them). Reports
     the lights found, the order and deringing chosen and why, the sun direction (the peak of the first
-    light: lights are found brightest peak first) against EVALUATION.md's dominant direction, parameter counts and evaluation time.
+    light: lights are found brightest peak first) against EVALUATION.md's dominant direction, parameter
+    counts and evaluation time.
     """
     from .adaptive import fit_model
 
