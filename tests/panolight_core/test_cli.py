@@ -20,12 +20,37 @@ def test_estimate_hdr_writes_its_outputs_and_they_are_right(tmp_path, rng):
     coeffs, doc = read_lighting(out / "lighting.json")
     np.testing.assert_allclose(coeffs, sh.project(img.astype(np.float64), 3), rtol=1e-5, atol=1e-6)
     assert doc["source"]["sha256"] and doc["estimator"]["name"] == "analytic" and doc["order"]["mode"] == "fixed"
-    assert set(doc["timings"]) == {"read_s", "estimate_s", "write_s"}
+    assert set(doc["timings"]) == {"read_s", "estimate_s", "model_s", "write_s"}
     np.testing.assert_allclose(read_image(out / "radiance.exr"), sh.reconstruct(coeffs, 32, 64), rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(read_image(out / "irradiance.exr", negative="error"),
                                sh.irradiance_map(coeffs, 32, 64), rtol=1e-5, atol=1e-5)
     preview = read_image(out / "preview.png", equirect=False)
     assert preview.shape[0] == 256 and preview.shape[1] == 2 * 512 + 256 + 8  # input | radiance | sphere
+
+
+def test_default_model_writes_lights_and_sh_model_does_not(tmp_path):
+    import jsonschema
+
+    from panolight_core.lighting import schema
+
+    img = np.full((64, 128, 3), 0.05, np.float32)
+    img[20, 90] = 5e4  # a sun
+    src = write_image(tmp_path / "sun.exr", img)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "auto"), "-q"]) == 0
+    coeffs, doc = read_lighting(tmp_path / "auto" / "lighting.json")
+    jsonschema.validate(doc, schema())
+    assert len(doc["lights"]) == 1 and doc["lights"][0]["type"] == "sun"
+    assert doc["model"]["mode"] == "lights+sh" and doc["model"]["order"]["mode"] == "auto"
+    assert doc["model"]["parameters"] == coeffs.size + 8
+    # irradiance.exr holds the whole model: lights + SH
+    from panolight_core.lights import light_irradiance
+
+    expected = light_irradiance(doc["lights"], sh.pixel_directions(256, 512)) + sh.irradiance_map(coeffs, 256, 512)
+    np.testing.assert_allclose(read_image(tmp_path / "auto" / "irradiance.exr", negative="error"), expected,
+                               rtol=1e-4, atol=1e-6)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "sh"), "--model", "sh", "-q"]) == 0
+    coeffs_sh, doc_sh = read_lighting(tmp_path / "sh" / "lighting.json")
+    assert doc_sh["lights"] == [] and doc_sh["lmax"] == 2 and doc_sh["model"]["mode"] == "sh"
 
 
 def test_estimate_ldr_auto_order_exposure_and_window(tmp_path):
