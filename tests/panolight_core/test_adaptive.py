@@ -86,3 +86,13 @@ def test_ldr_inputs_get_lights_from_recovered_sources():
     assert np.all(np.isfinite(model.coeffs))
     for light in model.lights:
         assert light["intensity"] > 0 and abs(np.linalg.norm(light["direction"]) - 1) < 1e-9
+
+
+def test_overcast_sky_gets_no_light_and_says_why():
+    for seed in range(400, 500):
+        img, p = environment(seed, 128)
+        if p["kind"] == "outdoor" and p["overcast"]:
+            break
+    model = fit_model(img)
+    assert model.lights == [] and model.info["lights"]["why_none"]
+    assert model.info["order"]["lmax"] <= 4
