@@ -1,0 +1,148 @@
+"""Mitsuba renders compared with numbers: texel convention, camera, orientation, energy, figure."""
+import math
+
+import numpy as np
+import pytest
+
+from panolight_core import sh
+from panolight_core.errors import PanoLightError
+from training import mitsuba_render as mr
+
+mi = mr.mitsuba()
+
+
+def _smooth_sh(seed=0, lmax=3):
+    c = np.random.default_rng(seed).normal(size=((lmax + 1) ** 2, 3)) * 0.3
+    c[0] += 6.0  # keeps the radiance positive everywhere (no clamping in the envmap)
+    assert sh.min_over_grid(c).min() > 0
+    return c
+
+
+def test_envmap_texels_follow_the_conventions():
+    c = _smooth_sh()
+    em = mi.load_dict(mr.scene_emitters(c, [], 128)["env"])
+    d = np.random.default_rng(1).normal(size=(100, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    got = []
+    for v in d:
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(*(float(x) for x in -v))
+        got.append(np.array(em.eval(si)).ravel()[:3])
+    ref = sh.basis(d, 3) @ c
+    assert np.abs(np.array(got) - ref).max() < 2e-3 * ref.mean()
+
+
+def test_camera_rays_match_mitsuba():
+    sensor = mi.load_dict(mr._sensor(40, 30, 55.0, 37.0, -8.0, 1))
+    rays = mr.perspective_rays(40, 30, 55.0, 37.0, -8.0)
+    for px, py in ((0, 0), (39, 0), (0, 29), (20, 15), (33, 7)):
+        ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f((px + 0.5) / 40, (py + 0.5) / 30), mi.Point2f(0.5, 0.5))
+        np.testing.assert_allclose(np.array(ray.d).ravel(), rays[py, px], atol=1e-5)
+
+
+def _sphere_pixels(normals, size, fov, cam):
+    """Pixel (row, col) where a camera at ``cam`` looking along +X sees the unit sphere's point ``n``."""
+    fwd, right, up = mr.view_basis(0.0, 0.0)
+    t = math.tan(math.radians(fov) / 2)
+    out = []
+    for n in normals:
+        v = n - cam
+        v /= np.linalg.norm(v)
+        x = (v @ right) / (v @ fwd) / t
+        y = -(v @ up) / (v @ fwd) / t
+        out.append((int((y + 1) / 2 * size), int((x + 1) / 2 * size), v))
+    return out
+
+
+def _visible_normals(k=12, seed=3):
+    n = np.random.default_rng(seed).normal(size=(200, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return n[n[:, 0] < -0.6][:k]  # facing the camera, away from the silhouette
+
+
+def test_mirror_sphere_reflects_where_the_analytic_reflection_says():
+    """A mirror sphere shows the environment in direction r = v - 2 (v.n) n (Blender's convention)."""
+    c = _smooth_sh(seed=5, lmax=4)
+    c[1:] *= 6.0  # strong structure so a wrong orientation shows
+    c[0] = 0.0
+    c[0] = -sh.min_over_grid(c).min() * math.sqrt(4 * math.pi) + 0.5
+    size, fov, cam = 96, 30.0, np.array([-5.0, 0.0, 0.0])
+    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": 4},
+             "sensor": mr._sensor(size, size, fov, 0.0, 0.0, 16),
+             "ball": {"type": "sphere", "radius": 1.0, "bsdf": {"type": "conductor", "material": "none"}},
+             **mr.scene_emitters(c, [], 256)}
+    scene["sensor"]["to_world"] = mi.ScalarTransform4f().look_at(origin=cam.tolist(), target=[0, 0, 0], up=[0, 0, 1])
+    img = np.array(mi.render(mi.load_dict(scene), spp=16))
+    errs, spread = [], []
+    for (py, px, v), n in zip(_sphere_pixels(_visible_normals(), size, fov, cam), _visible_normals()):
+        r = v - 2 * (v @ n) * n
+        expect = sh.basis(r / np.linalg.norm(r), 4) @ c
+        errs.append(np.abs(img[py, px, :3] - expect).max())
+        spread.append(expect)
+    scale = np.ptp(np.array(spread), axis=0).max()
+    assert np.median(errs) < 0.1 * scale, (np.median(errs), scale)
+
+
+def test_white_diffuse_sphere_matches_the_analytic_irradiance():
+    """Energy: albedo / pi x (SH irradiance + sun lights' n.d) within sampling noise."""
+    c = _smooth_sh(seed=7, lmax=2)
+    sun = {"type": "sun", "direction": [-0.6, 0.3, 0.74], "color": [1.0, 0.9, 0.7], "intensity": 8.0, "angle": 0.01}
+    sun["direction"] = (np.array(sun["direction"]) / np.linalg.norm(sun["direction"])).tolist()
+    size, fov, cam = 64, 30.0, np.array([-5.0, 0.0, 0.0])
+    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": 2},
+             "sensor": mr._sensor(size, size, fov, 0.0, 0.0, 256),
+             "ball": {"type": "sphere", "radius": 1.0,
+                      "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.8, 0.8, 0.8]}}},
+             **mr.scene_emitters(c, [sun], 256)}
+    scene["sensor"]["to_world"] = mi.ScalarTransform4f().look_at(origin=cam.tolist(), target=[0, 0, 0], up=[0, 0, 1])
+    img = np.array(mi.render(mi.load_dict(scene), spp=256))
+    from panolight_core.lights import light_irradiance
+
+    normals = _visible_normals(20, seed=11)
+    got, expect = [], []
+    for (py, px, _), n in zip(_sphere_pixels(normals, size, fov, cam), normals):
+        got.append(img[py, px, :3])
+        expect.append(0.8 / math.pi * (sh.irradiance(c, n) + light_irradiance([sun], n[None])[0]))
+    got, expect = np.array(got), np.array(expect)
+    assert np.abs(got - expect).mean() < 0.03 * expect.mean()
+    assert np.abs(got.mean(0) / expect.mean(0) - 1).max() < 0.02
+
+
+def test_figure_smoke(tmp_path):
+    """The whole figure at tiny size and 4 spp: one HDR and one LDR input, three materials, both views."""
+    from PIL import Image
+
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.data import studio_hdri
+    from panolight_core.io import read_image
+
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the HDRIs hold a few tiny negative pixels, clamped with a warning
+        hdr = read_image(studio_hdri("sunset"))
+        ldr = tmp_path / "city.jpg"
+        Image.fromarray(hdr_to_ldr(read_image(studio_hdri("city")), 0)).save(ldr, quality=90)
+    res = mr.render_figure([str(studio_hdri("sunset")), str(ldr)], tmp_path / "fig", spp=4, resolution=(40, 30),
+                           compare_hdr=True, log=lambda m: None)
+    assert len(res["renders"]) == 2 * 3 * 2 + 3  # 2 inputs x 3 materials x 2 views + 3 ground-truth renders
+    fig = np.asarray(Image.open(res["figure"]))
+    assert fig.shape[0] == 3 * 30 + 2 * 3 and fig.shape[1] == 3 * 40 + 2 * 3
+    for f in res["renders"]:
+        assert np.all(np.isfinite(read_image(f, equirect=False)))
+    mirror = read_image(tmp_path / "fig" / "sunset-estimated-mirror.exr", equirect=False)
+    bg = mr.sample_equirect(hdr.astype(np.float64), mr.perspective_rays(40, 30, 50.0, 0.0, -12.0))
+    # above the horizon (no ground, no object) the composite is the panorama itself
+    np.testing.assert_allclose(mirror[:3], bg[:3], rtol=1e-5, atol=1e-6)
+    emitters = mr.scene_emitters(*mr.load_input(studio_hdri("sunset"))[:2])
+    view = mr.composite_view(emitters, mr.mesh_shapes(mr.default_meshes(), "plastic", 0.0), bg,
+                             (40, 30, 50.0, 0.0, -12.0), 4)
+    assert 0.02 < view["mask"].mean() < 0.4  # both objects are in view
+    assert np.abs(view["composite"] - bg)[view["mask"] > 0.99].mean() > 0.01 * bg.mean()
+
+
+def test_bad_mesh_is_reported():
+    with pytest.raises(PanoLightError, match="nope.ply: not found"):
+        mr.mesh_shapes(["nope.ply"], "mirror", 0.0)
+    with pytest.raises(PanoLightError, match="unknown material"):
+        mr.mesh_shapes(mr.default_meshes(), "velvet", 0.0)
