@@ -274,35 +274,35 @@ def composite_view(emitters, objects: dict, background: np.ndarray, sensor_args:
     ratio = g * np.clip(ratio, 0.0, 1.5) + (1 - g)
     final = c * a[..., :3] + (1 - c) * background * ratio
     return {"composite": final, "objects_and_ground": a[..., :3], "ground": b[..., :3], "mask": c[..., 0],
-            "ground_mask": g[..., 0]}
+            "ground_mask": g[..., 0], "ratio": ratio}
 
 
 CUBE_FACES = ((0, 0), (90, 0), (180, 0), (270, 0), (0, 90), (0, -90))
 
 
 def panorama_view(emitters, objects: dict, panorama: np.ndarray, face: int, spp: int) -> dict:
-    """The objects placed in the panorama itself: six 90-degree faces, composited, resampled to equirect
-    at the panorama's size."""
+    """The objects placed in the panorama itself: six 90-degree faces are rendered, their object shading,
+    object mask and shadow ratio resampled to equirect, and composited over the full-resolution panorama."""
     h, w = panorama.shape[:2]
-    faces = []
+    dummy = np.ones((face, face, 3))
+    passes = []
     for yaw, pitch in CUBE_FACES:
-        rays = perspective_rays(face, face, 90.0, yaw, pitch)
-        bg = sample_equirect(panorama, rays)
-        faces.append(composite_view(emitters, objects, bg, (face, face, 90.0, yaw, pitch), spp)["composite"])
+        v = composite_view(emitters, objects, dummy, (face, face, 90.0, yaw, pitch), spp)
+        passes.append((v["objects_and_ground"], v["mask"][..., None], v["ratio"]))
     dirs = sh.pixel_directions(h, w)
-    out = np.zeros((h, w, 3))
+    shade, mask, ratio = np.zeros((h, w, 3)), np.zeros((h, w, 1)), np.ones((h, w, 3))
     best = np.full((h, w), -np.inf)
-    for (yaw, pitch), img in zip(CUBE_FACES, faces):
+    for (yaw, pitch), (a, c, r) in zip(CUBE_FACES, passes):
         fwd, right, up = view_basis(yaw, pitch)
         z = dirs @ fwd
         x = (dirs @ right) / np.maximum(z, 1e-9)
         y = -(dirs @ up) / np.maximum(z, 1e-9)
         sel = (z > best) & (np.abs(x) <= 1) & (np.abs(y) <= 1) & (z > 0)
-        px = np.clip(((x + 1) / 2 * face).astype(int), 0, face - 1)
-        py = np.clip(((y + 1) / 2 * face).astype(int), 0, face - 1)
-        out[sel] = img[py[sel], px[sel]]
+        px = np.clip(((x + 1) / 2 * face).astype(int), 0, face - 1)[sel]
+        py = np.clip(((y + 1) / 2 * face).astype(int), 0, face - 1)[sel]
+        shade[sel], mask[sel], ratio[sel] = a[py, px], c[py, px], r[py, px]
         best = np.where(sel, z, best)
-    return {"composite": out}
+    return {"composite": mask * shade + (1 - mask) * panorama * ratio, "mask": mask[..., 0]}
 
 
 # ------------------------------------------------------------------------------------------ figure
