@@ -14,17 +14,27 @@ import numpy as np
 from .color import SRGB8_TO_LINEAR, linear_to_srgb, luminance, srgb_to_linear
 
 
-def auto_exposure(hdr: np.ndarray, ev: float = 0.0) -> float:
-    """k = 0.18 * 2^ev / median(luminance(hdr)) (median over all pixels, unweighted)."""
-    med = float(np.median(luminance(np.asarray(hdr, dtype=np.float64))))
+def auto_exposure(hdr: np.ndarray, ev: float = 0.0, robust: bool = False) -> float:
+    """k = 0.18 * 2^ev / median(luminance(hdr)) (median over all pixels, unweighted).
+
+    robust: when the median is not positive (more than half the pixels black, e.g. a masked sky), use
+    the mean luminance instead, and 1 for an all-black image; otherwise such images raise ValueError.
+    """
+    lum = luminance(np.asarray(hdr, dtype=np.float64))
+    med = float(np.median(lum))
     if not med > 0:
-        raise ValueError("the median luminance of the HDR image is not positive; auto-exposure is undefined")
+        if not robust:
+            raise ValueError("the median luminance of the HDR image is not positive; auto-exposure is undefined")
+        mean = float(lum.mean())
+        return 0.18 * 2.0 ** ev / mean if mean > 0 else 1.0
     return 0.18 * 2.0 ** ev / med
 
 
-def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None) -> np.ndarray:
-    """(H, W, 3) linear HDR -> (H, W, 3) uint8 sRGB as an auto-exposing camera would (EVALUATION.md)."""
-    k = auto_exposure(hdr, ev)
+def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None, robust: bool = False) -> np.ndarray:
+    """(H, W, 3) linear HDR -> (H, W, 3) uint8 sRGB as an auto-exposing camera would (EVALUATION.md).
+
+    robust: see auto_exposure (for training data with masked or black regions)."""
+    k = auto_exposure(hdr, ev, robust)
     ldr = np.round(linear_to_srgb(np.clip(k * np.asarray(hdr, dtype=np.float64), 0.0, 1.0)) * 255.0).astype(np.uint8)
     if jpeg_quality is not None:
         from PIL import Image

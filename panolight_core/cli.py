@@ -198,6 +198,32 @@ def run_render_mitsuba(args) -> int:
     return 0
 
 
+def run_synth(args) -> int:
+    try:
+        from training.synth.store import synthesize
+    except ImportError:
+        raise PanoLightError("synth needs the repository's training/ package (run it from a checkout)") from None
+    from .batch import Progress, parse_shard
+
+    w, h = args.resolution
+    shard = parse_shard(args.shard)
+    count = len(range(shard[0] - 1, args.count, shard[1]))
+    prog = Progress(count, args.quiet)
+    res = synthesize(args.out, args.count, h, args.spp, args.seed, shard, progress=prog.step)
+    per = res["seconds_per_sample"]
+    print(f"synth: {res['rendered']} rendered, {res['skipped']} already there, in {res['seconds']:.0f} s"
+          + (f" ({per:.2f} s per sample)" if per else "") + f"; {args.out}", file=sys.stderr)
+    return 0
+
+
+def run_sheet(args) -> int:
+    from training.contact_sheet import contact_sheet
+
+    path = contact_sheet(args.dataset, args.output, count=args.count, seed=args.seed)
+    print(f"sheet: {path}", file=sys.stderr)
+    return 0
+
+
 def _add_estimate_options(p, default_estimator="auto"):
     p.add_argument("-o", "--output", default=None, help="output folder (created; default out/<input name>)")
     p.add_argument("--model", choices=("auto", "sh"), default="auto",
@@ -301,6 +327,35 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--no-panorama-view", action="store_true", help="skip the objects-in-the-panorama renders")
     m.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     m.set_defaults(func=run_render_mitsuba)
+
+    sy = sub.add_parser("synth", help="render synthetic training panoramas (HDR, normals, albedo) with Mitsuba",
+                        formatter_class=fmt,
+                        description="Render N random rooms and outdoor scenes into 360-degree panoramas with "
+                                    "normals and albedo, into a sharded, resumable dataset folder.",
+                        epilog="examples:\n"
+                               "  panolight synth --count 2000 --out data/synth                # 256x128, 16 spp\n"
+                               "  panolight synth --count 2000 --out data/synth --shard 1/2 &  # two processes\n"
+                               "  panolight synth --count 2000 --out data/synth --shard 2/2\n"
+                               "  panolight sheet data/synth -o sheet.png                      # look at samples\n"
+                               "Sample i is seeded by SEED + i, so re-runs skip finished samples and shards never "
+                               "collide.")
+    sy.add_argument("--count", type=int, required=True, help="number of samples (indices 0..count-1)")
+    sy.add_argument("--out", required=True, help="dataset folder (created)")
+    sy.add_argument("--resolution", type=_resolution, default=(256, 128), help="panorama size WxH (default 256x128)")
+    sy.add_argument("--spp", type=int, default=16, help="samples per pixel (default 16)")
+    sy.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
+    sy.add_argument("--shard", help="render only shard I of N, written I/N")
+    sy.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    sy.set_defaults(func=run_synth)
+
+    sc = sub.add_parser("sheet", help="contact sheet of random dataset samples (LDR, normals, HDR, relit)",
+                        formatter_class=fmt, description="Save a PNG contact sheet of random samples of a synthetic "
+                                                         "dataset: LDR, normals, HDR and a relit version.")
+    sc.add_argument("dataset", help="dataset folder written by 'panolight synth'")
+    sc.add_argument("-o", "--output", default="sheet.png", help="PNG path (default sheet.png)")
+    sc.add_argument("--count", type=int, default=6, help="samples shown (default 6)")
+    sc.add_argument("--seed", type=int, default=0, help="which samples and lights (default 0)")
+    sc.set_defaults(func=run_sheet)
 
     pr = sub.add_parser("project", help="exact SH projection of a panorama (estimate --estimator naive)",
                         formatter_class=fmt, description="Project a panorama onto SH without any recovery: "

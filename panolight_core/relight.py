@@ -36,7 +36,8 @@ def relight(image, normals, coeffs):
     else:
         b = c.shape[0]
         e = (y.reshape(b, -1, y.shape[-1]) @ ec).reshape(tuple(y.shape[:-1]) + (c.shape[-1],))
-    return e * img
+    surface = ((n * n).sum(-1, keepdims=True) > 0.25) * 1.0  # zero normals: no surface, no light
+    return e * img * surface
 
 
 def blend(coeffs_a, coeffs_b, lam):
@@ -52,7 +53,8 @@ def training_lighting(coeffs_a, coeffs_b, lam: float, scale: float = LDR_SCALE, 
 
 
 def simulate_ldr(relit: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None) -> np.ndarray:
-    """The relit HDR panorama as the camera would store it (uint8, EVALUATION.md exposure model)."""
+    """The relit HDR panorama as the camera would store it (uint8, EVALUATION.md exposure model; the mean
+    stands in for the median when most pixels are black, as when a sky is masked)."""
     from .camera import hdr_to_ldr
 
-    return hdr_to_ldr(np.asarray(relit, dtype=np.float64), ev, jpeg_quality)
+    return hdr_to_ldr(np.asarray(relit, dtype=np.float64), ev, jpeg_quality, robust=True)

@@ -1,0 +1,160 @@
+"""Training pairs by relighting (paper Sec. 3.2): data sources, the lighting pool, a torch Dataset.
+
+Sources of panoramas with normals:
+- ``synthetic_sources(root)``: samples written by ``panolight synth``; the "original image" is what the
+  camera would have stored of the rendered HDR (EVALUATION.md model at ev 0), linearised.
+- ``paired_sources(root)``: real panoramas with aligned normal maps, matched by name (3D60 style
+  ``X_color_....png`` + ``X_normal_....exr``, Structured3D style ``rgb_rawlight.png`` + ``normal.png`` in one
+  folder). Normal maps are EXR floats in [-1, 1] or 8/16-bit PNGs mapped from [0, 1] to [-1, 1], then turned
+  by ``normal_frame`` (3 x 3, dataset axes -> Blender world axes; identity by default: check your dataset).
+Lighting pool: SH of procedural environments (training/synth/environments.py) or of a folder of HDR
+panoramas (Laval style); Blender's studio HDRIs are refused, they are the public evaluation set.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from panolight_core import sh
+from panolight_core.camera import hdr_to_ldr, ldr_to_linear
+from panolight_core.errors import PanoLightError
+from panolight_core.relight import LDR_SCALE, relight, simulate_ldr, training_lighting
+
+COLOR_TOKENS = ("rgb_rawlight", "_color", "color", "rgb")
+
+
+# ------------------------------------------------------------------------------------------ sources
+def synthetic_sources(root) -> list[dict]:
+    from training.synth.store import list_samples
+
+    files = list_samples(root)
+    if not files:
+        raise PanoLightError(f"{root}: no samples (write some with 'panolight synth --out {root}')")
+    return [{"kind": "synthetic", "path": f} for f in files]
+
+
+def paired_sources(root, normal_frame=None) -> list[dict]:
+    """Colour panoramas with a normal map beside them (see the module docstring)."""
+    root = Path(root)
+    out = []
+    for f in sorted(root.rglob("*")):
+        if f.suffix.lower() not in (".png", ".jpg", ".jpeg", ".exr", ".hdr"):
+            continue
+        name = f.name
+        token = next((t for t in COLOR_TOKENS if t in name), None)
+        if token is None:
+            continue
+        stem = name.replace(token, "normal" if token != "_color" else "_normal", 1)
+        for ext in (".exr", ".png", Path(stem).suffix):
+            cand = f.with_name(Path(stem).with_suffix(ext).name)
+            if cand.is_file() and cand != f:
+                out.append({"kind": "paired", "color": f, "normals": cand, "normal_frame": normal_frame})
+                break
+    if not out:
+        raise PanoLightError(f"{root}: no colour panorama with a matching normal map found")
+    return out
+
+
+def _decode_normals(path: Path) -> np.ndarray:
+    from panolight_core.io import read_image
+
+    raw = read_image(path, ldr_as_uint8=True, negative="clamp" if path.suffix.lower() not in (".exr",) else "clamp")
+    if path.suffix.lower() == ".exr":
+        import OpenEXR
+
+        ch = OpenEXR.File(str(path)).channels()
+        arr = (ch["RGB"].pixels if "RGB" in ch else ch["RGBA"].pixels[..., :3]).astype(np.float32)
+    elif raw.dtype == np.uint8:
+        arr = raw.astype(np.float32) / 255.0 * 2.0 - 1.0
+    else:  # 16-bit PNG read as sRGB-linearised by read_image: undo that, it is not colour
+        from panolight_core.color import linear_to_srgb
+
+        arr = linear_to_srgb(raw).astype(np.float32) * 2.0 - 1.0
+    return arr
+
+
+def load_source(src: dict):
+    """(image linear in [0, 1], normals unit or 0, mask bool, hdr radiance or None) of a source."""
+    from panolight_core.io import read_image
+
+    if src["kind"] == "synthetic":
+        from training.synth.store import read_sample
+
+        s = read_sample(src["path"])
+        image = ldr_to_linear(hdr_to_ldr(s["radiance"], 0.0, robust=True)).astype(np.float64)
+        return image, s["normals"].astype(np.float64), s["mask"], s["radiance"]
+    px = read_image(src["color"], ldr_as_uint8=True)
+    image = ldr_to_linear(px) if px.dtype == np.uint8 else np.clip(px / max(np.percentile(px, 99), 1e-9), 0, 1)
+    n = _decode_normals(Path(src["normals"])).astype(np.float64)
+    if n.shape != image.shape:
+        raise PanoLightError(f"{src['normals']}: normal map {n.shape[:2]} does not match {src['color']} "
+                             f"{image.shape[:2]}")
+    if src.get("normal_frame") is not None:
+        n = n @ np.asarray(src["normal_frame"], dtype=np.float64).T
+    length = np.linalg.norm(n, axis=-1, keepdims=True)
+    mask = (length[..., 0] > 0.5) & (length[..., 0] < 1.5)
+    return image.astype(np.float64), np.where(mask[..., None], n / np.maximum(length, 1e-12), 0.0), mask, None
+
+
+# ----------------------------------------------------------------------------------- lighting pool
+def procedural_pool(count: int = 256, lmax: int = 2, seed: int = 10 ** 6, height: int = 64) -> np.ndarray:
+    """(count, K, 3) SH of procedural environments (seeds seed .. seed + count - 1)."""
+    from training.synth.environments import environment
+
+    return np.stack([sh.project(environment(seed + i, height)[0], lmax) for i in range(count)])
+
+
+def folder_pool(root, lmax: int = 2) -> np.ndarray:
+    """(N, K, 3) SH of every .exr/.hdr panorama in a folder (Laval-style lighting). Refuses the public set."""
+    from panolight_core.data import studio_hdri_dir
+    from panolight_core.io import read_image
+
+    root = Path(root).resolve()
+    try:
+        public = studio_hdri_dir().resolve()
+    except PanoLightError:
+        public = None
+    if public is not None and (root == public or public in root.parents):
+        raise PanoLightError(f"{root}: these are Blender's studio HDRIs, the public evaluation set; never train on them")
+    files = sorted(p for p in root.rglob("*") if p.suffix.lower() in (".exr", ".hdr"))
+    if not files:
+        raise PanoLightError(f"{root}: no .exr or .hdr panoramas")
+    return np.stack([sh.project(read_image(f).astype(np.float64), lmax) for f in files])
+
+
+# -------------------------------------------------------------------------------------- the dataset
+def make_pair(image, normals, mask, pool, rng, scale: float = LDR_SCALE, ev: float = 0.0, jpeg_quality=None,
+              window_width=None):
+    """One training pair: (relit LDR uint8, target SH (K, 3), lambda). Blends two pool lightings."""
+    ia, ib = rng.integers(len(pool), size=2)
+    lam = float(rng.uniform())
+    target, used = training_lighting(pool[ia], pool[ib], lam, scale, window_width)
+    relit = relight(image, normals, used) * mask[..., None]
+    return simulate_ldr(np.maximum(relit, 0.0), ev, jpeg_quality), target, lam
+
+
+def relight_dataset(sources, pool, *, scale: float = LDR_SCALE, ev: float = 0.0, jpeg_quality=None,
+                    window_width=None, seed: int = 0):
+    """A torch Dataset yielding dicts of float32 tensors: input (3, H, W) relit LDR in [0, 1], target_sh
+    (K, 3), normals (3, H, W), image (3, H, W) the original image, mask (1, H, W). Deterministic per
+    (seed, index), so it works with any number of DataLoader workers."""
+    import torch
+
+    class RelightDataset(torch.utils.data.Dataset):
+        def __len__(self):
+            return len(sources)
+
+        def __getitem__(self, index):
+            image, normals, mask, _ = load_source(sources[index])
+            rng = np.random.default_rng([seed, index])
+            ldr, target, lam = make_pair(image, normals, mask, pool, rng, scale, ev, jpeg_quality, window_width)
+
+            def chw(a):
+                return torch.from_numpy(np.ascontiguousarray(np.moveaxis(np.asarray(a, np.float32), -1, 0)))
+
+            return {"input": chw(ldr.astype(np.float32) / 255.0), "target_sh": torch.from_numpy(target.astype(np.float32)),
+                    "normals": chw(normals), "image": chw(image), "mask": chw(mask[..., None].astype(np.float32)),
+                    "blend": torch.tensor(lam, dtype=torch.float32)}
+
+    return RelightDataset()
