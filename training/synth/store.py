@@ -60,7 +60,7 @@ def list_samples(root) -> list[Path]:
     return sorted(Path(root).glob("shard-*/sample-*.npz"))
 
 
-def synthesize(root, count: int, height: int = 128, spp: int = 16, base_seed: int = 0, shard=(1, 1),
+def synthesize(root, count: int, height: int = 128, spp: int = 64, base_seed: int = 0, shard=(1, 1),
                progress=None) -> dict:
     """Render samples 0..count-1 of this shard that are not on disk yet. Returns counts and timings."""
     from training.synth.scenes import sample
