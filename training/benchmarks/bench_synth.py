@@ -60,9 +60,10 @@ def main(argv=None):
         workers = m / (time.perf_counter() - t)
     print(f"\nrelighting pairs per second at 256x128 (load + blend + relight + LDR): {single:.1f} in one process, "
           f"{workers:.1f} with a 2-worker DataLoader")
-    med, size = results[(128, 16)]
-    print(f"\n2,000 samples at 256x128, 16 spp (the default): about {2000 * med / 60:.0f} min and "
-          f"{2000 * size / 1024:.2f} GB on this machine (extrapolated from the median above)")
+    for spp in (16, 64):
+        med, size = results[(128, spp)]
+        print(f"\n2,000 samples at 256x128, {spp} spp{' (the default)' if spp == 64 else ''}: about "
+              f"{2000 * med / 60:.0f} min and {2000 * size / 1024:.2f} GB on this machine (extrapolated from the median)")
     return results
 
 
