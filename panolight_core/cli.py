@@ -343,7 +343,7 @@ def build_parser() -> argparse.ArgumentParser:
     sy.add_argument("--out", required=True, help="dataset folder (created)")
     sy.add_argument("--resolution", type=_resolution, default=(256, 128), help="panorama size WxH (default 256x128)")
     sy.add_argument("--spp", type=int, default=64,
-                    help="samples per pixel (default 64: 27 %% slower than 16 and far less noisy)")
+                    help="samples per pixel (default 64: about 40 %% slower than 16 and far less noisy)")
     sy.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
     sy.add_argument("--shard", help="render only shard I of N, written I/N")
     sy.add_argument("-q", "--quiet", action="store_true", help="no progress bar")

@@ -25,6 +25,9 @@ def main(argv=None):
     from training.synth import store
 
     variant = mr.mitsuba().variant()
+    # Fresh seeds every run: Dr.Jit caches compiled kernels on disk, and a scene seen before renders
+    # without LLVM compilation, which a real dataset build (new scenes) does not enjoy.
+    base = 10 ** 7 + int(time.time()) % 10 ** 6 * 10
     print(f"# synthetic data speed ({variant}, {torch.get_num_threads()} torch threads)\n")
     print("| resolution | spp | s / sample (median) | samples / s | MB / sample |")
     print("|---|---:|---:|---:|---:|")
@@ -32,12 +35,12 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         for height, spp in ((64, 16), (128, 16), (128, 64)):
             root = Path(tmp) / f"{height}-{spp}"
-            store.synthesize(root, 1, height, spp, base_seed=10 ** 6)  # warm-up (JIT, kernels)
+            store.synthesize(root, 1, height, spp, base_seed=base)  # warm-up (imports, envmap tables)
             times = []
             for i in range(args.samples):
                 t = time.perf_counter()
                 store.write_sample(store.sample_path(root, 1 + i), __import__("training.synth.scenes", fromlist=["x"])
-                                   .sample(10 ** 6 + 1 + i, height, spp))
+                                   .sample(base + 1 + i, height, spp))
                 times.append(time.perf_counter() - t)
             size = np.mean([p.stat().st_size for p in store.list_samples(root)]) / 2 ** 20
             med = statistics.median(times)
