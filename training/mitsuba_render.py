@@ -280,19 +280,14 @@ def composite_view(emitters, objects: dict, background: np.ndarray, sensor_args:
 CUBE_FACES = ((0, 0), (90, 0), (180, 0), (270, 0), (0, 90), (0, -90))
 
 
-def panorama_view(emitters, objects: dict, panorama: np.ndarray, face: int, spp: int) -> dict:
-    """The objects placed in the panorama itself: six 90-degree faces are rendered, their object shading,
-    object mask and shadow ratio resampled to equirect, and composited over the full-resolution panorama."""
-    h, w = panorama.shape[:2]
-    dummy = np.ones((face, face, 3))
-    passes = []
-    for yaw, pitch in CUBE_FACES:
-        v = composite_view(emitters, objects, dummy, (face, face, 90.0, yaw, pitch), spp)
-        passes.append((v["objects_and_ground"], v["mask"][..., None], v["ratio"]))
-    dirs = sh.pixel_directions(h, w)
-    shade, mask, ratio = np.zeros((h, w, 3)), np.zeros((h, w, 1)), np.ones((h, w, 3))
-    best = np.full((h, w), -np.inf)
-    for (yaw, pitch), (a, c, r) in zip(CUBE_FACES, passes):
+def faces_to_equirect(faces, height: int, width: int) -> np.ndarray:
+    """Nearest-resample the six 90-degree CUBE_FACES renders (each (F, F, C)) to an (H, W, C) equirect
+    image in the CONVENTIONS.md frame (each direction takes the face it points into most)."""
+    face = faces[0].shape[0]
+    dirs = sh.pixel_directions(height, width)
+    out = np.zeros((height, width, faces[0].shape[-1]))
+    best = np.full((height, width), -np.inf)
+    for (yaw, pitch), img in zip(CUBE_FACES, faces):
         fwd, right, up = view_basis(yaw, pitch)
         z = dirs @ fwd
         x = (dirs @ right) / np.maximum(z, 1e-9)
@@ -300,8 +295,22 @@ def panorama_view(emitters, objects: dict, panorama: np.ndarray, face: int, spp:
         sel = (z > best) & (np.abs(x) <= 1) & (np.abs(y) <= 1) & (z > 0)
         px = np.clip(((x + 1) / 2 * face).astype(int), 0, face - 1)[sel]
         py = np.clip(((y + 1) / 2 * face).astype(int), 0, face - 1)[sel]
-        shade[sel], mask[sel], ratio[sel] = a[py, px], c[py, px], r[py, px]
+        out[sel] = img[py, px]
         best = np.where(sel, z, best)
+    return out
+
+
+def panorama_view(emitters, objects: dict, panorama: np.ndarray, face: int, spp: int) -> dict:
+    """The objects placed in the panorama itself: six 90-degree faces are rendered, their object shading,
+    object mask and shadow ratio resampled to equirect, and composited over the full-resolution panorama."""
+    h, w = panorama.shape[:2]
+    dummy = np.ones((face, face, 3))
+    faces = []
+    for yaw, pitch in CUBE_FACES:
+        v = composite_view(emitters, objects, dummy, (face, face, 90.0, yaw, pitch), spp)
+        faces.append(np.concatenate([v["objects_and_ground"], v["mask"][..., None], v["ratio"]], axis=-1))
+    eq = faces_to_equirect(faces, h, w)
+    shade, mask, ratio = eq[..., :3], eq[..., 3:4], eq[..., 4:7]
     return {"composite": mask * shade + (1 - mask) * panorama * ratio, "mask": mask[..., 0]}
 
 

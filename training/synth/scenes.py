@@ -184,19 +184,8 @@ def render_panorama(items: dict, camera, height: int = 128, spp: int = 32, seed:
                                          "img": {"type": "path", "max_depth": max_depth}}, **items})
     faces = [np.array(mi.render(scene, sensor=k, spp=spp, seed=seed), dtype=np.float64)
              for k in range(len(FACE_YAW_PITCH))]
+    out = mr.faces_to_equirect(faces, height, w)
     dirs = sh.pixel_directions(height, w)
-    out = np.zeros((height, w, 9))
-    best = np.full((height, w), -np.inf)
-    for (yaw, pitch), img in zip(FACE_YAW_PITCH, faces):
-        fwd, right, up = mr.view_basis(yaw, pitch)
-        z = dirs @ fwd
-        x = (dirs @ right) / np.maximum(z, 1e-9)
-        y = -(dirs @ up) / np.maximum(z, 1e-9)
-        sel = (z > best) & (np.abs(x) <= 1) & (np.abs(y) <= 1) & (z > 0)
-        px = np.clip(((x + 1) / 2 * face).astype(int), 0, face - 1)[sel]
-        py = np.clip(((y + 1) / 2 * face).astype(int), 0, face - 1)[sel]
-        out[sel] = img[py, px]
-        best = np.where(sel, z, best)
     radiance, normals, albedo = out[..., :3], out[..., 3:6], out[..., 6:9]
     length = np.linalg.norm(normals, axis=-1, keepdims=True)
     mask = length[..., 0] > 0.5
