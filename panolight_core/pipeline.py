@@ -10,7 +10,7 @@ import numpy as np
 
 from . import sh
 from .camera import ldr_to_linear
-from .estimators import Estimate, estimate, resolve
+from .estimators import estimate, resolve
 from .highlights import CLIP_LEVEL
 from .io import read_image, write_image
 from .lighting import make_lighting, write_lighting
@@ -20,6 +20,26 @@ from .order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE
 from .sh.window import default_width
 
 OUTPUT_FILES = ("lighting.json", "radiance.exr", "irradiance.exr", "preview.png")
+
+
+def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model: str = "auto",
+               tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None):
+    """Panorama pixels (uint8 sRGB LDR or float linear HDR) -> (LightingModel, Estimate).
+
+    The one implementation behind ``panolight estimate`` and the Blender add-on. lmax: None (auto for
+    model "auto", 2 for "sh"), "auto" or an int. deringing: None = the model's default ("auto" with
+    lights, "none" for SH only).
+    """
+    if model not in ("auto", "sh"):
+        raise PanoLightError(f"model must be 'auto' or 'sh', got {model!r}")
+    lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
+    order = DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax)
+    est = estimate(pixels, order, estimator)
+    hdr = pixels.dtype != np.uint8
+    fitted = fit_model(est.radiance, lights=model == "auto", lmax=lmax, tolerance=tolerance, max_order=order,
+                       deringing=deringing or ("auto" if model == "auto" else "none"),
+                       light_threshold=None if hdr else CLIP_LEVEL)
+    return fitted, est
 
 
 def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str = "auto",
@@ -38,22 +58,16 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
     resolve(estimator)  # a wrong estimator name fails before any reading
     if model not in ("auto", "sh"):
         raise PanoLightError(f"--model must be 'auto' or 'sh', got {model!r}")
-    lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
     t0 = time.perf_counter()
     log(f"reading {src}")
     pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error")
     t_read = time.perf_counter() - t0
-    order = DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax)
-    log(f"estimating ({estimator}, model {model}, lmax {lmax}) on {pixels.shape[1]}x{pixels.shape[0]}")
-    est: Estimate = estimate(pixels, order, estimator)
+    log(f"estimating ({estimator}, model {model}, lmax {lmax or 'default'}) on {pixels.shape[1]}x{pixels.shape[0]}")
     t1 = time.perf_counter()
-    if window == "none":
-        deringing = "auto" if model == "auto" else "none"
-    else:
-        deringing = "none"
+    fitted, est = fit_pixels(pixels, lmax=lmax, estimator=estimator, model=model, tolerance=tolerance,
+                             deringing=None if window == "none" else "none")
+    t_est = est.info["estimate_s"]
     hdr = pixels.dtype != np.uint8
-    fitted = fit_model(est.radiance, lights=model == "auto", lmax=lmax, tolerance=tolerance, max_order=order,
-                       deringing=deringing, light_threshold=None if hdr else CLIP_LEVEL)
     coeffs, lights = fitted.coeffs, fitted.lights
     window_info = fitted.info["ringing"]["window"]
     if window != "none":
@@ -71,7 +85,7 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
     coeffs = coeffs * scale
     lights = [dict(light, intensity=light["intensity"] * scale) for light in lights]
     fitted = LightingModel(lights, coeffs, fitted.info)
-    t_model = time.perf_counter() - t1
+    t_model = time.perf_counter() - t1 - t_est
     w, h = resolution
     log(f"reconstructing radiance and irradiance at {w}x{h}" + (f" ({len(lights)} light(s))" if lights else ""))
     radiance = sh.reconstruct(coeffs, h, w).astype(np.float32)

@@ -1,0 +1,161 @@
+"""Thin bpy code: images in and out of Blender, the PanoLight world node graph and its sun lamps.
+
+The graph (world "PanoLight", never the user's own world):
+    Texture Coordinate -> Mapping (background rotation) -> Environment Texture (panorama) -> Background (strength)
+    Texture Coordinate -> Mapping (lighting rotation)   -> Environment Texture (SH radiance) -> Background (strength)
+    Light Path: Is Camera Ray [max Is Glossy Ray] -> Mix Shader factor: 1 shows the panorama, 0 lights with SH
+Explicit lights of the adaptive model become sun lamps (with their angular size) in the collection
+"PanoLight Lights", rotated with the lighting. Re-running rebuilds PanoLight's own nodes and lamps only.
+"""
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+
+WORLD_NAME = "PanoLight"
+LIGHTS_COLLECTION = "PanoLight Lights"
+SH_IMAGE_NAME = "PanoLight SH Radiance"
+TAG = "panolight"
+
+
+def image_pixels(image) -> np.ndarray:
+    """(H, W, 3) pixels of a Blender image, top row first: uint8 sRGB for 8-bit images, float32 linear
+    for float images (Image.pixels is bottom-up RGBA; 8-bit images come back as sRGB-encoded floats)."""
+    w, h = image.size
+    if w == 0 or h == 0:
+        raise ValueError(f"image {image.name!r} has no pixels (is the file missing?)")
+    buf = np.empty(w * h * image.channels, dtype=np.float32)
+    image.pixels.foreach_get(buf)
+    px = buf.reshape(h, w, image.channels)[::-1, :, :3]
+    if image.is_float:
+        return np.ascontiguousarray(px)
+    return np.round(np.clip(px, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def load_panorama(filepath: str):
+    """Load (or reuse) an image with the right colour space: sRGB for 8-bit, Linear Rec.709 for float."""
+    image = bpy.data.images.load(filepath, check_existing=True)
+    image.colorspace_settings.name = "Linear Rec.709" if image.is_float else "sRGB"
+    return image
+
+
+def radiance_image(radiance: np.ndarray):
+    """Create or update the float image holding the SH radiance map ((H, W, 3) linear, top row first)."""
+    h, w = radiance.shape[:2]
+    image = bpy.data.images.get(SH_IMAGE_NAME)
+    if image is not None and tuple(image.size) != (w, h):
+        bpy.data.images.remove(image)
+        image = None
+    if image is None:
+        image = bpy.data.images.new(SH_IMAGE_NAME, w, h, alpha=False, float_buffer=True)
+    image.colorspace_settings.name = "Linear Rec.709"
+    rgba = np.ones((h, w, 4), dtype=np.float32)
+    rgba[..., :3] = radiance[::-1]
+    image.pixels.foreach_set(rgba.ravel())
+    image.pack()
+    return image
+
+
+def panolight_world():
+    """The PanoLight world (created once; the user's worlds are never modified)."""
+    world = bpy.data.worlds.get(WORLD_NAME)
+    if world is None:
+        world = bpy.data.worlds.new(WORLD_NAME)
+        world[TAG] = True
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    return world
+
+
+def _socket(sockets, identifier):
+    for s in sockets:
+        if s.identifier == identifier:
+            return s
+    raise KeyError(identifier)
+
+
+def build_world(panorama, sh_image=None, *, background_strength=1.0, lighting_strength=1.0,
+                background_rotation=0.0, lighting_rotation=0.0, glossy_panorama=False):
+    """(Re)build the PanoLight node graph; returns the world. Without ``sh_image`` the panorama lights too."""
+    world = panolight_world()
+    nt = world.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputWorld")
+    out.location = (900, 0)
+    coord = nt.nodes.new("ShaderNodeTexCoord")
+    coord.location = (-900, 0)
+
+    def branch(image, rotation, strength, y, label):
+        mapping = nt.nodes.new("ShaderNodeMapping")
+        mapping.location = (-700, y)
+        mapping.label = f"{label} rotation"
+        mapping.inputs["Rotation"].default_value = (0.0, 0.0, rotation)
+        tex = nt.nodes.new("ShaderNodeTexEnvironment")
+        tex.location = (-450, y)
+        tex.label = label
+        tex.image = image
+        bg = nt.nodes.new("ShaderNodeBackground")
+        bg.location = (-150, y)
+        bg.label = f"{label} strength"
+        bg.inputs["Strength"].default_value = strength
+        nt.links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
+        nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+        nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
+        return bg
+
+    bg_panorama = branch(panorama, background_rotation, background_strength, 250, "Panorama")
+    bg_light = branch(sh_image or panorama, lighting_rotation, lighting_strength, -250, "Lighting")
+    path = nt.nodes.new("ShaderNodeLightPath")
+    path.location = (-150, 600)
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    mix.location = (500, 0)
+    fac = _socket(mix.inputs, "Fac")
+    if glossy_panorama:
+        both = nt.nodes.new("ShaderNodeMath")
+        both.operation = "MAXIMUM"
+        both.location = (200, 500)
+        nt.links.new(path.outputs["Is Camera Ray"], both.inputs[0])
+        nt.links.new(path.outputs["Is Glossy Ray"], both.inputs[1])
+        nt.links.new(both.outputs["Value"], fac)
+    else:
+        nt.links.new(path.outputs["Is Camera Ray"], fac)
+    shaders = [s for s in mix.inputs if s.type == "SHADER"]
+    nt.links.new(bg_light.outputs["Background"], shaders[0])  # factor 0: everything but camera rays
+    nt.links.new(bg_panorama.outputs["Background"], shaders[1])  # factor 1: camera (and glossy) rays
+    nt.links.new(mix.outputs["Shader"], out.inputs["Surface"])
+    return world
+
+
+def set_lights(lights, scene, lighting_strength=1.0, lighting_rotation=0.0):
+    """Sun lamps for explicit lights (direction = where light comes from, Blender world frame), rotated
+    about Z by ``lighting_rotation`` with the lighting; replaces PanoLight's previous lamps only."""
+    coll = bpy.data.collections.get(LIGHTS_COLLECTION)
+    if coll is None:
+        coll = bpy.data.collections.new(LIGHTS_COLLECTION)
+    if coll.name not in scene.collection.children:
+        scene.collection.children.link(coll)
+    for obj in list(coll.objects):
+        data = obj.data
+        bpy.data.objects.remove(obj, do_unlink=True)
+        if data is not None and data.users == 0:
+            bpy.data.lights.remove(data)
+    c, s = math.cos(lighting_rotation), math.sin(lighting_rotation)
+    for i, light in enumerate(lights):
+        d = np.asarray(light["direction"], dtype=float)
+        d = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]])  # follows the Mapping rotation
+        data = bpy.data.lights.new(f"PanoLight Sun {i}", type="SUN")
+        data.energy = float(light["intensity"]) * lighting_strength
+        data.color = tuple(float(v) / max(max(light["color"]), 1e-12) for v in light["color"])
+        data.energy *= max(light["color"])  # keep the colour's scale in the strength
+        data.angle = float(light.get("angle", 0.0))
+        obj = bpy.data.objects.new(f"PanoLight Sun {i}", data)
+        obj[TAG] = True
+        # a sun shines along its local -Z: point local +Z at the light's direction
+        obj.rotation_mode = "QUATERNION"
+        from mathutils import Vector
+
+        obj.rotation_quaternion = Vector(d.tolist()).to_track_quat("Z", "Y")
+        coll.objects.link(obj)
+    return coll
