@@ -1,6 +1,25 @@
-"""PanoLight's Blender layer (thin bpy code over panolight_core).
+"""PanoLight for Blender: estimate HDR lighting from a 360-degree panorama and light the scene with it.
 
-Kept apart from the bpy-free core the way glTF-Blender-IO separates io/ from blender/. The panel,
-the "Estimate lighting" operator and the headless batch entry point are built in the Blender
-extension issue; this package holds no operators yet.
+Thin bpy code over the bpy-free core (panolight_core, bundled in the extension zip), the way
+glTF-Blender-IO keeps io/ apart from blender/: operators.py gathers settings and calls the core,
+world.py turns results into datablocks, batch.py runs it headless.
 """
+from __future__ import annotations
+
+import bpy
+
+from . import operators, panel
+
+_CLASSES = panel.CLASSES + operators.CLASSES
+
+
+def register():
+    for cls in _CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.panolight = bpy.props.PointerProperty(type=panel.PanoLightSettings)
+
+
+def unregister():
+    del bpy.types.Scene.panolight
+    for cls in reversed(_CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,5 +1,12 @@
-"""Access to the bpy-free core: bundled inside the extension zip, or importable in a checkout."""
+"""Access to the bpy-free core: bundled inside the extension zip, or importable in a checkout.
+
+Only numpy is needed at import time (image files are read by Blender itself, not by the core's I/O).
+"""
 try:  # the extension zip carries panolight_core inside the add-on package
-    from . import panolight_core as core  # noqa: F401
+    from . import panolight_core as core
+    from .panolight_core import lighting, pipeline, sh  # noqa: F401  (load the submodules)
 except ImportError:  # a development checkout or a pip install
-    import panolight_core as core  # noqa: F401
+    import panolight_core as core
+    import panolight_core.lighting  # noqa: F401
+    import panolight_core.pipeline  # noqa: F401
+    import panolight_core.sh  # noqa: F401

@@ -1,0 +1,272 @@
+"""Operators (idnames are public, for scripts): gather settings, call the core, hand results to world.py.
+
+panolight.load_panorama(filepath)        the panorama becomes the PanoLight world's background
+panolight.estimate_lighting(...)         estimate (worker thread + modal timer; synchronous in background
+                                          mode or when run from a script with execute)
+panolight.build_environment()            SH radiance map + Light Path split + sun lamps
+panolight.export_lighting(filepath)      lighting.json and the radiance map as EXR beside it
+"""
+from __future__ import annotations
+
+import json
+import threading
+from pathlib import Path
+
+import bpy
+import numpy as np
+from bpy.props import EnumProperty, FloatProperty, StringProperty
+
+from . import world as W
+from .core import core
+
+ESTIMATORS = [("auto", "Auto", "The best available estimator"),
+              ("analytic", "Analytic", "sRGB to linear with clipped-highlight recovery; exact for HDR"),
+              ("naive", "Naive", "sRGB to linear only"),
+              ("neural", "Neural", "The learned estimator (when its weights ship)")]
+ORDERS = [("auto", "Auto", "The smallest SH order the scene needs")] + \
+    [(str(i), str(i), f"SH order {i}: {(i + 1) ** 2} coefficients") for i in range(9)]
+MODELS = [("auto", "Lights + SH", "Explicit lights for compact sources plus SH"), ("sh", "SH only", "SH only")]
+
+
+def _settings(context):
+    return context.scene.panolight
+
+
+def _panorama(world):
+    name = world.get("panolight_panorama") if world else None
+    image = bpy.data.images.get(name) if name else None
+    if image is None:
+        raise RuntimeError("no panorama loaded: use Load panorama first")
+    return image
+
+
+def _fit(pixels, estimator, lmax, model, tolerance):
+    """Runs in a worker thread: numpy only, never bpy."""
+    fitted, est = core.pipeline.fit_pixels(pixels, lmax=None if lmax == "auto" and model == "auto" else lmax,
+                                           estimator=estimator, model=model, tolerance=tolerance)
+    doc = core.lighting.make_lighting(fitted.coeffs, lights=fitted.lights,
+                                      units="input radiance units" if pixels.dtype != np.uint8 else
+                                      "relative: 1 = the LDR camera's clip level (white)",
+                                      estimator={k: v for k, v in est.info.items() if k != "clipped_regions"},
+                                      model=fitted.info)
+    return doc
+
+
+class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
+    """Load an equirectangular panorama (LDR or HDR) as the background of the PanoLight world"""
+
+    bl_idname = "panolight.load_panorama"
+    bl_label = "Load panorama"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: StringProperty(subtype="FILE_PATH")
+    filter_glob: StringProperty(default="*.jpg;*.jpeg;*.png;*.exr;*.hdr", options={"HIDDEN"})
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        path = Path(bpy.path.abspath(self.filepath))
+        if not path.is_file():
+            self.report({"ERROR"}, f"{path}: file not found")
+            return {"CANCELLED"}
+        try:
+            image = W.load_panorama(str(path))
+            w, h = image.size
+            if w == 0 or h == 0:
+                raise RuntimeError(f"{path}: Blender could not read this image")
+            if w != 2 * h:
+                raise RuntimeError(f"{path}: equirectangular panoramas must be 2:1, got {w} x {h}")
+        except RuntimeError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        world = W.build_world(image, **_world_kwargs(context))
+        world["panolight_panorama"] = image.name
+        if "panolight_lighting" in world:
+            del world["panolight_lighting"]  # a new panorama needs a new estimate
+        context.scene.world = world
+        self.report({"INFO"}, f"PanoLight: {image.name} ({w} x {h}) is the world background")
+        return {"FINISHED"}
+
+
+class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
+    """Estimate the lighting of the loaded panorama (runs in the background; Esc cancels)"""
+
+    bl_idname = "panolight.estimate_lighting"
+    bl_label = "Estimate lighting"
+    bl_options = {"REGISTER", "UNDO"}
+
+    estimator: EnumProperty(items=ESTIMATORS, default="auto")
+    lmax: EnumProperty(name="SH order", items=ORDERS, default="auto")
+    model: EnumProperty(items=MODELS, default="auto")
+    tolerance: FloatProperty(default=0.01, min=0.0, max=1.0)
+
+    _thread = None
+    _timer = None
+    _result = None
+    _error = None
+
+    def _inputs(self, context):
+        world = context.scene.world
+        pixels = W.image_pixels(_panorama(world))
+        return world, pixels
+
+    def _store(self, context, world, doc):
+        world["panolight_lighting"] = json.dumps(doc)
+        n = len(doc.get("lights", []))
+        self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
+                              f"use Build environment")
+
+    def execute(self, context):
+        try:
+            world, pixels = self._inputs(context)
+            doc = _fit(pixels, self.estimator, self.lmax, self.model, self.tolerance)
+        except Exception as exc:  # reported in the UI, not as a traceback
+            self.report({"ERROR"}, f"PanoLight: {exc}")
+            return {"CANCELLED"}
+        self._store(context, world, doc)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        try:
+            self._world, pixels = self._inputs(context)
+        except Exception as exc:
+            self.report({"ERROR"}, f"PanoLight: {exc}")
+            return {"CANCELLED"}
+        args = (pixels, self.estimator, self.lmax, self.model, self.tolerance)
+
+        def work():
+            try:
+                self._result = _fit(*args)
+            except Exception as exc:
+                self._error = exc
+
+        self._thread = threading.Thread(target=work, daemon=True)
+        self._thread.start()
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, 100)
+        self._ticks = 0
+        wm.modal_handler_add(self)
+        context.workspace.status_text_set("PanoLight: estimating lighting... (Esc to cancel)")
+        return {"RUNNING_MODAL"}
+
+    def _finish(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._finish(context)
+            self.report({"WARNING"}, "PanoLight: estimation cancelled")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        self._ticks += 1
+        context.window_manager.progress_update(min(95, self._ticks * 5))
+        if self._thread.is_alive():
+            return {"RUNNING_MODAL"}
+        self._finish(context)
+        if self._error is not None:
+            self.report({"ERROR"}, f"PanoLight: {self._error}")
+            return {"CANCELLED"}
+        self._store(context, self._world, self._result)
+        return {"FINISHED"}
+
+
+def _world_kwargs(context):
+    s = _settings(context)
+    return {"background_strength": s.background_strength, "lighting_strength": s.lighting_strength,
+            "background_rotation": s.background_rotation, "lighting_rotation": s.lighting_rotation,
+            "glossy_panorama": s.glossy_panorama}
+
+
+def _lighting(world):
+    raw = world.get("panolight_lighting") if world else None
+    if not raw:
+        raise RuntimeError("no lighting estimated yet: use Estimate lighting first")
+    doc = json.loads(raw)
+    core.lighting.validate(doc, "the estimated lighting")
+    return doc
+
+
+class PANOLIGHT_OT_build_environment(bpy.types.Operator):
+    """Light the scene with the estimated SH radiance map (and sun lamps); cameras still see the panorama"""
+
+    bl_idname = "panolight.build_environment"
+    bl_label = "Build environment"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        world = context.scene.world
+        try:
+            doc = _lighting(world)
+            panorama = _panorama(world)
+        except (RuntimeError, ValueError) as exc:
+            self.report({"ERROR"}, f"PanoLight: {exc}")
+            return {"CANCELLED"}
+        s = _settings(context)
+        coeffs = np.asarray(doc["coefficients"], dtype=np.float64)
+        h = max(64, min(1024, s.radiance_height))
+        radiance = np.maximum(core.sh.reconstruct(coeffs, h, 2 * h), 0.0).astype(np.float32)
+        image = W.radiance_image(radiance)
+        W.build_world(panorama, image, **_world_kwargs(context))
+        lights = doc.get("lights", []) if s.create_lights else []
+        W.set_lights(lights, context.scene, s.lighting_strength, s.lighting_rotation)
+        context.scene.world = world
+        self.report({"INFO"}, f"PanoLight: environment built (SH order {doc['lmax']}, {len(lights)} sun lamp(s))")
+        return {"FINISHED"}
+
+
+class PANOLIGHT_OT_export_lighting(bpy.types.Operator):
+    """Write the estimated lighting (lighting.json) and its SH radiance map (EXR) to files"""
+
+    bl_idname = "panolight.export_lighting"
+    bl_label = "Export lighting"
+    bl_options = {"REGISTER"}
+
+    filepath: StringProperty(subtype="FILE_PATH", default="lighting.json")
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        try:
+            doc = _lighting(context.scene.world)
+            path = Path(bpy.path.abspath(self.filepath))
+            if path.suffix.lower() != ".json":
+                path = path.with_suffix(".json")
+            if not path.parent.is_dir():
+                raise RuntimeError(f"{path.parent}: folder does not exist")
+            core.lighting.write_lighting(path, doc)
+            exr = path.with_name(path.stem + "_radiance.exr")
+            image = bpy.data.images.get(W.SH_IMAGE_NAME)
+            if image is not None:
+                _save_exr(context.scene, image, exr)
+        except (RuntimeError, ValueError, OSError) as exc:
+            self.report({"ERROR"}, f"PanoLight: {exc}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"PanoLight: wrote {path}" + (f" and {exr.name}" if image else ""))
+        return {"FINISHED"}
+
+
+def _save_exr(scene, image, path):
+    """Save a float image as a linear EXR (save_render with the Standard view transform round-trips)."""
+    vs, settings = scene.view_settings, scene.render.image_settings
+    saved = (vs.view_transform, vs.look, vs.exposure, vs.gamma, settings.file_format, settings.color_depth)
+    try:
+        vs.view_transform, vs.look, vs.exposure, vs.gamma = "Standard", "None", 0.0, 1.0
+        settings.file_format, settings.color_depth = "OPEN_EXR", "32"
+        image.save_render(str(path), scene=scene)
+    finally:
+        vs.view_transform, vs.look, vs.exposure, vs.gamma, settings.file_format, settings.color_depth = saved
+
+
+CLASSES = (PANOLIGHT_OT_load_panorama, PANOLIGHT_OT_estimate_lighting, PANOLIGHT_OT_build_environment,
+           PANOLIGHT_OT_export_lighting)
