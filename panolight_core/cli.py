@@ -224,6 +224,15 @@ def run_sheet(args) -> int:
     return 0
 
 
+def run_build_extension(args) -> int:
+    from .extension import build_extension
+
+    path = build_extension(args.output)
+    print(f"build-extension: {path} (install: Blender > Preferences > Get Extensions > Install from Disk, or "
+          f"bpy.ops.extensions.package_install_files(filepath=..., repo='user_default'))", file=sys.stderr)
+    return 0
+
+
 def _add_estimate_options(p, default_estimator="auto"):
     p.add_argument("-o", "--output", default=None, help="output folder (created; default out/<input name>)")
     p.add_argument("--model", choices=("auto", "sh"), default="auto",
@@ -357,6 +366,13 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--count", type=int, default=6, help="samples shown (default 6)")
     sc.add_argument("--seed", type=int, default=0, help="which samples and lights (default 0)")
     sc.set_defaults(func=run_sheet)
+
+    be = sub.add_parser("build-extension", help="build the installable Blender extension zip",
+                        formatter_class=fmt, description="Build panolight-<version>.zip: the Blender 4.2+ extension "
+                                                         "with the bpy-free core inside (checked with Blender's "
+                                                         "validator when bpy is installed).")
+    be.add_argument("-o", "--output", default="dist", help="output folder (default dist/)")
+    be.set_defaults(func=run_build_extension)
 
     pr = sub.add_parser("project", help="exact SH projection of a panorama (estimate --estimator naive)",
                         formatter_class=fmt, description="Project a panorama onto SH without any recovery: "

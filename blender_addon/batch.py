@@ -1,0 +1,85 @@
+"""Headless PanoLight: load a panorama, estimate its lighting, build the world, optionally render and save.
+
+    blender -b [scene.blend] --python <extension>/batch.py -- --input PANO [--output-blend OUT.blend]
+            [--render OUT.png] [--estimator auto|analytic|naive] [--lmax auto|N] [--samples 64]
+            [--resolution 640x360]
+The same works with the bpy module: ``python batch.py -- --input PANO ...``. Exits non-zero with one
+line on stderr when something fails.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from pathlib import Path
+
+
+def _ensure_registered():
+    import bpy
+
+    if hasattr(bpy.types, "PANOLIGHT_OT_load_panorama"):
+        return
+    here = Path(__file__).resolve().parent
+    sys.path.insert(0, str(here.parent))
+    module = importlib.import_module(here.name)
+    module.register()
+
+
+def parse(argv):
+    argv = argv[argv.index("--") + 1:] if "--" in argv else []
+    ap = argparse.ArgumentParser(prog="batch.py", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--input", required=True, help="panorama (.jpg/.png/.exr/.hdr, 2:1)")
+    ap.add_argument("--output-blend", help="save the .blend here")
+    ap.add_argument("--render", help="render the scene's camera to this image (PNG or EXR)")
+    ap.add_argument("--estimator", default="auto", choices=["auto", "analytic", "naive", "neural"])
+    ap.add_argument("--lmax", default="auto", help="SH order 0..8 or auto (default)")
+    ap.add_argument("--samples", type=int, default=64, help="Cycles samples for --render (default 64)")
+    ap.add_argument("--resolution", default=None, help="render size WxH (default: the scene's)")
+    return ap.parse_args(argv)
+
+
+def run(args) -> None:
+    import bpy
+
+    _ensure_registered()
+    for op, kwargs in ((bpy.ops.panolight.load_panorama, {"filepath": str(Path(args.input).resolve())}),
+                       (bpy.ops.panolight.estimate_lighting, {"estimator": args.estimator, "lmax": args.lmax}),
+                       (bpy.ops.panolight.build_environment, {})):
+        try:
+            result = op(**kwargs)
+        except RuntimeError as exc:  # the operator's report({"ERROR"}) arrives as RuntimeError
+            raise SystemExit(f"panolight batch: {str(exc).strip()}") from None
+        if "FINISHED" not in result:
+            raise SystemExit(f"panolight batch: {op.idname()} did not finish")
+    scene = bpy.context.scene
+    if args.render:
+        if scene.camera is None:
+            raise SystemExit("panolight batch: --render needs a camera in the scene")
+        scene.render.engine = "CYCLES"
+        scene.cycles.device = "CPU"
+        scene.cycles.samples = args.samples
+        if args.resolution:
+            w, h = (int(v) for v in args.resolution.lower().split("x"))
+            scene.render.resolution_x, scene.render.resolution_y = w, h
+            scene.render.resolution_percentage = 100
+        out = Path(args.render).resolve()
+        scene.render.filepath = str(out)
+        scene.render.image_settings.file_format = "OPEN_EXR" if out.suffix.lower() == ".exr" else "PNG"
+        bpy.ops.render.render(write_still=True)
+        print(f"panolight batch: rendered {out}")
+    if args.output_blend:
+        out = Path(args.output_blend).resolve()
+        bpy.ops.wm.save_as_mainfile(filepath=str(out))
+        print(f"panolight batch: saved {out}")
+
+
+def main(argv=None):
+    args = parse(sys.argv if argv is None else argv)
+    if not Path(args.input).is_file():
+        raise SystemExit(f"panolight batch: {args.input}: file not found")
+    run(args)
+
+
+if __name__ == "__main__":
+    main()

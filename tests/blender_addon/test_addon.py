@@ -1,0 +1,238 @@
+"""The Blender extension with the bpy module: node graph, exact background, lighting, zip, batch."""
+import math
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+import blender_addon  # noqa: E402
+from panolight_core import metrics, sh  # noqa: E402
+from panolight_core.data import studio_hdri  # noqa: E402
+from panolight_core.io import read_image, write_image  # noqa: E402
+from panolight_core.lights import light_irradiance  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module", autouse=True)
+def addon():
+    warnings.simplefilter("ignore", DeprecationWarning)
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    blender_addon.register()
+    yield
+    blender_addon.unregister()
+
+
+def _small_city(tmp_path, height=64):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        img = read_image(studio_hdri("city"))
+    from panolight_core.resample import area_downsample
+
+    path = tmp_path / "city_small.exr"
+    write_image(path, area_downsample(img, height).astype(np.float32))
+    return path
+
+
+def _estimate_and_build(path):
+    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
+    assert bpy.ops.panolight.estimate_lighting(estimator="auto", lmax="auto") == {"FINISHED"}
+    assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+
+
+def test_graph_is_built_rerun_updates_and_the_users_world_survives(tmp_path):
+    mine = bpy.data.worlds.new("My World")
+    marker = mine.node_tree.nodes.new("ShaderNodeRGB")
+    marker.name = "keep me"
+    bpy.context.scene.world = mine
+    path = _small_city(tmp_path)
+    _estimate_and_build(path)
+    world = bpy.context.scene.world
+    assert world.name == "PanoLight" and "keep me" in bpy.data.worlds["My World"].node_tree.nodes
+    nodes = world.node_tree.nodes
+    kinds = sorted(n.bl_idname for n in nodes)
+    assert kinds.count("ShaderNodeTexEnvironment") == 2 and kinds.count("ShaderNodeMapping") == 2
+    images = {n.image.name for n in nodes if n.bl_idname == "ShaderNodeTexEnvironment"}
+    assert images == {path.name, "PanoLight SH Radiance"}
+    fac = next(n for n in nodes if n.bl_idname == "ShaderNodeMixShader").inputs[0]
+    assert fac.links[0].from_socket.name == "Is Camera Ray"
+    counts = (len(nodes), len(bpy.data.worlds), len(bpy.data.collections["PanoLight Lights"].objects))
+    _estimate_and_build(path)  # again: updated, not duplicated
+    assert (len(world.node_tree.nodes), len(bpy.data.worlds),
+            len(bpy.data.collections["PanoLight Lights"].objects)) == counts
+    for op in (bpy.types.PANOLIGHT_OT_load_panorama, bpy.types.PANOLIGHT_OT_build_environment):
+        assert "UNDO" in op.bl_options
+
+
+def test_missing_file_and_missing_estimate_are_reported_not_raised(tmp_path):
+    with pytest.raises(RuntimeError, match="file not found"):
+        bpy.ops.panolight.load_panorama(filepath=str(tmp_path / "nope.exr"))
+    bpy.context.scene.world = bpy.data.worlds.new("Fresh")
+    with pytest.raises(RuntimeError, match="no lighting estimated yet"):
+        bpy.ops.panolight.build_environment()
+
+
+def _render_equirect(tmp_path, w, h, samples=1, name="bg"):
+    scene = bpy.context.scene
+    for obj in scene.objects:
+        if obj.type == "MESH":
+            obj.hide_render = True  # the factory cube would surround the camera
+    cam_data = bpy.data.cameras.new("pano cam")
+    cam_data.type = "PANO"
+    cam_data.panorama_type = "EQUIRECTANGULAR"
+    cam = bpy.data.objects.new("pano cam", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (0, 0, 0)
+    cam.rotation_euler = (math.radians(90), 0, math.radians(-90))  # CONVENTIONS.md
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = samples
+    scene.cycles.use_denoising = False  # the default denoiser smears a one-texel-per-pixel image
+    scene.cycles.filter_width = 0.01
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = w, h, 100
+    scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
+    scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "OPEN_EXR", "32"
+    out = tmp_path / f"{name}.exr"
+    scene.render.filepath = str(out)
+    bpy.ops.render.render(write_still=True)
+    bpy.data.objects.remove(cam)
+    return read_image(out, negative="clamp")
+
+
+def test_camera_sees_the_panorama_exactly_and_lamps_turn_with_the_lighting(tmp_path):
+    path = _small_city(tmp_path, 32)
+    _estimate_and_build(path)
+    pano = read_image(path)
+    bg = _render_equirect(tmp_path, 64, 32)
+    np.testing.assert_allclose(bg, pano, rtol=2e-3, atol=1e-4)
+    # turn everything by a quarter turn: the background moves as the texture does, and the lamp follows
+    s = bpy.context.scene.panolight
+    s.background_rotation = s.lighting_rotation = math.radians(90)
+    assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+    turned = _render_equirect(tmp_path, 64, 32, name="turned")
+    shift = [k for k in range(64) if np.allclose(turned, np.roll(pano, k, axis=1), rtol=2e-3, atol=1e-4)]
+    assert len(shift) == 1
+    sun_seen = metrics.dominant_light_direction(turned)
+    lamp = bpy.data.collections["PanoLight Lights"].objects[0]
+    axis = np.array(lamp.matrix_world.to_3x3().col[2])  # the lamp's +Z points at where light comes from
+    assert metrics.angle_deg(axis, sun_seen) < 8.0  # the sun's pixel at 32 rows is 5.6 degrees
+    s.background_rotation = s.lighting_rotation = 0.0
+
+
+def test_white_sphere_matches_the_analytic_irradiance(tmp_path):
+    path = _small_city(tmp_path, 64)
+    _estimate_and_build(path)
+    import json
+
+    doc = json.loads(bpy.context.scene.world["panolight_lighting"])
+    coeffs = np.asarray(doc["coefficients"])
+    scene = bpy.context.scene
+    for obj in [o for o in scene.objects if o.type == "MESH"]:
+        bpy.data.objects.remove(obj)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0, location=(0, 0, 0))
+    ball = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    mat = bpy.data.materials.new("white")
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    diff.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    nt.links.new(diff.outputs["BSDF"], out.inputs["Surface"])
+    ball.data.materials.append(mat)
+    cam_data = bpy.data.cameras.new("cam")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 2.0
+    cam = bpy.data.objects.new("cam", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (-5, 0, 0)
+    cam.rotation_euler = (math.radians(90), 0, math.radians(-90))  # looking along +X, Z up
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 256
+    scene.cycles.use_denoising = False
+    scene.cycles.max_bounces = 1
+    scene.cycles.filter_width = 0.01
+    scene.render.resolution_x = scene.render.resolution_y = 48
+    scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
+    scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "OPEN_EXR", "32"
+    scene.render.filepath = str(tmp_path / "ball.exr")
+    bpy.ops.render.render(write_still=True)
+    img = read_image(tmp_path / "ball.exr", equirect=False)
+    t = (np.arange(48) + 0.5) / 48 * 2 - 1
+    a, b = np.meshgrid(t, -t)
+    inside = a * a + b * b < 0.8
+    normals = np.stack([-np.sqrt(np.clip(1 - a * a - b * b, 0, 1)), -a, b], axis=-1)[inside]
+    sh_map = np.maximum(sh.reconstruct(coeffs, 256, 512), 0.0)  # the world's lighting image (clamped)
+    expect = 0.8 / np.pi * (sh.irradiance(sh.project(sh_map, 8), normals) + light_irradiance(doc["lights"], normals))
+    got = img[inside]
+    assert np.abs(got.mean(0) / expect.mean(0) - 1).max() < 0.05
+    assert np.median(np.abs(got - expect) / expect.mean()) < 0.08
+    # the same sphere under the original HDRI: PanoLight's environment is within the SH truncation error
+    original = bpy.data.worlds.new("original HDRI")
+    ont = original.node_tree
+    env = ont.nodes.new("ShaderNodeTexEnvironment")
+    env.image = bpy.data.images.load(str(path), check_existing=True)
+    bg = next(n for n in ont.nodes if n.bl_idname == "ShaderNodeBackground")
+    ont.links.new(env.outputs["Color"], bg.inputs["Color"])
+    scene.world = original
+    scene.render.filepath = str(tmp_path / "ball_original.exr")
+    bpy.ops.render.render(write_still=True)
+    ref = read_image(tmp_path / "ball_original.exr", equirect=False)[inside]
+    hdr = read_image(path).astype(np.float64)
+    exact = 0.8 / np.pi * sh.irradiance(sh.project(hdr, 24), normals)  # what the original gives analytically
+    truncation = np.abs(expect - exact).mean() / exact.mean()
+    # compare 6 x 6 pixel blocks: path-tracing noise (a one-texel sun) averages out, a real error does not
+    full_got, full_ref = np.zeros((48, 48, 3)), np.zeros((48, 48, 3))
+    full_got[inside], full_ref[inside] = got, ref
+    mask_blocks = inside.reshape(8, 6, 8, 6).all(axis=(1, 3))
+    bg_ = full_got.reshape(8, 6, 8, 6, 3).mean(axis=(1, 3))[mask_blocks]
+    br_ = full_ref.reshape(8, 6, 8, 6, 3).mean(axis=(1, 3))[mask_blocks]
+    difference = np.abs(bg_ - br_).mean() / br_.mean()
+    print(f"sphere under PanoLight vs original HDRI: {difference:.3f}; SH truncation {truncation:.3f}")
+    assert difference < truncation + 0.03, (difference, truncation)
+
+
+def test_extension_zip_installs_offline_and_works(tmp_path):
+    from panolight_core.extension import build_extension
+
+    zpath = build_extension(tmp_path / "dist")
+    pano = _small_city(tmp_path, 32)
+    code = f"""
+import bpy, sys
+r = bpy.ops.extensions.package_install_files(filepath={str(zpath)!r}, repo='user_default', enable_on_install=True)
+assert r == {{'FINISHED'}}, r
+assert bpy.ops.panolight.load_panorama(filepath={str(pano)!r}) == {{'FINISHED'}}
+assert bpy.ops.panolight.estimate_lighting() == {{'FINISHED'}}
+assert bpy.ops.panolight.build_environment() == {{'FINISHED'}}
+bundled = [m for m in sys.modules if m.endswith('panolight.panolight_core.sh')]
+assert bundled, 'the bundled core was not used'
+print('ok', bundled[0])
+"""
+    env = {**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path / "blender"), "PYTHONNOUSERSITE": "1"}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path,
+                       timeout=300)
+    assert r.returncode == 0 and "ok" in r.stdout, r.stdout[-2000:] + r.stderr[-2000:]
+
+
+def test_batch_script_end_to_end_and_clear_failure(tmp_path):
+    pano = _small_city(tmp_path, 32)
+    batch = ROOT / "blender_addon" / "batch.py"
+    r = subprocess.run([sys.executable, str(batch), "--", "--input", str(pano), "--output-blend",
+                        str(tmp_path / "out.blend"), "--render", str(tmp_path / "shot.png"), "--samples", "2",
+                        "--resolution", "64x36"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert (tmp_path / "out.blend").stat().st_size > 0 and (tmp_path / "shot.png").stat().st_size > 0
+    r = subprocess.run([sys.executable, str(batch), "--", "--input", str(tmp_path / "missing.jpg")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and "missing.jpg: file not found" in r.stderr
