@@ -6,7 +6,6 @@ panolight.estimate_lighting(...)         estimate (worker thread + modal timer; 
 panolight.build_environment()            SH radiance map + Light Path split + sun lamps
 panolight.export_lighting(filepath)      lighting.json and the radiance map as EXR beside it
 """
-from __future__ import annotations
 
 import json
 import threading

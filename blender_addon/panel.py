@@ -1,5 +1,4 @@
 """The PanoLight panel (World properties, and a PanoLight tab in the 3D viewport sidebar) and settings."""
-from __future__ import annotations
 
 import bpy
 from bpy.props import BoolProperty, FloatProperty, IntProperty

@@ -376,7 +376,6 @@ def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320,
         coeffs, lights, pano, label = load_input(inp)
         if pano is None:
             pano = np.full((64, 128, 3), 0.5)
-        scale = 1.0
         bg = sample_equirect(pano, perspective_rays(w, h, fov, yaw, pitch))
         variants = [("estimated", scene_emitters(coeffs, lights, env_height))]
         if compare_hdr and Path(inp).suffix.lower() in (".exr", ".hdr"):
@@ -388,7 +387,7 @@ def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320,
             for mat in materials:
                 objects = mesh_shapes(meshes, mat, yaw)
                 t = time.perf_counter()
-                res = composite_view(emitters, objects, bg * scale, (w, h, fov, yaw, pitch), spp)
+                res = composite_view(emitters, objects, bg, (w, h, fov, yaw, pitch), spp)
                 stem = f"{label}-{vname.replace(' ', '_')}-{mat}"
                 files.append(write_image(out / f"{stem}.exr", res["composite"].astype(np.float32)))
                 if in_panorama and vname == "estimated":

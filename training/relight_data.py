@@ -57,21 +57,27 @@ def paired_sources(root, normal_frame=None) -> list[dict]:
 
 
 def _decode_normals(path: Path) -> np.ndarray:
-    from panolight_core.io import read_image
-
-    raw = read_image(path, ldr_as_uint8=True, negative="clamp" if path.suffix.lower() not in (".exr",) else "clamp")
+    """(H, W, 3) float32 normal vectors from an EXR (stored as is, negative components included) or an
+    8/16-bit PNG (values in [0, 1] mapped to [-1, 1])."""
     if path.suffix.lower() == ".exr":
         import OpenEXR
 
-        ch = OpenEXR.File(str(path)).channels()
-        arr = (ch["RGB"].pixels if "RGB" in ch else ch["RGBA"].pixels[..., :3]).astype(np.float32)
-    elif raw.dtype == np.uint8:
-        arr = raw.astype(np.float32) / 255.0 * 2.0 - 1.0
-    else:  # 16-bit PNG read as sRGB-linearised by read_image: undo that, it is not colour
-        from panolight_core.color import linear_to_srgb
+        try:
+            ch = OpenEXR.File(str(path)).channels()
+        except Exception as exc:
+            raise PanoLightError(f"{path}: cannot read the normal map: {exc}") from None
+        key = "RGB" if "RGB" in ch else "RGBA" if "RGBA" in ch else None
+        if key is None:
+            raise PanoLightError(f"{path}: the normal map has no RGB channels ({sorted(ch)})")
+        return ch[key].pixels[..., :3].astype(np.float32)
+    from panolight_core.io import read_image
 
-        arr = linear_to_srgb(raw).astype(np.float32) * 2.0 - 1.0
-    return arr
+    raw = read_image(path, ldr_as_uint8=True)
+    if raw.dtype == np.uint8:
+        return raw.astype(np.float32) / 255.0 * 2.0 - 1.0
+    from panolight_core.color import linear_to_srgb  # a 16-bit PNG came back sRGB-linearised: undo it
+
+    return linear_to_srgb(raw).astype(np.float32) * 2.0 - 1.0
 
 
 def load_source(src: dict):
