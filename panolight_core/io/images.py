@@ -13,9 +13,9 @@ import numpy as np
 
 from ..color import SRGB8_TO_LINEAR, linear_to_srgb, srgb_to_linear
 from ..errors import ImageError, PanoLightWarning
+from ..sh.grid import MAX_SIDE  # larger images are refused as absurd
 from . import hdr as _hdr
 
-MAX_SIDE = 1 << 16  # larger images are refused as absurd
 MAX_PIXELS = 1 << 29  # 32768 x 16384
 HDR_FORMATS = ("exr", "hdr")
 LDR_FORMATS = ("png", "jpeg")

@@ -17,11 +17,6 @@ THREEJS_FROM_BLENDER = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])  # Y u
 FILAMENT_FROM_BLENDER = THREEJS_FROM_BLENDER  # Y up, right-handed (OpenGL)
 UNITY_FROM_BLENDER = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, 1.0, 0]])  # Y up, left-handed: swap Y and Z
 
-# Basis constants of bands 0..2 (CONVENTIONS.md) in coefficient order.
-_BAND2_CONSTANTS = np.array([0.282095, 0.488603, 0.488603, 0.488603, 1.092548, 1.092548, 0.315392, 1.092548,
-                             0.546274])
-
-
 def _as_coeffs(coeffs) -> np.ndarray:
     c = np.asarray(coeffs, dtype=np.float64)
     if c.ndim != 2:
