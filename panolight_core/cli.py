@@ -398,6 +398,10 @@ def main(argv=None) -> int:
         except PanoLightError as exc:
             print(f"panolight: error: {exc}", file=sys.stderr)
             return 1
+        except OSError as exc:  # a path the user gave cannot be read or written (permissions, missing folders)
+            where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+            print(f"panolight: error: {where}{exc.strerror or exc}", file=sys.stderr)
+            return 1
         except KeyboardInterrupt:
             print("panolight: interrupted", file=sys.stderr)
             return 130

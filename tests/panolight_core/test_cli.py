@@ -91,6 +91,14 @@ def test_bad_input_exit_status_message_and_nothing_written(tmp_path, capsys):
             main(argv)
 
 
+def test_unwritable_output_is_reported_not_raised(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    assert main(["build-extension", "-o", str(blocker / "sub")]) == 1
+    err = capsys.readouterr().err
+    assert "panolight: error:" in err and "Traceback" not in err and str(blocker) in err
+
+
 def test_project_is_the_naive_estimator(tmp_path, rng):
     src = write_image(tmp_path / "in.png", rng.random((16, 32, 3)))
     assert main(["project", str(src), "-o", str(tmp_path / "p"), "-q"]) == 0
