@@ -84,6 +84,8 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         world["panolight_panorama"] = image.name
         if "panolight_lighting" in world:
             del world["panolight_lighting"]  # a new panorama needs a new estimate
+        if bpy.data.collections.get(W.LIGHTS_COLLECTION) is not None:
+            W.set_lights([], context.scene)  # the previous panorama's suns no longer apply
         context.scene.world = world
         self.report({"INFO"}, f"PanoLight: {image.name} ({w} x {h}) is the world background")
         return {"FINISHED"}

@@ -68,6 +68,9 @@ def test_graph_is_built_rerun_updates_and_the_users_world_survives(tmp_path):
             len(bpy.data.collections["PanoLight Lights"].objects)) == counts
     for op in (bpy.types.PANOLIGHT_OT_load_panorama, bpy.types.PANOLIGHT_OT_build_environment):
         assert "UNDO" in op.bl_options
+    assert counts[2] >= 1  # city has a sun
+    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
+    assert len(bpy.data.collections["PanoLight Lights"].objects) == 0  # no stale suns from the last estimate
 
 
 def test_missing_file_and_missing_estimate_are_reported_not_raised(tmp_path):
