@@ -1,0 +1,39 @@
+"""The learned estimator's forward pass in numpy (no torch): same weights, same numbers as
+training/models.py (to ~1e-5), so a stock Blender can run it. Weights: {name: array} with the torch
+parameter names; config: the dict of training/configs/*.json."""
+from __future__ import annotations
+
+import numpy as np
+
+from .ops import conv2d, elu, linear, upsample_nearest2x
+from .prior import spectral_prior
+
+SATURATION = 0.95
+
+
+def _conv(x, weights, name, stride=1):
+    return conv2d(x, weights[f"{name}.conv.weight"], weights[f"{name}.conv.bias"], stride, 1, "equirect")
+
+
+def forward(weights: dict, config: dict, ldr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """ldr: (N, 3, H, 2H) float32 in [0, 1] -> ((N, K, 3) coefficients, (N, 3, H, 2H) HDR estimate)."""
+    x = np.asarray(ldr, dtype=np.float32)
+    feats, h = [x], x
+    for i in range(len(config["ae_widths"])):
+        h = elu(_conv(h, weights, f"ae.enc.{i}", stride=2))
+        feats.append(h)
+    for i, skip in enumerate(reversed(feats[:-1])):
+        h = elu(_conv(np.concatenate([upsample_nearest2x(h), skip], axis=1), weights, f"ae.dec.{i}"))
+    log_hdr = np.minimum(_conv(h, weights, "ae.out"), 20.0)
+    lin = np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+    a = np.clip((x.max(axis=1, keepdims=True) - SATURATION) / (1 - SATURATION), 0, 1)
+    hdr = (1 - a) * lin + a * np.exp(log_hdr)
+    h = np.log1p(np.maximum(hdr, 0.0))
+    for i, s in enumerate(config["encoder_strides"]):
+        h = elu(_conv(h, weights, f"encoder.convs.{i}", stride=s))
+    h = elu(linear(h.reshape(h.shape[0], -1), weights["encoder.fc1.weight"], weights["encoder.fc1.bias"]))
+    k = (config["lmax"] + 1) ** 2
+    coeffs = linear(h, weights["encoder.fc2.weight"], weights["encoder.fc2.bias"]).reshape(-1, k, 3)
+    if config.get("prior", True):
+        coeffs = spectral_prior(coeffs.astype(np.float64)).astype(np.float32)
+    return coeffs, hdr

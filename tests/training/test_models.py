@@ -1,0 +1,34 @@
+"""The paper's networks: torch modules and the torch-free numpy forward give the same numbers."""
+import numpy as np
+import pytest
+import torch
+from safetensors.torch import save_file
+
+from panolight_core.nn.model import forward
+from panolight_core.nn.safetensors_np import load_safetensors
+from training.models import LightingNet, load_config
+
+
+@pytest.mark.parametrize("prior", [True, False])
+def test_numpy_forward_matches_torch_to_1e4(tmp_path, rng, prior):
+    config = {**load_config("small"), "input_height": 32, "prior": prior}
+    torch.manual_seed(0)
+    net = LightingNet(config).eval()
+    ldr = torch.tensor(rng.random((2, 3, 32, 64)), dtype=torch.float32)
+    ldr[:, :, 5:8, 10:14] = 1.0  # saturated pixels exercise the HDR branch
+    with torch.no_grad():
+        coeffs, hdr = net(ldr)
+    save_file({k: v.contiguous() for k, v in net.state_dict().items()}, str(tmp_path / "w.safetensors"))
+    weights, _ = load_safetensors(tmp_path / "w.safetensors")  # no torch, no pickle
+    c_np, hdr_np = forward(weights, config, ldr.numpy())
+    assert coeffs.shape == (2, 9, 3)
+    np.testing.assert_allclose(hdr_np, hdr.numpy(), rtol=1e-4, atol=1e-5)
+    np.testing.assert_allclose(c_np, coeffs.numpy(), rtol=1e-4, atol=1e-4)
+
+
+def test_configs_build_and_the_paper_model_is_larger():
+    small, paper = LightingNet(load_config("small")), LightingNet(load_config("paper"))
+    n = lambda m: sum(p.numel() for p in m.parameters())  # noqa: E731
+    assert n(paper) > 10 * n(small)
+    out, hdr = small(torch.rand(1, 3, 64, 128))
+    assert out.shape == (1, 9, 3) and hdr.shape == (1, 3, 64, 128) and torch.isfinite(out).all()

@@ -1,0 +1,110 @@
+"""The paper's networks in torch (Sec. 3.3-3.4): an LDR-to-HDR autoencoder and a lighting encoder.
+
+Autoencoder (HDR-CNN in spirit): a strided-convolution encoder and a nearest-upsampling decoder with
+skip connections predict log radiance; the output blends it into the linearised input where the input
+nears saturation, hdr = (1 - a) * linear(x) + a * exp(y), a = clamp((max_c x - 0.95) / 0.05, 0, 1).
+Lighting encoder: 7 convolutions (3 x 3, ELU) and 2 fully connected layers (ELU, then a linear head)
+regressing (lmax + 1)^2 x 3 SH coefficients from log(1 + hdr); the spectral prior is optional.
+All convolutions pad equirect-style (circular in width, replicated in height). Parameter names are
+the contract with the numpy inference in panolight_core.nn.model.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import torch
+import torch.nn as nn
+import torch.nn.functional as F
+
+from panolight_core.nn.prior import spectral_prior
+from training.losses import equirect_pad
+
+SATURATION = 0.95
+CONFIGS = Path(__file__).resolve().parent / "configs"
+
+
+def load_config(name_or_path) -> dict:
+    p = Path(name_or_path)
+    if not p.suffix:
+        p = CONFIGS / f"{name_or_path}.json"
+    return json.loads(p.read_text())
+
+
+class Conv(nn.Module):
+    def __init__(self, cin, cout, stride=1):
+        super().__init__()
+        self.conv = nn.Conv2d(cin, cout, 3, stride=stride, padding=0)
+        self.stride = stride
+
+    def forward(self, x):
+        return self.conv(equirect_pad(x, 1))
+
+
+class Autoencoder(nn.Module):
+    def __init__(self, widths):
+        super().__init__()
+        self.enc = nn.ModuleList()
+        cin = 3
+        for w in widths:
+            self.enc.append(Conv(cin, w, stride=2))
+            cin = w
+        self.dec = nn.ModuleList()
+        skips = [3] + list(widths[:-1])
+        for w_skip, w_in in zip(reversed(skips), reversed(widths)):
+            cout = max(w_skip, 16)
+            self.dec.append(Conv(w_in + w_skip, cout))
+            cin = cout
+        self.out = Conv(cin, 3)
+
+    def forward(self, x):
+        feats, h = [x], x
+        for conv in self.enc:
+            h = F.elu(conv(h))
+            feats.append(h)
+        for conv, skip in zip(self.dec, reversed(feats[:-1])):
+            h = F.interpolate(h, scale_factor=2, mode="nearest")
+            h = F.elu(conv(torch.cat([h, skip], dim=1)))
+        log_hdr = torch.clamp(self.out(h), max=20.0)
+        lin = torch.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+        a = torch.clamp((x.amax(dim=1, keepdim=True) - SATURATION) / (1 - SATURATION), 0, 1)
+        return (1 - a) * lin + a * torch.exp(log_hdr)
+
+
+class LightingEncoder(nn.Module):
+    def __init__(self, widths, strides, hidden, lmax, input_height):
+        super().__init__()
+        self.convs = nn.ModuleList()
+        cin, h, w = 3, input_height, 2 * input_height
+        for width, s in zip(widths, strides):
+            self.convs.append(Conv(cin, width, stride=s))
+            cin = width
+            h, w = (h - 1) // s + 1, (w - 1) // s + 1
+        self.fc1 = nn.Linear(cin * h * w, hidden)
+        self.fc2 = nn.Linear(hidden, (lmax + 1) ** 2 * 3)
+        self.k = (lmax + 1) ** 2
+
+    def forward(self, hdr):
+        h = torch.log1p(torch.clamp(hdr, min=0.0))
+        for conv in self.convs:
+            h = F.elu(conv(h))
+        h = F.elu(self.fc1(h.flatten(1)))
+        return self.fc2(h).view(-1, self.k, 3)
+
+
+class LightingNet(nn.Module):
+    """LDR (N, 3, H, 2H) in [0, 1] -> (N, K, 3) SH coefficients (and the HDR estimate)."""
+
+    def __init__(self, config: dict):
+        super().__init__()
+        self.config = config
+        self.ae = Autoencoder(config["ae_widths"])
+        self.encoder = LightingEncoder(config["encoder_widths"], config["encoder_strides"], config["hidden"],
+                                       config["lmax"], config["input_height"])
+
+    def forward(self, ldr):
+        hdr = self.ae(ldr)
+        coeffs = self.encoder(hdr)
+        if self.config.get("prior", True):
+            coeffs = spectral_prior(coeffs)
+        return coeffs, hdr
