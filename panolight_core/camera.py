@@ -30,11 +30,13 @@ def auto_exposure(hdr: np.ndarray, ev: float = 0.0, robust: bool = False) -> flo
     return 0.18 * 2.0 ** ev / med
 
 
-def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None, robust: bool = False) -> np.ndarray:
+def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None, robust: bool = False,
+               scale: float | None = None) -> np.ndarray:
     """(H, W, 3) linear HDR -> (H, W, 3) uint8 sRGB as an auto-exposing camera would (EVALUATION.md).
 
-    robust: see auto_exposure (for training data with masked or black regions)."""
-    k = auto_exposure(hdr, ev, robust)
+    robust: see auto_exposure (for training data with masked or black regions). scale: use this exposure
+    factor instead of the automatic one (training code that needs k itself)."""
+    k = auto_exposure(hdr, ev, robust) if scale is None else float(scale)
     ldr = np.round(linear_to_srgb(np.clip(k * np.asarray(hdr, dtype=np.float64), 0.0, 1.0)) * 255.0).astype(np.uint8)
     if jpeg_quality is not None:
         from PIL import Image

@@ -233,6 +233,18 @@ def run_build_extension(args) -> int:
     return 0
 
 
+def run_train(args) -> int:
+    try:
+        from training.train import train
+    except ImportError as exc:
+        raise PanoLightError(f"train needs torch and the repository's training/ package ({exc})") from None
+    res = train(args.config, args.data, args.out, epochs=args.epochs, ae_epochs=args.ae_epochs,
+                batch_size=args.batch_size, lr=args.lr, seed=args.seed, workers=args.workers,
+                log=_log(args.quiet))
+    print(f"train: weights in {res['weights']}", file=sys.stderr)
+    return 0
+
+
 def _add_estimate_options(p, default_estimator="auto"):
     p.add_argument("-o", "--output", default=None, help="output folder (created; default out/<input name>)")
     p.add_argument("--model", choices=("auto", "sh"), default="auto",
@@ -373,6 +385,27 @@ def build_parser() -> argparse.ArgumentParser:
                                                          "validator when bpy is installed).")
     be.add_argument("-o", "--output", default="dist", help="output folder (default dist/)")
     be.set_defaults(func=run_build_extension)
+
+    tr = sub.add_parser("train", help="train the learned estimator (paper: autoencoder, then lighting encoder)",
+                        formatter_class=fmt,
+                        description="Train the paper's two networks on relit synthetic panoramas: the LDR-to-HDR "
+                                    "autoencoder first, then the lighting encoder with it frozen.",
+                        epilog="examples:\n"
+                               "  panolight train small --data data/synth --out runs/small\n"
+                               "  torchrun --nproc_per_node 4 -m training.train paper --data data/synth --out runs/paper\n"
+                               "A run folder holds checkpoint.pt (resumed automatically), metrics.csv, "
+                               "model.safetensors and config.json.")
+    tr.add_argument("config", help="small | paper | a JSON config path (training/configs/)")
+    tr.add_argument("--data", required=True, help="dataset folder written by 'panolight synth'")
+    tr.add_argument("--out", required=True, help="run folder")
+    tr.add_argument("--epochs", type=int, default=10)
+    tr.add_argument("--ae-epochs", type=int, default=2, help="autoencoder-only epochs first (default 2)")
+    tr.add_argument("--batch-size", type=int, default=8)
+    tr.add_argument("--lr", type=float, default=1e-4, help="Adam learning rate (default 1e-4, the paper's)")
+    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--workers", type=int, default=2)
+    tr.add_argument("-q", "--quiet", action="store_true")
+    tr.set_defaults(func=run_train)
 
     pr = sub.add_parser("project", help="exact SH projection of a panorama (estimate --estimator naive)",
                         formatter_class=fmt, description="Project a panorama onto SH without any recovery: "

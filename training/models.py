@@ -50,10 +50,10 @@ class Autoencoder(nn.Module):
             self.enc.append(Conv(cin, w, stride=2))
             cin = w
         self.dec = nn.ModuleList()
-        skips = [3] + list(widths[:-1])
-        for w_skip, w_in in zip(reversed(skips), reversed(widths)):
+        skips = [3] + list(widths[:-1])  # the input and every encoder output but the last
+        for w_skip in reversed(skips):
             cout = max(w_skip, 16)
-            self.dec.append(Conv(w_in + w_skip, cout))
+            self.dec.append(Conv(cin + w_skip, cout))  # upsampled features + the skip at that scale
             cin = cout
         self.out = Conv(cin, 3)
 

@@ -19,7 +19,7 @@ import numpy as np
 from panolight_core import sh
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
 from panolight_core.errors import PanoLightError
-from panolight_core.relight import LDR_SCALE, relight, simulate_ldr, training_lighting
+from panolight_core.relight import LDR_SCALE, relight, training_lighting
 
 COLOR_TOKENS = ("rgb_rawlight", "_color", "color", "rgb")
 
@@ -131,20 +131,32 @@ def folder_pool(root, lmax: int = 2) -> np.ndarray:
 
 # -------------------------------------------------------------------------------------- the dataset
 def make_pair(image, normals, mask, pool, rng, scale: float = LDR_SCALE, ev: float = 0.0, jpeg_quality=None,
-              window_width=None):
-    """One training pair: (relit LDR uint8, target SH (K, 3), lambda). Blends two pool lightings."""
+              window_width=None, details: bool = False):
+    """One training pair: (relit LDR uint8, target SH (K, 3), lambda). Blends two pool lightings.
+
+    details: also return (exposed relit HDR (H, W, 3), the coefficients that relight ``image`` into it):
+    the camera's auto exposure k is folded in, so they are in the units the LDR shows.
+    """
+    from panolight_core.camera import auto_exposure, hdr_to_ldr
+
     ia, ib = rng.integers(len(pool), size=2)
     lam = float(rng.uniform())
     target, used = training_lighting(pool[ia], pool[ib], lam, scale, window_width)
-    relit = relight(image, normals, used) * mask[..., None]
-    return simulate_ldr(np.maximum(relit, 0.0), ev, jpeg_quality), target, lam
+    relit = np.maximum(relight(image, normals, used) * mask[..., None], 0.0)
+    k = auto_exposure(relit, ev, robust=True)
+    ldr = hdr_to_ldr(relit, ev, jpeg_quality, scale=k)
+    if details:
+        return ldr, target, lam, relit * k, used * k
+    return ldr, target, lam
 
 
 def relight_dataset(sources, pool, *, scale: float = LDR_SCALE, ev: float = 0.0, jpeg_quality=None,
                     window_width=None, seed: int = 0):
     """A torch Dataset yielding dicts of float32 tensors: input (3, H, W) relit LDR in [0, 1], target_sh
-    (K, 3), normals (3, H, W), image (3, H, W) the original image, mask (1, H, W). Deterministic per
-    (seed, index), so it works with any number of DataLoader workers."""
+    (K, 3) the blended lighting, train_sh (K, 3) the coefficients that relit the image in the LDR's
+    exposure units (x100, deringed, times the camera's auto exposure), relit_hdr (3, H, W) the relit image
+    in those units, normals (3, H, W), image (3, H, W) the original image, mask (1, H, W), blend.
+    Deterministic per (seed, index), so it works with any number of DataLoader workers."""
     import torch
 
     class RelightDataset(torch.utils.data.Dataset):
@@ -154,12 +166,14 @@ def relight_dataset(sources, pool, *, scale: float = LDR_SCALE, ev: float = 0.0,
         def __getitem__(self, index):
             image, normals, mask, _ = load_source(sources[index])
             rng = np.random.default_rng([seed, index])
-            ldr, target, lam = make_pair(image, normals, mask, pool, rng, scale, ev, jpeg_quality, window_width)
+            ldr, target, lam, relit_hdr, train_sh = make_pair(image, normals, mask, pool, rng, scale, ev,
+                                                              jpeg_quality, window_width, details=True)
 
             def chw(a):
                 return torch.from_numpy(np.ascontiguousarray(np.moveaxis(np.asarray(a, np.float32), -1, 0)))
 
             return {"input": chw(ldr.astype(np.float32) / 255.0), "target_sh": torch.from_numpy(target.astype(np.float32)),
+                    "train_sh": torch.from_numpy(train_sh.astype(np.float32)), "relit_hdr": chw(relit_hdr),
                     "normals": chw(normals), "image": chw(image), "mask": chw(mask[..., None].astype(np.float32)),
                     "blend": torch.tensor(lam, dtype=torch.float32)}
 
