@@ -1,0 +1,57 @@
+"""Latency of the learned estimator's networks (random weights are fine for timing): the shipped
+``small`` configuration against the ``paper``-size one, torch and numpy paths, one LDR panorama at each
+configuration's input size, medians of repeated runs in one process.
+
+    python -m training.benchmarks.bench_neural [--repeats 7]
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+import torch
+
+from panolight_core.nn.model import forward
+from training.models import LightingNet, load_config
+
+
+def median_ms(fn, repeats):
+    fn()
+    ts = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t)
+    return 1e3 * statistics.median(ts)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeats", type=int, default=7)
+    args = ap.parse_args(argv)
+    torch.manual_seed(0)
+    rows = {}
+    print(f"# learned-estimator latency ({torch.get_num_threads()} torch threads), batch 1\n")
+    print("| config | input | parameters | MB (float32) | torch ms | numpy ms |")
+    print("|---|---|---:|---:|---:|---:|")
+    for name in ("small", "paper"):
+        cfg = load_config(name)
+        net = LightingNet(cfg).eval()
+        h = cfg["input_height"]
+        x = torch.rand(1, 3, h, 2 * h)
+        weights = {k: v.detach().numpy() for k, v in net.state_dict().items()}
+        with torch.no_grad():
+            t_torch = median_ms(lambda: net(x), args.repeats)
+        t_np = median_ms(lambda: forward(weights, cfg, x.numpy()), max(3, args.repeats // 2))
+        n = sum(p.numel() for p in net.parameters())
+        rows[name] = (t_torch, t_np)
+        print(f"| {name} | {2 * h}x{h} | {n:,} | {n * 4 / 2 ** 20:.1f} | {t_torch:.1f} | {t_np:.1f} |")
+    s, p = rows["small"], rows["paper"]
+    print(f"\nsmall vs paper: {p[0] / s[0]:.0f}x faster with torch, {p[1] / s[1]:.0f}x faster with numpy")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
