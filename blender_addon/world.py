@@ -34,10 +34,15 @@ def image_pixels(image) -> np.ndarray:
     return np.round(np.clip(px, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
+HDR_FORMATS = ("OPEN_EXR", "OPEN_EXR_MULTILAYER", "HDR")
+
+
 def load_panorama(filepath: str):
-    """Load (or reuse) an image with the right colour space: sRGB for 8-bit, Linear Rec.709 for float."""
+    """Load (or reuse) an image with the right colour space: Linear Rec.709 for HDR files (EXR, Radiance),
+    sRGB for the rest (8-bit and 16-bit PNG/JPEG: Blender keeps 16-bit PNGs in float buffers, but they
+    are sRGB-encoded)."""
     image = bpy.data.images.load(filepath, check_existing=True)
-    image.colorspace_settings.name = "Linear Rec.709" if image.is_float else "sRGB"
+    image.colorspace_settings.name = "Linear Rec.709" if image.file_format in HDR_FORMATS else "sRGB"
     return image
 
 

@@ -73,6 +73,19 @@ def test_graph_is_built_rerun_updates_and_the_users_world_survives(tmp_path):
     assert len(bpy.data.collections["PanoLight Lights"].objects) == 0  # no stale suns from the last estimate
 
 
+def test_colour_space_follows_the_file_format(tmp_path):
+    from blender_addon import world as W
+
+    rgb = np.random.default_rng(0).random((8, 16, 3))
+    cases = {"a.exr": "Linear Rec.709", "b.hdr": "Linear Rec.709", "c.png": "sRGB", "d.jpg": "sRGB"}
+    for name, expected in cases.items():
+        write_image(tmp_path / name, rgb.astype(np.float32))
+        assert W.load_panorama(str(tmp_path / name)).colorspace_settings.name == expected, name
+    write_image(tmp_path / "e.png", rgb, bit_depth=16)
+    image = W.load_panorama(str(tmp_path / "e.png"))
+    assert image.is_float and image.colorspace_settings.name == "sRGB"  # 16-bit: float buffer, sRGB data
+
+
 def test_missing_file_and_missing_estimate_are_reported_not_raised(tmp_path):
     with pytest.raises(RuntimeError, match="file not found"):
         bpy.ops.panolight.load_panorama(filepath=str(tmp_path / "nope.exr"))
