@@ -156,22 +156,13 @@ def export(net, cfg, out):
 
 
 def main(argv=None):
-    import argparse
+    """``python -m training.train ...`` (what torchrun launches): the arguments of ``panolight train``."""
+    import sys
 
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("config", help="small | paper | a JSON path")
-    ap.add_argument("--data", required=True, help="dataset folder from 'panolight synth'")
-    ap.add_argument("--out", required=True, help="run folder (checkpoint, metrics.csv, model.safetensors)")
-    ap.add_argument("--epochs", type=int, default=10)
-    ap.add_argument("--ae-epochs", type=int, default=2, help="epochs of the autoencoder stage first (default 2)")
-    ap.add_argument("--batch-size", type=int, default=8)
-    ap.add_argument("--lr", type=float, default=1e-4)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--workers", type=int, default=2)
-    args = ap.parse_args(argv)
-    train(args.config, args.data, args.out, epochs=args.epochs, ae_epochs=args.ae_epochs, batch_size=args.batch_size,
-          lr=args.lr, seed=args.seed, workers=args.workers)
+    from panolight_core.cli import main as cli_main
+
+    return cli_main(["train", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())
