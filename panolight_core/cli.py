@@ -132,8 +132,16 @@ def run_batch(args) -> int:
 
 def run_eval(args) -> int:
     from . import evaluation
+    from .estimators import available, register_model
 
-    result = evaluation.run(evs=args.evs, estimators=args.estimators, lmax=args.lmax, jpeg_quality=args.jpeg or None,
+    extra = []
+    for spec in args.weights or []:
+        label, sep, path = spec.partition("=")
+        if not sep or not label or not path:
+            raise PanoLightError(f"--weights {spec!r}: write LABEL=PATH, e.g. full-prior=runs/full/model.safetensors")
+        extra.append(register_model(label, path))
+    names = (args.estimators or list(available())) + [e for e in extra if e not in (args.estimators or [])]
+    result = evaluation.run(evs=args.evs, estimators=names, lmax=args.lmax, jpeg_quality=args.jpeg or None,
                             repeats=args.repeats, log=_log(args.quiet))
     if not args.no_adaptive:
         result["adaptive"] = evaluation.run_adaptive(log=_log(args.quiet))
@@ -239,7 +247,8 @@ def run_train(args) -> int:
     except ImportError as exc:
         raise PanoLightError(f"train needs torch and the repository's training/ package ({exc})") from None
     res = train(args.config, args.data, args.out, epochs=args.epochs, ae_epochs=args.ae_epochs,
-                batch_size=args.batch_size, lr=args.lr, seed=args.seed, workers=args.workers,
+                batch_size=args.batch_size, lr=args.lr, seed=args.seed, procedural=args.procedural,
+                val_procedural=args.val_procedural, cache=args.cache, max_minutes=args.max_minutes,
                 log=_log(args.quiet))
     print(f"train: weights in {res['weights']}", file=sys.stderr)
     return 0
@@ -303,6 +312,9 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("-o", "--output", default="out/eval", help="output folder (default out/eval)")
     e.add_argument("--evs", type=float, nargs="+", default=[-2.0, 0.0, 2.0], help="exposures (default -2 0 2)")
     e.add_argument("--estimators", nargs="+", default=None, help="default: every available estimator")
+    e.add_argument("--weights", nargs="+", metavar="LABEL=PATH", default=None,
+                   help="also evaluate trained models (model.safetensors from 'panolight train'), one "
+                        "column each, e.g. the ablation variants")
     e.add_argument("--lmax", type=int, default=2, help="SH order of the comparison (default 2)")
     e.add_argument("--jpeg", type=int, default=90, metavar="QUALITY",
                    help="JPEG quality of the inputs (default 90, as EVALUATION.md's reference numbers; 0 = none)")
@@ -388,22 +400,30 @@ def build_parser() -> argparse.ArgumentParser:
 
     tr = sub.add_parser("train", help="train the learned estimator (paper: autoencoder, then lighting encoder)",
                         formatter_class=fmt,
-                        description="Train the paper's two networks on relit synthetic panoramas: the LDR-to-HDR "
-                                    "autoencoder first, then the lighting encoder with it frozen.",
+                        description="Train the paper's two networks: the LDR-to-HDR autoencoder first, then the "
+                                    "lighting encoder with it frozen. Data: procedural environments plus, with "
+                                    "--data, Mitsuba panoramas from 'panolight synth' and their relit versions "
+                                    "(paper Eq. 5), prepared once into a cached array file.",
                         epilog="examples:\n"
-                               "  panolight train small --data data/synth --out runs/small\n"
+                               "  panolight train small --data data/synth --out runs/small --max-minutes 60\n"
+                               "  panolight train small --procedural 500 --epochs 3 --out /tmp/try   # no Mitsuba data\n"
                                "  torchrun --nproc_per_node 4 -m training.train paper --data data/synth --out runs/paper\n"
                                "A run folder holds checkpoint.pt (resumed automatically), metrics.csv, "
                                "model.safetensors and config.json.")
     tr.add_argument("config", help="small | paper | a JSON config path (training/configs/)")
-    tr.add_argument("--data", required=True, help="dataset folder written by 'panolight synth'")
+    tr.add_argument("--data", default=None, help="dataset folder written by 'panolight synth' (optional)")
+    tr.add_argument("--procedural", type=int, default=4000,
+                    help="procedural environments in the training set (default 4000)")
+    tr.add_argument("--val-procedural", type=int, default=400, help="procedural validation environments (default 400)")
+    tr.add_argument("--cache", default=None, help="folder for the prepared arrays (default: --data, else --out)")
+    tr.add_argument("--max-minutes", type=float, default=None,
+                    help="stop after the epoch that crosses this training time budget")
     tr.add_argument("--out", required=True, help="run folder")
     tr.add_argument("--epochs", type=int, default=10)
     tr.add_argument("--ae-epochs", type=int, default=2, help="autoencoder-only epochs first (default 2)")
-    tr.add_argument("--batch-size", type=int, default=8)
+    tr.add_argument("--batch-size", type=int, default=16)
     tr.add_argument("--lr", type=float, default=1e-4, help="Adam learning rate (default 1e-4, the paper's)")
     tr.add_argument("--seed", type=int, default=0)
-    tr.add_argument("--workers", type=int, default=2)
     tr.add_argument("-q", "--quiet", action="store_true")
     tr.set_defaults(func=run_train)
 

@@ -7,7 +7,9 @@ float32 linear radiance for HDR (and 16-bit) files.
 - naive:    sRGB -> linear, then the exact projection (no highlight recovery).
 - analytic: HDR -> the exact projection; LDR -> sRGB -> linear, clipped highlights re-inflated by the
             physical power-law model of ``highlights``, projection of the recovered map.
-- auto:     the best estimator available (analytic until a learned one ships).
+- neural:   the paper's learned estimator (LDR -> HDR autoencoder -> lighting encoder) with the shipped
+            weights (panolight_core/models), numpy only; HDR inputs are projected exactly.
+- auto:     the best estimator available (see ``resolve``).
 LDR results are in units of the camera's clip level (1 = white); HDR results in the file's units.
 """
 from __future__ import annotations
@@ -70,21 +72,53 @@ def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
                     {"input": "ldr", "work_height": work, "clipped_regions": blobs}, recovered)
 
 
-_REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic}
+def neural_estimator(weights=None, label: str = "neural"):
+    """An estimator function running the learned model in ``weights`` (default: the shipped file)."""
+
+    def run(pixels: np.ndarray, lmax: int) -> Estimate:
+        from .nn import estimator as nn_estimator
+
+        if pixels.dtype != np.uint8:
+            return Estimate(sh.project(pixels, lmax).astype(np.float64), label, {"input": "hdr"}, pixels)
+        model = nn_estimator.load_model(weights or nn_estimator.DEFAULT_WEIGHTS)
+        coeffs, hdr = nn_estimator.predict(model, pixels, lmax)
+        return Estimate(coeffs, label, {"input": "ldr", "weights": model.path.name,
+                                        "model": model.config.get("name", "?")}, hdr)
+
+    return run
+
+
+def register_model(label: str, weights) -> str:
+    """Make a learned model file usable as estimator ``label`` (evaluation of trained variants)."""
+    from .nn.estimator import load_model
+
+    load_model(weights)  # fail now, naming the file, not in the middle of an evaluation
+    _REGISTRY[label] = neural_estimator(weights, label)
+    return label
+
+
+def _neural_shipped() -> bool:
+    from .nn import estimator as nn_estimator
+
+    return nn_estimator.DEFAULT_WEIGHTS.is_file()
+
+
+_REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic, "neural": neural_estimator()}
+AUTO = "analytic"  # what ``auto`` means; see README "Which estimator" for the measurements behind it
 
 
 def available() -> tuple[str, ...]:
-    """Estimator names usable here (``auto`` resolves to the last, most capable one)."""
-    return tuple(_REGISTRY)
+    """Estimator names usable here."""
+    return tuple(n for n in _REGISTRY if n != "neural" or _neural_shipped())
 
 
 def resolve(name: str) -> str:
     """Map ``auto`` to a concrete estimator; raise PanoLightError for unknown or unavailable names."""
     if name == "auto":
-        return "analytic"
-    if name == "neural":
-        raise PanoLightError("the neural estimator is not available yet: no trained weights ship with this "
-                             "version; use --estimator analytic (or auto)")
+        return AUTO
+    if name == "neural" and not _neural_shipped():
+        raise PanoLightError("the neural estimator's weights are missing from this installation "
+                             "(panolight_core/models/small.safetensors); use --estimator analytic (or auto)")
     if name not in _REGISTRY:
         raise PanoLightError(f"unknown estimator {name!r}; choose from {', '.join(available() + ('auto',))}")
     return name

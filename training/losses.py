@@ -5,6 +5,8 @@ L_RC  solid-angle weighted mean squared error of the reconstructed radiance maps
 L_RL  photometric: alpha * L1 of log(1 + HDR) + (1 - alpha) * (1 - SSIM) / 2 between the original image
       re-rendered (paper Eq. 5) under the true and the predicted lighting;
 total = 0.01 L_SH + 0.3 L_RC + 0.7 L_RL.
+L_SH and L_RC take an optional per-sample ``scale`` (B,) (the target's mean radiance): squared errors are
+divided by its square, so a sunny scene 10^4 times brighter than a dim room does not own the gradient.
 """
 from __future__ import annotations
 
@@ -25,15 +27,20 @@ def equirect_pad(x: torch.Tensor, p: int) -> torch.Tensor:
     return F.pad(x, (0, 0, p, p), mode="replicate")
 
 
-def sh_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    return ((pred - target) ** 2).mean()
+def _per_sample(err: torch.Tensor, scale) -> torch.Tensor:
+    return (err if scale is None else err / scale.to(err.dtype) ** 2).mean()
 
 
-def reconstruction_loss(pred: torch.Tensor, target: torch.Tensor, height: int = 32) -> torch.Tensor:
+def sh_loss(pred: torch.Tensor, target: torch.Tensor, scale=None) -> torch.Tensor:
+    """Mean squared coefficient error of (B, K, 3) sets."""
+    return _per_sample(((pred - target) ** 2).flatten(1).mean(-1), scale)
+
+
+def reconstruction_loss(pred: torch.Tensor, target: torch.Tensor, height: int = 32, scale=None) -> torch.Tensor:
     """Solid-angle weighted L2 of (B, K, 3) coefficient sets reconstructed on a (height, 2 height) grid."""
     w = torch.as_tensor(sh.row_solid_angles(height, 2 * height) / (4 * torch.pi), dtype=pred.dtype)
     diff = sh.reconstruct(pred, height, 2 * height) - sh.reconstruct(target, height, 2 * height)
-    return ((diff ** 2).mean(-1).sum(-1) * w).sum(-1).mean()
+    return _per_sample(((diff ** 2).mean(-1).sum(-1) * w).sum(-1), scale)
 
 
 def _gaussian(window: int, sigma: float, dtype) -> torch.Tensor:
@@ -71,10 +78,10 @@ def photometric_loss(image: torch.Tensor, normals: torch.Tensor, pred: torch.Ten
     return alpha * l1 + (1 - alpha) * (1 - ssim(a, b)) / 2
 
 
-def total_loss(image, normals, pred, target, weights=None) -> tuple[torch.Tensor, dict]:
+def total_loss(image, normals, pred, target, weights=None, scale=None) -> tuple[torch.Tensor, dict]:
     """The weighted sum and its parts; ``weights`` overrides WEIGHTS (0 switches a term off, for ablations)."""
     w = {**WEIGHTS, **(weights or {})}
-    parts = {"sh": sh_loss(pred, target), "rc": reconstruction_loss(pred, target),
+    parts = {"sh": sh_loss(pred, target, scale), "rc": reconstruction_loss(pred, target, scale=scale),
              "rl": photometric_loss(image, normals, pred, target) if w["rl"] else pred.sum() * 0}
     total = sum(w[k] * v for k, v in parts.items())
     return total, {k: float(v.detach()) for k, v in parts.items()}

@@ -1,8 +1,9 @@
 """The paper's networks in torch (Sec. 3.3-3.4): an LDR-to-HDR autoencoder and a lighting encoder.
 
 Autoencoder (HDR-CNN in spirit): a strided-convolution encoder and a nearest-upsampling decoder with
-skip connections predict log radiance; the output blends it into the linearised input where the input
-nears saturation, hdr = (1 - a) * linear(x) + a * exp(y), a = clamp((max_c x - 0.95) / 0.05, 0, 1).
+skip connections predict the log of the clipped excess radiance; the input (panolight_core.nn.inputs) is
+the sRGB colour x and the clipped fraction a of each cell, and hdr = linear(x) + a * exp(y): unclipped
+cells pass through unchanged, clipped ones get back the energy the camera cut off.
 Lighting encoder: 7 convolutions (3 x 3, ELU) and 2 fully connected layers (ELU, then a linear head)
 regressing (lmax + 1)^2 x 3 SH coefficients from log(1 + hdr); the spectral prior is optional.
 All convolutions pad equirect-style (circular in width, replicated in height). Parameter names are
@@ -17,10 +18,10 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from panolight_core.nn.inputs import CHANNELS
 from panolight_core.nn.prior import spectral_prior
 from training.losses import equirect_pad
 
-SATURATION = 0.95
 CONFIGS = Path(__file__).resolve().parent / "configs"
 
 
@@ -45,12 +46,12 @@ class Autoencoder(nn.Module):
     def __init__(self, widths):
         super().__init__()
         self.enc = nn.ModuleList()
-        cin = 3
+        cin = CHANNELS
         for w in widths:
             self.enc.append(Conv(cin, w, stride=2))
             cin = w
         self.dec = nn.ModuleList()
-        skips = [3] + list(widths[:-1])  # the input and every encoder output but the last
+        skips = [CHANNELS] + list(widths[:-1])  # the input and every encoder output but the last
         for w_skip in reversed(skips):
             cout = max(w_skip, 16)
             self.dec.append(Conv(cin + w_skip, cout))  # upsampled features + the skip at that scale
@@ -65,10 +66,10 @@ class Autoencoder(nn.Module):
         for conv, skip in zip(self.dec, reversed(feats[:-1])):
             h = F.interpolate(h, scale_factor=2, mode="nearest")
             h = F.elu(conv(torch.cat([h, skip], dim=1)))
-        log_hdr = torch.clamp(self.out(h), max=20.0)
-        lin = torch.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
-        a = torch.clamp((x.amax(dim=1, keepdim=True) - SATURATION) / (1 - SATURATION), 0, 1)
-        return (1 - a) * lin + a * torch.exp(log_hdr)
+        log_excess = torch.clamp(self.out(h), max=20.0)
+        srgb, a = x[:, :3], x[:, 3:4]
+        lin = torch.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+        return lin + a * torch.exp(log_excess)
 
 
 class LightingEncoder(nn.Module):
@@ -93,7 +94,8 @@ class LightingEncoder(nn.Module):
 
 
 class LightingNet(nn.Module):
-    """LDR (N, 3, H, 2H) in [0, 1] -> (N, K, 3) SH coefficients (and the HDR estimate)."""
+    """Network input (N, 4, H, 2H) (panolight_core.nn.inputs) -> (N, K, 3) SH coefficients and the
+    (N, 3, H, 2H) HDR estimate, both in the units of the LDR's linear values (1 = the camera's clip level)."""
 
     def __init__(self, config: dict):
         super().__init__()

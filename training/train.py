@@ -1,9 +1,11 @@
 """Training the learned estimator (``panolight train CONFIG --data DIR --out DIR``).
 
-Two stages as in the paper: the LDR-to-HDR autoencoder first (L2 on log(1 + HDR) against the relit HDR
-image, plus L2 on its SH-projected low-frequency lighting), then the lighting encoder with the
-autoencoder frozen (0.01 L_SH + 0.3 L_RC + 0.7 L_RL, training/losses.py). Adam, lr 1e-4.
-Each epoch: a progress line, validation (loss and m-RMSE of the predicted lighting), a row in
+Data: training/lighting_data.py prepares (once, cached) procedural environments, synthetic Mitsuba
+panoramas and their paper-style relit versions. Two stages as in the paper: the LDR-to-HDR autoencoder
+first (L2 on log(1 + HDR) against the true HDR, plus L2 on its SH-projected low-frequency lighting),
+then the lighting encoder with the autoencoder frozen (0.01 L_SH + 0.3 L_RC + 0.7 L_RL,
+training/losses.py; scale-normalised per sample). Adam, lr 1e-4 (config "lr" overrides).
+Each epoch: progress lines, validation (loss, m-RMSE and irr-RMSE of the predicted lighting), a row in
 OUT/metrics.csv, and OUT/checkpoint.pt (reloaded with torch.load(weights_only=True) to resume).
 At the end OUT/model.safetensors + OUT/config.json hold the weights for torch-free inference.
 Run under ``torchrun --nproc_per_node N`` it trains data-parallel (DDP: gloo on CPU, nccl on GPU).
@@ -19,12 +21,13 @@ from pathlib import Path
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 
 from panolight_core import metrics, sh
+from training import lighting_data
 from training.losses import reconstruction_loss, total_loss
 from training.models import LightingNet, load_config
-from training.relight_data import procedural_pool, relight_dataset, synthetic_sources
+
+LUMINANCE = torch.tensor([0.2126, 0.7152, 0.0722])
 
 
 def _distributed():
@@ -36,48 +39,91 @@ def _distributed():
     return 0, 1
 
 
-def _resize(x: torch.Tensor, height: int) -> torch.Tensor:
-    return x if x.shape[-2] == height else F.interpolate(x, size=(height, 2 * height), mode="area")
+def _datasets(cfg, data, procedural, val_procedural, seed, cache, log):
+    """Prepare (or reuse) the cached train and validation arrays (procedural and synthetic parts cached
+    apart, so more Mitsuba samples do not redo the procedural ones); the first 10 % of the synthetic
+    samples and procedural seeds of their own are held out."""
+    from training.synth.store import list_samples
+
+    files = list_samples(data) if data else []
+    if data and not files:
+        from panolight_core.errors import PanoLightError
+
+        raise PanoLightError(f"{data}: no synthetic samples (write some with 'panolight synth --out {data}')")
+    n_val = len(files) // 10
+    h, lmax = cfg["input_height"], cfg["lmax"]
+    out = []
+    for name, fs, n_proc, s in (("train", files[n_val:], procedural, seed), ("val", files[:n_val], val_procedural, seed + 500)):
+        parts = []
+        for what, kw in (("procedural", {"procedural": n_proc}), ("synthetic", {"synth": fs})):
+            if not any(kw.values()):
+                continue
+            kw = {"synth": None, "procedural": 0, **kw}
+            path = Path(cache) / lighting_data.cache_name(height=h, lmax=lmax, seed=s, **kw)
+            if not path.is_file():
+                count = kw["procedural"] or len(kw["synth"])
+                log(f"preparing the {name} set's {count} {what} samples -> {path}")
+                lighting_data.prepare(path, height=h, lmax=lmax, seed=s, **kw,
+                                      progress=_every(lambda d, n: log(f"  {name} {what}: {d}/{n}"), 250))
+            parts.append(lighting_data.load(path))
+        out.append(lighting_data.concat(parts))
+    return out
 
 
-def _ae_loss(net, batch, height):
-    target = _resize(batch["relit_hdr"], height)
-    hdr = net.ae(_resize(batch["input"], height))
-    dense = ((torch.log1p(hdr) - torch.log1p(target)) ** 2).mean()
-    lmax = net.config["lmax"]
-    low = reconstruction_loss(sh.project(hdr.permute(0, 2, 3, 1), lmax), sh.project(target.permute(0, 2, 3, 1), lmax))
+def _every(fn, n):
+    return lambda done, total: fn(done, total) if done % n == 0 or done == total else None
+
+
+def _batch(arr, idx):
+    """float32 tensors of one batch: x, log_hdr, sh, the photometric geometry and the loss scale."""
+    def t(a):
+        return torch.from_numpy(np.asarray(a, dtype=np.float32))
+
+    sh_t = t(arr["sh"][idx])
+    height = arr["x"].shape[-2]
+    normals, image = lighting_data.probe_geometry(height)
+    normals, image = np.repeat(normals[None], len(idx), 0), np.repeat(image[None], len(idx), 0)
+    for j, g in enumerate(arr["geo_index"][idx]):
+        if g >= 0:
+            normals[j], image[j] = arr["normals"][g], arr["image"][g]
+    scale = torch.clamp(sh_t[:, 0] @ LUMINANCE / math.sqrt(4 * math.pi), min=1e-3)
+    return {"x": t(arr["x"][idx]), "log_hdr": t(arr["log_hdr"][idx]), "sh": sh_t, "scale": scale,
+            "normals": t(normals).permute(0, 2, 3, 1), "image": t(image).permute(0, 2, 3, 1)}
+
+
+def _ae_loss(ae, b, lmax):
+    hdr = ae(b["x"])
+    dense = ((torch.log1p(hdr) - b["log_hdr"]) ** 2).mean()
+    low = reconstruction_loss(sh.project(hdr.permute(0, 2, 3, 1), lmax), b["sh"], scale=b["scale"])
     return dense + low
 
 
-def _lighting_loss(net, batch, height, weights):
-    coeffs, _ = net(_resize(batch["input"], height))
-    image = batch["image"].permute(0, 2, 3, 1)
-    normals = batch["normals"].permute(0, 2, 3, 1)
-    loss, parts = total_loss(image, normals, coeffs, batch["train_sh"], weights)
-    return loss, coeffs
+def _lighting_loss(model, b, weights):
+    coeffs, _ = model(b["x"])
+    loss, _ = total_loss(b["image"], b["normals"], coeffs, b["sh"], weights, b["scale"])
+    return loss
 
 
-def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size: int = 8, lr: float = 1e-4,
-          seed: int = 0, workers: int = 2, val_fraction: float = 0.1, pool_size: int = 256, log=print) -> dict:
+def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size: int = 16, lr: float = 1e-4,
+          seed: int = 0, procedural: int = 4000, val_procedural: int = 400, cache=None, max_minutes=None,
+          log=print) -> dict:
+    """Train ``config`` (name, path or dict) on procedural environments plus the synthetic samples under
+    ``data`` (may be None); write metrics.csv, checkpoint.pt and the exported weights to ``out``.
+    cache: folder of the prepared arrays (default: ``data``, else ``out``). max_minutes: stop after the
+    epoch that crosses this budget (the exported model is the last finished epoch)."""
     cfg = load_config(config) if not isinstance(config, dict) else config
     rank, world = _distributed()
     out = Path(out)
-    if rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
-    sources = synthetic_sources(data)
-    n_val = max(1, int(len(sources) * val_fraction))
-    train_src, val_src = sources[n_val:], sources[:n_val]
-    pool = procedural_pool(pool_size, cfg["lmax"], seed=10 ** 6 + seed)
-    train_ds = relight_dataset(train_src, pool, seed=seed)
-    val_ds = relight_dataset(val_src, pool, seed=seed + 10 ** 6)
-    sampler = torch.utils.data.distributed.DistributedSampler(train_ds, shuffle=True, seed=seed) if world > 1 else None
-    loader = torch.utils.data.DataLoader(train_ds, batch_size=batch_size, shuffle=sampler is None, sampler=sampler,
-                                         num_workers=workers, drop_last=len(train_ds) > batch_size)
-    val_loader = torch.utils.data.DataLoader(val_ds, batch_size=batch_size, num_workers=workers)
+    if rank == 0:  # one process prepares the arrays, the others then read them
+        train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out, log)
+    if world > 1:
+        torch.distributed.barrier()
+    if rank != 0:
+        train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out, lambda m: None)
     net = LightingNet(cfg)
-    model = torch.nn.parallel.DistributedDataParallel(net) if world > 1 else net
-    opt = torch.optim.Adam(net.parameters(), lr=lr)
+    opt = torch.optim.Adam(net.parameters(), lr=cfg.get("lr", lr))
     start, ckpt = 0, out / "checkpoint.pt"
     if ckpt.is_file():
         state = torch.load(ckpt, weights_only=True)
@@ -85,56 +131,70 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
         opt.load_state_dict(state["optimizer"])
         start = int(state["epoch"]) + 1
         log(f"resuming from {ckpt} at epoch {start}")
-    height = cfg["input_height"]
-    history = []
+    n = len(train_arr["sh"])
+    history, t_start = [], time.perf_counter()
     for epoch in range(start, epochs):
         stage = "ae" if epoch < ae_epochs else "lighting"
         for p in net.ae.parameters():
             p.requires_grad_(stage == "ae")
-        if sampler is not None:
-            sampler.set_epoch(epoch)
+        # DDP syncs the parameters that train in this stage (built after freezing, so frozen ones are left out)
+        part = net.ae if stage == "ae" else net
+        model = torch.nn.parallel.DistributedDataParallel(part) if world > 1 else part
+        order = np.random.default_rng([seed, epoch]).permutation(n)[rank::world]
+        steps = max(1, len(order) // batch_size)
         model.train()
         t0, losses = time.perf_counter(), []
-        for step, batch in enumerate(loader):
+        for step in range(steps):
+            b = _batch(train_arr, np.sort(order[step * batch_size:(step + 1) * batch_size]))
             opt.zero_grad()
-            if stage == "ae":
-                loss = _ae_loss(net, batch, height)
-            else:
-                loss, _ = _lighting_loss(model if world == 1 else net, batch, height, cfg.get("loss_weights"))
+            loss = _ae_loss(model, b, cfg["lmax"]) if stage == "ae" else _lighting_loss(model, b, cfg.get("loss_weights"))
             loss.backward()
             opt.step()
             losses.append(float(loss.detach()))
-            if rank == 0 and (step % 10 == 0 or step == len(loader) - 1):
-                log(f"epoch {epoch + 1}/{epochs} [{stage}] step {step + 1}/{len(loader)} loss {np.mean(losses):.4f}")
+            if rank == 0 and (step % 50 == 0 or step == steps - 1):
+                log(f"epoch {epoch + 1}/{epochs} [{stage}] step {step + 1}/{steps} loss {np.mean(losses):.4f}")
         row = {"epoch": epoch + 1, "stage": stage, "train_loss": float(np.mean(losses)),
-               "seconds": time.perf_counter() - t0, **_validate(net, val_loader, height, stage, cfg)}
+               "seconds": time.perf_counter() - t0, **validate(net, val_arr, stage, cfg)}
         history.append(row)
         if rank == 0:
             _log_row(out / "metrics.csv", row)
             torch.save({"model": net.state_dict(), "optimizer": opt.state_dict(), "epoch": epoch, "config": cfg},
                        out / "checkpoint.tmp")
             os.replace(out / "checkpoint.tmp", ckpt)
-            log(f"epoch {epoch + 1}: train {row['train_loss']:.4f}, val {row['val_loss']:.4f}, "
-                f"val m-RMSE {row['val_m_rmse']:.3f} ({row['seconds']:.0f} s)")
+            log(f"epoch {epoch + 1}: train {row['train_loss']:.4f}, val {row['val_loss']:.4f}, val m-RMSE "
+                f"{row['val_m_rmse']:.3f} (dense {row['val_m_rmse_dense']:.3f}), irr {row['val_irr_rmse']:.3f} "
+                f"({row['seconds']:.0f} s)")
+        if max_minutes is not None and (time.perf_counter() - t_start) / 60 > max_minutes:
+            log(f"stopping after epoch {epoch + 1}: the {max_minutes} minute budget is spent")
+            break
     if rank == 0:
         export(net, cfg, out)
     return {"history": history, "weights": str(out / "model.safetensors")}
 
 
 @torch.no_grad()
-def _validate(net, loader, height, stage, cfg):
+def validate(net, arr, stage, cfg, batch_size: int = 64) -> dict:
+    """Loss, and mean m-RMSE / irr-RMSE (EVALUATION.md) of the predicted lighting and of the projection
+    of the autoencoder's HDR map ("dense"), over the validation arrays."""
     net.eval()
-    losses, errors = [], []
-    for batch in loader:
-        if stage == "ae":
-            losses.append(float(_ae_loss(net, batch, height)))
-        else:
-            loss, _ = _lighting_loss(net, batch, height, cfg.get("loss_weights"))
-            losses.append(float(loss))
-        coeffs, _ = net(_resize(batch["input"], height))
-        for p, t in zip(coeffs.numpy(), batch["train_sh"].numpy()):
-            errors.append(metrics.m_rmse(t.astype(np.float64), p.astype(np.float64)))
-    return {"val_loss": float(np.mean(losses)), "val_m_rmse": float(np.mean([e for e in errors if math.isfinite(e)]))}
+    losses, m, m_dense, irr = [], [], [], []
+    lmax = cfg["lmax"]
+    for i in range(0, len(arr["sh"]), batch_size):
+        b = _batch(arr, np.arange(i, min(i + batch_size, len(arr["sh"]))))
+        losses.append(float(_ae_loss(net.ae, b, lmax) if stage == "ae" else _lighting_loss(net, b, cfg.get("loss_weights"))))
+        coeffs, hdr = net(b["x"])
+        dense = sh.project(hdr.permute(0, 2, 3, 1).double(), lmax).numpy()
+        for p, d, t in zip(coeffs.double().numpy(), dense, b["sh"].double().numpy()):
+            m.append(metrics.m_rmse(t, p))
+            m_dense.append(metrics.m_rmse(t, d))
+            irr.append(metrics.irr_rmse(t, p))
+
+    def mean(v):
+        v = [e for e in v if math.isfinite(e)]
+        return float(np.mean(v)) if v else float("nan")
+
+    return {"val_loss": float(np.mean(losses)), "val_m_rmse": mean(m), "val_irr_rmse": mean(irr),
+            "val_m_rmse_dense": mean(m_dense)}
 
 
 def _log_row(path: Path, row: dict):

@@ -8,26 +8,25 @@ import numpy as np
 from .ops import conv2d, elu, linear, upsample_nearest2x
 from .prior import spectral_prior
 
-SATURATION = 0.95
-
 
 def _conv(x, weights, name, stride=1):
     return conv2d(x, weights[f"{name}.conv.weight"], weights[f"{name}.conv.bias"], stride, 1, "equirect")
 
 
-def forward(weights: dict, config: dict, ldr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """ldr: (N, 3, H, 2H) float32 in [0, 1] -> ((N, K, 3) coefficients, (N, 3, H, 2H) HDR estimate)."""
-    x = np.asarray(ldr, dtype=np.float32)
+def forward(weights: dict, config: dict, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """x: (N, 4, H, 2H) float32 from inputs.network_input -> ((N, K, 3) coefficients, (N, 3, H, 2H) HDR
+    estimate), in the LDR's linear units (1 = the camera's clip level)."""
+    x = np.asarray(x, dtype=np.float32)
     feats, h = [x], x
     for i in range(len(config["ae_widths"])):
         h = elu(_conv(h, weights, f"ae.enc.{i}", stride=2))
         feats.append(h)
     for i, skip in enumerate(reversed(feats[:-1])):
         h = elu(_conv(np.concatenate([upsample_nearest2x(h), skip], axis=1), weights, f"ae.dec.{i}"))
-    log_hdr = np.minimum(_conv(h, weights, "ae.out"), 20.0)
-    lin = np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
-    a = np.clip((x.max(axis=1, keepdims=True) - SATURATION) / (1 - SATURATION), 0, 1)
-    hdr = (1 - a) * lin + a * np.exp(log_hdr)
+    log_excess = np.minimum(_conv(h, weights, "ae.out"), 20.0)
+    srgb, a = x[:, :3], x[:, 3:4]
+    lin = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+    hdr = lin + a * np.exp(log_excess)
     h = np.log1p(np.maximum(hdr, 0.0))
     for i, s in enumerate(config["encoder_strides"]):
         h = elu(_conv(h, weights, f"encoder.convs.{i}", stride=s))

@@ -73,7 +73,7 @@ def test_estimate_ldr_auto_order_exposure_and_window(tmp_path):
     assert sh.min_over_grid(coeffs).min() >= -1e-6 * coeffs[0].max() * 1.01
 
 
-def test_bad_input_exit_status_message_and_nothing_written(tmp_path, capsys):
+def test_bad_input_exit_status_message_and_nothing_written(tmp_path, capsys, monkeypatch):
     before = set(os.listdir(tmp_path))
     assert main(["estimate", str(tmp_path / "missing.jpg"), "-o", str(tmp_path / "o"), "-q"]) == 1
     err = capsys.readouterr().err
@@ -83,8 +83,11 @@ def test_bad_input_exit_status_message_and_nothing_written(tmp_path, capsys):
     write_image(bad, np.zeros((8, 8, 3)))
     assert main(["estimate", str(bad), "-o", str(tmp_path / "o2"), "-q"]) == 1
     assert "2:1" in capsys.readouterr().err
+    from panolight_core.nn import estimator as nn_estimator
+
+    monkeypatch.setattr(nn_estimator, "DEFAULT_WEIGHTS", tmp_path / "gone.safetensors")
     assert main(["estimate", str(bad), "--estimator", "neural", "-q"]) == 1
-    assert "not available yet" in capsys.readouterr().err
+    assert "weights are missing" in capsys.readouterr().err
     for argv in (["estimate", "x.exr", "--resolution", "300x100"], ["estimate", "x.exr", "--lmax", "-1"],
                  ["estimate", "x.exr", "--window", "gauss"]):
         with pytest.raises(SystemExit):

@@ -6,10 +6,14 @@ from panolight_core.errors import PanoLightError
 from panolight_core.estimators import available, estimate, resolve
 
 
-def test_registry_and_resolution():
-    assert available() == ("ambient", "naive", "analytic")
-    assert resolve("auto") == "analytic"
-    with pytest.raises(PanoLightError, match="not available yet"):
+def test_registry_and_resolution(monkeypatch, tmp_path):
+    from panolight_core.nn import estimator as nn_estimator
+
+    assert available()[:3] == ("ambient", "naive", "analytic")
+    assert resolve("auto") in available()
+    monkeypatch.setattr(nn_estimator, "DEFAULT_WEIGHTS", tmp_path / "gone.safetensors")
+    assert "neural" not in available()
+    with pytest.raises(PanoLightError, match="weights are missing"):
         resolve("neural")
     with pytest.raises(PanoLightError, match="unknown estimator 'magic'"):
         estimate(np.zeros((4, 8, 3), np.uint8), 2, "magic")

@@ -14,8 +14,9 @@ def test_numpy_forward_matches_torch_to_1e4(tmp_path, rng, prior):
     config = {**load_config("small"), "input_height": 32, "prior": prior}
     torch.manual_seed(0)
     net = LightingNet(config).eval()
-    ldr = torch.tensor(rng.random((2, 3, 32, 64)), dtype=torch.float32)
-    ldr[:, :, 5:8, 10:14] = 1.0  # saturated pixels exercise the HDR branch
+    ldr = torch.tensor(rng.random((2, 4, 32, 64)), dtype=torch.float32)
+    ldr[:, 3] = 0.0
+    ldr[:, :, 5:8, 10:14] = 1.0  # clipped cells exercise the HDR branch
     with torch.no_grad():
         coeffs, hdr = net(ldr)
     save_file({k: v.contiguous() for k, v in net.state_dict().items()}, str(tmp_path / "w.safetensors"))
@@ -30,5 +31,21 @@ def test_configs_build_and_the_paper_model_is_larger():
     small, paper = LightingNet(load_config("small")), LightingNet(load_config("paper"))
     n = lambda m: sum(p.numel() for p in m.parameters())  # noqa: E731
     assert n(paper) > 10 * n(small)
-    out, hdr = small(torch.rand(1, 3, 64, 128))
+    out, hdr = small(torch.rand(1, 4, 64, 128))
     assert out.shape == (1, 9, 3) and hdr.shape == (1, 3, 64, 128) and torch.isfinite(out).all()
+
+
+def test_unclipped_cells_pass_through_and_clipped_ones_gain_energy():
+    """hdr = linear(colour) + clipped fraction * exp(y): exact where nothing clipped, brighter where it did."""
+    torch.manual_seed(0)
+    net = LightingNet({**load_config("small"), "input_height": 16}).eval()
+    x = torch.rand(1, 4, 16, 32) * 0.9
+    x[:, 3] = 0.0
+    x[:, 3, 4:6, 8:12] = 1.0
+    x[:, :3, 4:6, 8:12] = 1.0
+    with torch.no_grad():
+        _, hdr = net(x)
+    lin = torch.where(x[:, :3] <= 0.04045, x[:, :3] / 12.92, ((x[:, :3] + 0.055) / 1.055) ** 2.4)
+    free = x[:, 3:4].expand_as(lin) == 0
+    torch.testing.assert_close(hdr[free], lin[free])
+    assert (hdr[:, :, 4:6, 8:12] > 1.0).all()

@@ -29,36 +29,37 @@ def _cfg():
 
 def test_two_stage_training_logs_checkpoints_resumes_and_exports(data, tmp_path):
     out = tmp_path / "run"
-    res = T.train(_cfg(), data, out, epochs=2, ae_epochs=1, batch_size=2, workers=0, pool_size=8, log=lambda m: None)
+    kw = dict(ae_epochs=1, batch_size=2, procedural=6, val_procedural=2, cache=tmp_path / "cache")
+    res = T.train(_cfg(), data, out, epochs=2, log=lambda m: None, **kw)
     rows = list(csv.DictReader(open(out / "metrics.csv")))
     assert [r["stage"] for r in rows] == ["ae", "lighting"]
     assert all(np.isfinite(float(r["train_loss"])) and np.isfinite(float(r["val_m_rmse"])) for r in rows)
     state = torch.load(out / "checkpoint.pt", weights_only=True)  # no pickle of arbitrary objects
     assert state["epoch"] == 1
     said = []
-    T.train(_cfg(), data, out, epochs=3, ae_epochs=1, batch_size=2, workers=0, pool_size=8, log=said.append)
+    T.train(_cfg(), data, out, epochs=3, log=said.append, **kw)
     assert any("resuming" in s and "epoch 2" in s for s in said)
     assert len(list(csv.DictReader(open(out / "metrics.csv")))) == 3
     weights, meta = load_safetensors(res["weights"])
     net = T.LightingNet(_cfg())
     net.load_state_dict({k: torch.from_numpy(v) for k, v in weights.items()})
-    x = torch.rand(1, 3, 16, 32)
+    x = torch.rand(1, 4, 16, 32)
     with torch.no_grad():
         ref, _ = net(x)
     np.testing.assert_allclose(forward(weights, _cfg(), x.numpy())[0], ref.numpy(), rtol=1e-4, atol=1e-4)
 
 
 def test_data_parallel_under_torchrun(data, tmp_path):
-    """Two CPU processes (gloo) train one epoch data-parallel and write one set of outputs."""
+    """Two CPU processes (gloo) train both stages data-parallel and write one set of outputs."""
     import json
 
     cfg = tmp_path / "cfg.json"
     cfg.write_text(json.dumps(_cfg()))
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     r = subprocess.run([sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "-m", "training.train",
-                        str(cfg), "--data", str(data), "--out", str(tmp_path / "ddp"), "--epochs", "1",
-                        "--ae-epochs", "0", "--batch-size", "2", "--workers", "0"],
+                        str(cfg), "--data", str(data), "--out", str(tmp_path / "ddp"), "--epochs", "2",
+                        "--ae-epochs", "1", "--batch-size", "2", "--procedural", "4", "--val-procedural", "2"],
                        capture_output=True, text=True, timeout=600, env=env, cwd=os.getcwd())
     assert r.returncode == 0, r.stderr[-3000:]
     assert (tmp_path / "ddp" / "model.safetensors").is_file()
-    assert len(list(csv.DictReader(open(tmp_path / "ddp" / "metrics.csv")))) == 1
+    assert len(list(csv.DictReader(open(tmp_path / "ddp" / "metrics.csv")))) == 2
