@@ -1,7 +1,7 @@
 """Headless PanoLight: load a panorama, estimate its lighting, build the world, optionally render and save.
 
     blender -b [scene.blend] --python <extension>/batch.py -- --input PANO [--output-blend OUT.blend]
-            [--render OUT.png] [--estimator auto|analytic|naive] [--lmax auto|N] [--samples 64]
+            [--render OUT.png] [--estimator auto|analytic|naive|neural] [--lmax auto|N] [--samples 64]
             [--resolution 640x360]
 The same works with the bpy module: ``python batch.py -- --input PANO ...``. Exits non-zero with one
 line on stderr when something fails.

@@ -21,7 +21,7 @@ from .core import core
 ESTIMATORS = [("auto", "Auto", "The best available estimator"),
               ("analytic", "Analytic", "sRGB to linear with clipped-highlight recovery; exact for HDR"),
               ("naive", "Naive", "sRGB to linear only"),
-              ("neural", "Neural", "The learned estimator (when its weights ship)")]
+              ("neural", "Neural", "The learned estimator (paper network, numpy; no torch needed)")]
 ORDERS = [("auto", "Auto", "The smallest SH order the scene needs")] + \
     [(str(i), str(i), f"SH order {i}: {(i + 1) ** 2} coefficients") for i in range(9)]
 MODELS = [("auto", "Lights + SH", "Explicit lights for compact sources plus SH"), ("sh", "SH only", "SH only")]

@@ -249,7 +249,7 @@ def run_train(args) -> int:
     res = train(args.config, args.data, args.out, epochs=args.epochs, ae_epochs=args.ae_epochs,
                 batch_size=args.batch_size, lr=args.lr, seed=args.seed, procedural=args.procedural,
                 val_procedural=args.val_procedural, cache=args.cache, max_minutes=args.max_minutes,
-                log=_log(args.quiet))
+                ae_from=args.ae_from, log=_log(args.quiet))
     print(f"train: weights in {res['weights']}", file=sys.stderr)
     return 0
 
@@ -418,11 +418,15 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--cache", default=None, help="folder for the prepared arrays (default: --data, else --out)")
     tr.add_argument("--max-minutes", type=float, default=None,
                     help="stop after the epoch that crosses this training time budget")
+    tr.add_argument("--ae-from", default=None, metavar="WEIGHTS",
+                    help="start from the autoencoder of this model.safetensors (with --ae-epochs 0: train "
+                         "only the lighting encoder, as the ablation variants do)")
     tr.add_argument("--out", required=True, help="run folder")
     tr.add_argument("--epochs", type=int, default=10)
     tr.add_argument("--ae-epochs", type=int, default=2, help="autoencoder-only epochs first (default 2)")
     tr.add_argument("--batch-size", type=int, default=16)
-    tr.add_argument("--lr", type=float, default=1e-4, help="Adam learning rate (default 1e-4, the paper's)")
+    tr.add_argument("--lr", type=float, default=None,
+                    help="Adam learning rate (default: the config's; paper 1e-4, small 1e-3)")
     tr.add_argument("--seed", type=int, default=0)
     tr.add_argument("-q", "--quiet", action="store_true")
     tr.set_defaults(func=run_train)

@@ -35,7 +35,7 @@ def build_extension(out_dir="dist") -> Path:
             shutil.copy(f, stage)
         core = stage / "panolight_core"
         for f in (ROOT / "panolight_core").rglob("*"):
-            if f.is_file() and "__pycache__" not in f.parts and f.suffix in (".py", ".json"):
+            if f.is_file() and "__pycache__" not in f.parts and f.suffix in (".py", ".json", ".safetensors", ".md"):
                 dst = core / f.relative_to(ROOT / "panolight_core")
                 dst.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copy(f, dst)

@@ -32,7 +32,7 @@ from panolight_core.resample import area_downsample
 KINDS = ("procedural", "synthetic", "relit")
 PROCEDURAL_HEIGHT = 256
 EV_SIGMA, EV_LIMIT, JPEG_SHARE = 1.0, 2.5, 0.5
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 
 def _camera_settings(rng) -> tuple[float, int | None]:

@@ -1,11 +1,14 @@
 """The paper's networks in torch (Sec. 3.3-3.4): an LDR-to-HDR autoencoder and a lighting encoder.
 
 Autoencoder (HDR-CNN in spirit): a strided-convolution encoder and a nearest-upsampling decoder with
-skip connections predict the log of the clipped excess radiance; the input (panolight_core.nn.inputs) is
-the sRGB colour x and the clipped fraction a of each cell, and hdr = linear(x) + a * exp(y): unclipped
-cells pass through unchanged, clipped ones get back the energy the camera cut off.
+skip connections predict y, a log correction of the clipped excess radiance b that the physical
+highlight model guesses (panolight_core.nn.inputs: colour x, clipped fraction a, log b per cell), and
+hdr = linear(x) + a * b * exp(y): unclipped cells pass through unchanged, clipped ones get back the
+energy the camera cut off. Its last layer starts at zero, so training starts from the physical model.
 Lighting encoder: 7 convolutions (3 x 3, ELU) and 2 fully connected layers (ELU, then a linear head)
 regressing (lmax + 1)^2 x 3 SH coefficients from log(1 + hdr); the spectral prior is optional.
+Config "head": "encoder" (the paper: the coefficients are the encoder's) or "residual" (the encoder's
+output is added to the exact SH projection of the autoencoder's HDR map, so it learns a correction).
 All convolutions pad equirect-style (circular in width, replicated in height). Parameter names are
 the contract with the numpy inference in panolight_core.nn.model.
 """
@@ -18,6 +21,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from panolight_core import sh
 from panolight_core.nn.inputs import CHANNELS
 from panolight_core.nn.prior import spectral_prior
 from training.losses import equirect_pad
@@ -26,10 +30,19 @@ CONFIGS = Path(__file__).resolve().parent / "configs"
 
 
 def load_config(name_or_path) -> dict:
+    """A config by name (training/configs/NAME.json, e.g. "small", "ablation/full-prior") or path.
+    A config with "base" is that config with its own keys on top (the ablation variants)."""
     p = Path(name_or_path)
     if not p.suffix:
         p = CONFIGS / f"{name_or_path}.json"
-    return json.loads(p.read_text())
+    if not p.is_file():
+        from panolight_core.errors import PanoLightError
+
+        known = sorted(str(q.relative_to(CONFIGS).with_suffix("")) for q in CONFIGS.rglob("*.json"))
+        raise PanoLightError(f"{name_or_path}: no such config (known: {', '.join(known)})")
+    cfg = json.loads(p.read_text())
+    base = cfg.pop("base", None)
+    return {**load_config(base), **cfg} if base else cfg
 
 
 class Conv(nn.Module):
@@ -57,6 +70,8 @@ class Autoencoder(nn.Module):
             self.dec.append(Conv(cin + w_skip, cout))  # upsampled features + the skip at that scale
             cin = cout
         self.out = Conv(cin, 3)
+        nn.init.zeros_(self.out.conv.weight)  # start from the physical model's guess
+        nn.init.zeros_(self.out.conv.bias)
 
     def forward(self, x):
         feats, h = [x], x
@@ -66,10 +81,10 @@ class Autoencoder(nn.Module):
         for conv, skip in zip(self.dec, reversed(feats[:-1])):
             h = F.interpolate(h, scale_factor=2, mode="nearest")
             h = F.elu(conv(torch.cat([h, skip], dim=1)))
-        log_excess = torch.clamp(self.out(h), max=20.0)
+        log_gain = torch.clamp(self.out(h) + x[:, 4:7], max=20.0)
         srgb, a = x[:, :3], x[:, 3:4]
         lin = torch.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
-        return lin + a * torch.exp(log_excess)
+        return lin + a * torch.exp(log_gain)
 
 
 class LightingEncoder(nn.Module):
@@ -94,7 +109,7 @@ class LightingEncoder(nn.Module):
 
 
 class LightingNet(nn.Module):
-    """Network input (N, 4, H, 2H) (panolight_core.nn.inputs) -> (N, K, 3) SH coefficients and the
+    """Network input (N, 7, H, 2H) (panolight_core.nn.inputs) -> (N, K, 3) SH coefficients and the
     (N, 3, H, 2H) HDR estimate, both in the units of the LDR's linear values (1 = the camera's clip level)."""
 
     def __init__(self, config: dict):
@@ -103,10 +118,15 @@ class LightingNet(nn.Module):
         self.ae = Autoencoder(config["ae_widths"])
         self.encoder = LightingEncoder(config["encoder_widths"], config["encoder_strides"], config["hidden"],
                                        config["lmax"], config["input_height"])
+        if config.get("head", "encoder") == "residual":  # start from the projection itself
+            nn.init.zeros_(self.encoder.fc2.weight)
+            nn.init.zeros_(self.encoder.fc2.bias)
 
-    def forward(self, ldr):
-        hdr = self.ae(ldr)
+    def forward(self, x):
+        hdr = self.ae(x)
         coeffs = self.encoder(hdr)
         if self.config.get("prior", True):
             coeffs = spectral_prior(coeffs)
+        if self.config.get("head", "encoder") == "residual":  # the encoder corrects the HDR map's projection
+            coeffs = coeffs + sh.project(hdr.permute(0, 2, 3, 1), self.config["lmax"])
         return coeffs, hdr

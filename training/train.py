@@ -4,7 +4,8 @@ Data: training/lighting_data.py prepares (once, cached) procedural environments,
 panoramas and their paper-style relit versions. Two stages as in the paper: the LDR-to-HDR autoencoder
 first (L2 on log(1 + HDR) against the true HDR, plus L2 on its SH-projected low-frequency lighting),
 then the lighting encoder with the autoencoder frozen (0.01 L_SH + 0.3 L_RC + 0.7 L_RL,
-training/losses.py; scale-normalised per sample). Adam, lr 1e-4 (config "lr" overrides).
+training/losses.py; scale-normalised per sample). Adam with the config's "lr" (the paper's 1e-4 in
+``paper``; 1e-3 in ``small``, which gets far fewer steps on a CPU), unless ``lr`` is given.
 Each epoch: progress lines, validation (loss, m-RMSE and irr-RMSE of the predicted lighting), a row in
 OUT/metrics.csv, and OUT/checkpoint.pt (reloaded with torch.load(weights_only=True) to resume).
 At the end OUT/model.safetensors + OUT/config.json hold the weights for torch-free inference.
@@ -104,13 +105,15 @@ def _lighting_loss(model, b, weights):
     return loss
 
 
-def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size: int = 16, lr: float = 1e-4,
+def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size: int = 16, lr: float | None = None,
           seed: int = 0, procedural: int = 4000, val_procedural: int = 400, cache=None, max_minutes=None,
-          log=print) -> dict:
+          ae_from=None, log=print) -> dict:
     """Train ``config`` (name, path or dict) on procedural environments plus the synthetic samples under
     ``data`` (may be None); write metrics.csv, checkpoint.pt and the exported weights to ``out``.
     cache: folder of the prepared arrays (default: ``data``, else ``out``). max_minutes: stop after the
-    epoch that crosses this budget (the exported model is the last finished epoch)."""
+    epoch that crosses this budget (the exported model is the last finished epoch). ae_from: a
+    model.safetensors whose autoencoder to start from (with ae_epochs=0: ablations of the lighting
+    stage share one trained autoencoder, as the paper's two-stage training allows)."""
     cfg = load_config(config) if not isinstance(config, dict) else config
     rank, world = _distributed()
     out = Path(out)
@@ -123,7 +126,12 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
     if rank != 0:
         train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out, lambda m: None)
     net = LightingNet(cfg)
-    opt = torch.optim.Adam(net.parameters(), lr=cfg.get("lr", lr))
+    if ae_from is not None:
+        from safetensors.torch import load_file
+
+        ae = {k[3:]: v for k, v in load_file(str(ae_from)).items() if k.startswith("ae.")}
+        net.ae.load_state_dict(ae)
+    opt = torch.optim.Adam(net.parameters(), lr=lr if lr is not None else cfg.get("lr", 1e-4))
     start, ckpt = 0, out / "checkpoint.pt"
     if ckpt.is_file():
         state = torch.load(ckpt, weights_only=True)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import sh
 from .ops import conv2d, elu, linear, upsample_nearest2x
 from .prior import spectral_prior
 
@@ -14,7 +15,7 @@ def _conv(x, weights, name, stride=1):
 
 
 def forward(weights: dict, config: dict, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """x: (N, 4, H, 2H) float32 from inputs.network_input -> ((N, K, 3) coefficients, (N, 3, H, 2H) HDR
+    """x: (N, 7, H, 2H) float32 from inputs.network_input -> ((N, K, 3) coefficients, (N, 3, H, 2H) HDR
     estimate), in the LDR's linear units (1 = the camera's clip level)."""
     x = np.asarray(x, dtype=np.float32)
     feats, h = [x], x
@@ -23,10 +24,10 @@ def forward(weights: dict, config: dict, x: np.ndarray) -> tuple[np.ndarray, np.
         feats.append(h)
     for i, skip in enumerate(reversed(feats[:-1])):
         h = elu(_conv(np.concatenate([upsample_nearest2x(h), skip], axis=1), weights, f"ae.dec.{i}"))
-    log_excess = np.minimum(_conv(h, weights, "ae.out"), 20.0)
+    log_gain = np.minimum(_conv(h, weights, "ae.out") + x[:, 4:7], 20.0)
     srgb, a = x[:, :3], x[:, 3:4]
     lin = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
-    hdr = lin + a * np.exp(log_excess)
+    hdr = lin + a * np.exp(log_gain)
     h = np.log1p(np.maximum(hdr, 0.0))
     for i, s in enumerate(config["encoder_strides"]):
         h = elu(_conv(h, weights, f"encoder.convs.{i}", stride=s))
@@ -35,4 +36,6 @@ def forward(weights: dict, config: dict, x: np.ndarray) -> tuple[np.ndarray, np.
     coeffs = linear(h, weights["encoder.fc2.weight"], weights["encoder.fc2.bias"]).reshape(-1, k, 3)
     if config.get("prior", True):
         coeffs = spectral_prior(coeffs.astype(np.float64)).astype(np.float32)
+    if config.get("head", "encoder") == "residual":
+        coeffs = coeffs + sh.project(np.moveaxis(hdr, 1, -1), config["lmax"]).astype(np.float32)
     return coeffs, hdr

@@ -1,20 +1,27 @@
-"""The learned estimator's input: area-averaged colour and clipped fraction."""
+"""The learned estimator's input: area-averaged colour, clipped fraction, the physical model's guess."""
 import numpy as np
 import pytest
 
 from panolight_core.color import srgb_to_linear
-from panolight_core.nn.inputs import network_input
+from panolight_core.highlights import recover_highlights
+from panolight_core.nn.inputs import BASE_EXCESS, network_input
 
 
-def test_colour_is_the_linear_area_mean_and_the_fourth_channel_the_clipped_fraction(rng):
-    ldr = rng.integers(0, 240, size=(32, 64, 3), dtype=np.uint8)
-    ldr[0:4, 0:2] = 255  # 8 clipped pixels in the first 4 x 4 cell
-    x = network_input(ldr, 8)
-    assert x.shape == (4, 8, 16) and x.dtype == np.float32
-    assert x[3, 0, 0] == pytest.approx(8 / 16) and x[3, 1:].max() == 0 and x[3, 0, 1:].max() == 0
+def test_channels_hold_colour_clipped_fraction_and_the_recovered_excess(rng):
+    ldr = rng.integers(0, 200, size=(64, 128, 3), dtype=np.uint8)
+    ldr[8:12, 16:18] = 255  # 8 clipped pixels in one 4 x 4 cell
+    x = network_input(ldr, 16)
+    assert x.shape == (7, 16, 32) and x.dtype == np.float32
+    assert x[3, 2, 4] == pytest.approx(8 / 16) and (x[3] > 0).sum() == 1
     lin = srgb_to_linear(ldr.astype(np.float64) / 255.0)
-    np.testing.assert_allclose(srgb_to_linear(x[:3, 2, 3].astype(np.float64)),
-                               lin[8:12, 12:16].reshape(-1, 3).mean(0), rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(srgb_to_linear(x[:3, 5, 7].astype(np.float64)),
+                               lin[20:24, 28:32].reshape(-1, 3).mean(0), rtol=1e-4, atol=1e-6)
+    # unclipped cells carry the neutral guess; the clipped cell rebuilds the physical model's map
+    np.testing.assert_allclose(x[4:, 0, 0], np.log(BASE_EXCESS), rtol=1e-6)
+    recovered, blobs = recover_highlights(ldr, 16)
+    assert blobs
+    rebuilt = srgb_to_linear(x[:3, 2, 4].astype(np.float64)) + x[3, 2, 4] * (np.exp(x[4:, 2, 4]) - BASE_EXCESS)
+    np.testing.assert_allclose(rebuilt, recovered[2, 4], rtol=1e-3)
 
 
 def test_wrong_pixels_are_refused():

@@ -43,7 +43,7 @@ def test_two_stage_training_logs_checkpoints_resumes_and_exports(data, tmp_path)
     weights, meta = load_safetensors(res["weights"])
     net = T.LightingNet(_cfg())
     net.load_state_dict({k: torch.from_numpy(v) for k, v in weights.items()})
-    x = torch.rand(1, 4, 16, 32)
+    x = torch.rand(1, 7, 16, 32)
     with torch.no_grad():
         ref, _ = net(x)
     np.testing.assert_allclose(forward(weights, _cfg(), x.numpy())[0], ref.numpy(), rtol=1e-4, atol=1e-4)
