@@ -134,13 +134,14 @@ def run_eval(args) -> int:
     from . import evaluation
     from .estimators import available, register_model
 
+    base = args.estimators or list(available())
     extra = []
     for spec in args.weights or []:
         label, sep, path = spec.partition("=")
         if not sep or not label or not path:
             raise PanoLightError(f"--weights {spec!r}: write LABEL=PATH, e.g. full-prior=runs/full/model.safetensors")
         extra.append(register_model(label, path))
-    names = (args.estimators or list(available())) + [e for e in extra if e not in (args.estimators or [])]
+    names = base + [e for e in extra if e not in base]
     result = evaluation.run(evs=args.evs, estimators=names, lmax=args.lmax, jpeg_quality=args.jpeg or None,
                             repeats=args.repeats, log=_log(args.quiet))
     if not args.no_adaptive:

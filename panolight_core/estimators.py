@@ -104,7 +104,7 @@ def _neural_shipped() -> bool:
 
 
 _REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic, "neural": neural_estimator()}
-AUTO = "analytic"  # what ``auto`` means; see README "Which estimator" for the measurements behind it
+AUTO = "analytic"  # what ``auto`` means: the best on the public set (README "The learned estimator")
 
 
 def available() -> tuple[str, ...]:

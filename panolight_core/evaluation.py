@@ -189,19 +189,25 @@ def plot(result: dict, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), dpi=110)
+    names = result["settings"]["estimators"]
+    many = len(names) > 10  # the learned variants: a 20-colour map keeps every estimator distinct
+    fig, axes = plt.subplots(1, 2, figsize=(12 if many else 10, 4.5 if many else 4), dpi=110)
     markers = {-2.0: "v", 0.0: "o", 2.0: "^"}
     for ax, key, label in ((axes[0], "mean_m_rmse", "mean m-RMSE"), (axes[1], "mean_irr_rmse", "mean irr-RMSE")):
-        for i, name in enumerate(result["settings"]["estimators"]):
+        for i, name in enumerate(names):
+            color = plt.get_cmap("tab20")(i % 20) if many else f"C{i}"
             for ev in result["settings"]["evs"]:
                 m = result["summary"][f"{name}@{ev:+g}"]
-                ax.scatter(m["median_ms"], m[key], color=f"C{i}", marker=markers.get(ev, "s"), s=50,
+                ax.scatter(m["median_ms"], m[key], color=color, marker=markers.get(ev, "s"), s=50,
                            label=f"{name}" if ev == result["settings"]["evs"][0] else None)
         ax.set_xscale("log")
         ax.set_xlabel("median ms per panorama (1024 x 512, in memory)")
         ax.set_ylabel(label + " (lower is better)")
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(title="estimator (v ev-2, o ev0, ^ ev+2)", fontsize=8)
+    if many:
+        axes[1].legend(title="estimator (v ev-2, o ev0, ^ ev+2)", fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
+    else:
+        axes[0].legend(title="estimator (v ev-2, o ev0, ^ ev+2)", fontsize=8)
     fig.suptitle("Speed against accuracy on the eight Blender studio HDRIs")
     fig.tight_layout()
     fig.savefig(path)

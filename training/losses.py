@@ -5,8 +5,10 @@ L_RC  solid-angle weighted mean squared error of the reconstructed radiance maps
 L_RL  photometric: alpha * L1 of log(1 + HDR) + (1 - alpha) * (1 - SSIM) / 2 between the original image
       re-rendered (paper Eq. 5) under the true and the predicted lighting;
 total = 0.01 L_SH + 0.3 L_RC + 0.7 L_RL.
-L_SH and L_RC take an optional per-sample ``scale`` (B,) (the target's mean radiance): squared errors are
-divided by its square, so a sunny scene 10^4 times brighter than a dim room does not own the gradient.
+Scale-free training (``total_loss(..., scale=...)``, what training/train.py uses; targets span 10^4 in
+brightness): L_SH takes the per-sample ``scale`` (B,) (the target's mean radiance) and enters as
+log(1 + e / scale^2) of each sample's squared error e; L_RC becomes the batch mean of EVALUATION.md's
+m-RMSE of the reconstructions (``reconstruction_loss(relative=True)``).
 """
 from __future__ import annotations
 
@@ -28,7 +30,9 @@ def equirect_pad(x: torch.Tensor, p: int) -> torch.Tensor:
 
 
 def _per_sample(err: torch.Tensor, scale) -> torch.Tensor:
-    return (err if scale is None else err / scale.to(err.dtype) ** 2).mean()
+    if scale is None:
+        return err.mean()
+    return torch.log1p(err / scale.to(err.dtype) ** 2).mean()  # relative, and robust to wild outliers
 
 
 def sh_loss(pred: torch.Tensor, target: torch.Tensor, scale=None) -> torch.Tensor:
@@ -36,11 +40,21 @@ def sh_loss(pred: torch.Tensor, target: torch.Tensor, scale=None) -> torch.Tenso
     return _per_sample(((pred - target) ** 2).flatten(1).mean(-1), scale)
 
 
-def reconstruction_loss(pred: torch.Tensor, target: torch.Tensor, height: int = 32, scale=None) -> torch.Tensor:
-    """Solid-angle weighted L2 of (B, K, 3) coefficient sets reconstructed on a (height, 2 height) grid."""
+def reconstruction_loss(pred: torch.Tensor, target: torch.Tensor, height: int = 32, relative: bool = False) -> torch.Tensor:
+    """Solid-angle weighted L2 of (B, K, 3) coefficient sets reconstructed on a (height, 2 height) grid.
+
+    relative: the batch mean of EVALUATION.md's m-RMSE instead (prediction median-scaled to the target,
+    root of the weighted squared error over the target's weighted mean): scale-free, and it punishes a
+    light guessed too bright as hard as the evaluation does."""
     w = torch.as_tensor(sh.row_solid_angles(height, 2 * height) / (4 * torch.pi), dtype=pred.dtype)
-    diff = sh.reconstruct(pred, height, 2 * height) - sh.reconstruct(target, height, 2 * height)
-    return _per_sample(((diff ** 2).mean(-1).sum(-1) * w).sum(-1), scale)
+    q, g = sh.reconstruct(pred, height, 2 * height), sh.reconstruct(target, height, 2 * height)
+    if not relative:
+        return ((((q - g) ** 2).mean(-1).sum(-1) * w).sum(-1)).mean()
+    med_q, med_g = q.flatten(1).median(-1).values, g.flatten(1).median(-1).values
+    s = torch.where(med_q > 0, med_g / torch.clamp(med_q, min=torch.finfo(q.dtype).tiny), torch.ones_like(med_q))
+    err = (((s[:, None, None, None] * q - g) ** 2).mean(-1).sum(-1) * w).sum(-1)
+    mean_g = (g.mean(-1).sum(-1) * w).sum(-1)
+    return (torch.sqrt(err + 1e-12) / torch.clamp(mean_g, min=1e-6)).mean()
 
 
 def _gaussian(window: int, sigma: float, dtype) -> torch.Tensor:
@@ -81,7 +95,7 @@ def photometric_loss(image: torch.Tensor, normals: torch.Tensor, pred: torch.Ten
 def total_loss(image, normals, pred, target, weights=None, scale=None) -> tuple[torch.Tensor, dict]:
     """The weighted sum and its parts; ``weights`` overrides WEIGHTS (0 switches a term off, for ablations)."""
     w = {**WEIGHTS, **(weights or {})}
-    parts = {"sh": sh_loss(pred, target, scale), "rc": reconstruction_loss(pred, target, scale=scale),
+    parts = {"sh": sh_loss(pred, target, scale), "rc": reconstruction_loss(pred, target, relative=scale is not None),
              "rl": photometric_loss(image, normals, pred, target) if w["rl"] else pred.sum() * 0}
     total = sum(w[k] * v for k, v in parts.items())
     return total, {k: float(v.detach()) for k, v in parts.items()}

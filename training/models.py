@@ -118,9 +118,9 @@ class LightingNet(nn.Module):
         self.ae = Autoencoder(config["ae_widths"])
         self.encoder = LightingEncoder(config["encoder_widths"], config["encoder_strides"], config["hidden"],
                                        config["lmax"], config["input_height"])
-        if config.get("head", "encoder") == "residual":  # start from the projection itself
-            nn.init.zeros_(self.encoder.fc2.weight)
-            nn.init.zeros_(self.encoder.fc2.bias)
+        if config.get("head", "encoder") == "residual":  # start (almost) from the projection itself;
+            nn.init.normal_(self.encoder.fc2.weight, std=1e-4)  # not exactly 0: the prior's norm has no
+            nn.init.zeros_(self.encoder.fc2.bias)  # gradient there
 
     def forward(self, x):
         hdr = self.ae(x)

@@ -18,7 +18,8 @@ from pathlib import Path
 MODELS = Path(__file__).resolve().parent.parent / "panolight_core" / "models"
 
 
-def card(run: Path, name: str, *, evaluation=None, train_command: str = "", data_note: str = "") -> str:
+def card(run: Path, name: str, *, evaluation=None, train_command: str = "", data_note: str = "",
+         baseline: str = "") -> str:
     cfg = json.loads((run / "config.json").read_text())
     rows = list(csv.DictReader(open(run / "metrics.csv")))
     weights = run / "model.safetensors"
@@ -35,10 +36,11 @@ def card(run: Path, name: str, *, evaluation=None, train_command: str = "", data
            "- data: procedural HDR environments (CIE skies with a sun, rooms with lamps and windows), Mitsuba-"
            "rendered synthetic panoramas and their relit versions (paper Eq. 5), all made by this repository; "
            "never Blender's studio HDRIs (the public evaluation set)." + (f" {data_note}" if data_note else ""),
-           "- input: any 2:1 8-bit panorama, reduced to the network's {h} x {w} (colour + clipped fraction); "
+           "- input: any 2:1 8-bit panorama, reduced to the network's {h} x {w} (colour, clipped fraction and "
+           "the physical highlight model's guess, panolight_core/nn/inputs.py); "
            "output: SH radiance in the LDR's linear units (1 = clip level), Blender world frame.".format(
                h=cfg["input_height"], w=2 * cfg["input_height"]), "",
-           "## Training curve (held-out synthetic validation)", "",
+           "## Training curve (held-out synthetic validation)", ""] + ([baseline, ""] if baseline else []) + [
            "| epoch | stage | train loss | val loss | val m-RMSE | val irr-RMSE | seconds |",
            "|---:|---|---:|---:|---:|---:|---:|"]
     for r in rows:
@@ -76,8 +78,10 @@ def main(argv=None) -> int:
     ap.add_argument("--eval", default=None, help="eval.json of 'panolight eval' to quote in the card")
     ap.add_argument("--train-command", default="")
     ap.add_argument("--data-note", default="")
+    ap.add_argument("--baseline", default="", help="a sentence on what the validation numbers compare with")
     args = ap.parse_args(argv)
-    paths = ship(args.run, args.name, evaluation=args.eval, train_command=args.train_command, data_note=args.data_note)
+    paths = ship(args.run, args.name, evaluation=args.eval, train_command=args.train_command, data_note=args.data_note,
+                 baseline=args.baseline)
     print("wrote " + ", ".join(map(str, paths)))
     return 0
 

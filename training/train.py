@@ -8,7 +8,8 @@ training/losses.py; scale-normalised per sample). Adam with the config's "lr" (t
 ``paper``; 1e-3 in ``small``, which gets far fewer steps on a CPU), unless ``lr`` is given.
 Each epoch: progress lines, validation (loss, m-RMSE and irr-RMSE of the predicted lighting), a row in
 OUT/metrics.csv, and OUT/checkpoint.pt (reloaded with torch.load(weights_only=True) to resume).
-At the end OUT/model.safetensors + OUT/config.json hold the weights for torch-free inference.
+OUT/model.safetensors + OUT/config.json hold the weights of the lighting epoch with the best validation
+m-RMSE (early stopping; written when it improves) for torch-free inference.
 Run under ``torchrun --nproc_per_node N`` it trains data-parallel (DDP: gloo on CPU, nccl on GPU).
 """
 from __future__ import annotations
@@ -95,7 +96,7 @@ def _batch(arr, idx):
 def _ae_loss(ae, b, lmax):
     hdr = ae(b["x"])
     dense = ((torch.log1p(hdr) - b["log_hdr"]) ** 2).mean()
-    low = reconstruction_loss(sh.project(hdr.permute(0, 2, 3, 1), lmax), b["sh"], scale=b["scale"])
+    low = reconstruction_loss(sh.project(hdr.permute(0, 2, 3, 1), lmax), b["sh"], relative=True)
     return dense + low
 
 
@@ -141,6 +142,8 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
         log(f"resuming from {ckpt} at epoch {start}")
     n = len(train_arr["sh"])
     history, t_start = [], time.perf_counter()
+    best = min((float(r["val_m_rmse"]) for r in _read_rows(out / "metrics.csv") if r["stage"] == "lighting"),
+               default=math.inf)
     for epoch in range(start, epochs):
         stage = "ae" if epoch < ae_epochs else "lighting"
         for p in net.ae.parameters():
@@ -169,15 +172,23 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
             torch.save({"model": net.state_dict(), "optimizer": opt.state_dict(), "epoch": epoch, "config": cfg},
                        out / "checkpoint.tmp")
             os.replace(out / "checkpoint.tmp", ckpt)
+            if stage == "lighting" and row["val_m_rmse"] < best:  # early stopping: keep the best epoch
+                best = row["val_m_rmse"]
+                export(net, cfg, out)
+                log(f"epoch {epoch + 1}: best validation m-RMSE so far, exported")
             log(f"epoch {epoch + 1}: train {row['train_loss']:.4f}, val {row['val_loss']:.4f}, val m-RMSE "
                 f"{row['val_m_rmse']:.3f} (dense {row['val_m_rmse_dense']:.3f}), irr {row['val_irr_rmse']:.3f} "
                 f"({row['seconds']:.0f} s)")
         if max_minutes is not None and (time.perf_counter() - t_start) / 60 > max_minutes:
             log(f"stopping after epoch {epoch + 1}: the {max_minutes} minute budget is spent")
             break
-    if rank == 0:
+    if rank == 0 and not math.isfinite(best):  # no lighting epoch ran (autoencoder only): export as is
         export(net, cfg, out)
     return {"history": history, "weights": str(out / "model.safetensors")}
+
+
+def _read_rows(path: Path) -> list[dict]:
+    return list(csv.DictReader(open(path))) if path.is_file() else []
 
 
 @torch.no_grad()

@@ -24,10 +24,15 @@ BASE_EXCESS = 0.05
 
 
 def network_input(ldr: np.ndarray, height: int) -> np.ndarray:
-    """(H, 2H, 3) uint8 sRGB panorama -> (7, height, 2 height) float32 (see the module docstring)."""
+    """(H, 2H, 3) uint8 sRGB panorama -> (7, height, 2 height) float32 (see the module docstring); a
+    panorama smaller than the network is upsampled (nearest) first."""
     ldr = np.asarray(ldr)
     if ldr.dtype != np.uint8 or ldr.ndim != 3 or ldr.shape[-1] != 3:
         raise ValueError(f"network_input wants (H, W, 3) uint8 pixels, got {ldr.dtype} {ldr.shape}")
+    if ldr.shape[0] < height:  # smaller than the network: nearest-neighbour upsampling keeps pixels and clipping
+        rows = np.arange(height) * ldr.shape[0] // height
+        cols = np.arange(2 * height) * ldr.shape[1] // (2 * height)
+        ldr = ldr[rows][:, cols]
     lin, frac = ldr_work_maps(ldr, height)
     recovered, _ = recover_highlights(ldr, height)
     frac = frac[..., None]

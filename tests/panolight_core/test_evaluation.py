@@ -22,3 +22,16 @@ def test_eval_cli_subset(tmp_path, capsys):
     assert main(["eval", "-o", str(tmp_path), "--evs", "0", "--estimators", "naive", "--repeats", "1", "-q"]) == 0
     out = capsys.readouterr().out
     assert "| naive | +0 | 1.123 |" in out  # mean of the eight EVALUATION.md naive numbers
+
+
+def test_eval_scores_trained_variants_by_label_and_names_bad_ones(tmp_path, capsys):
+    from panolight_core.nn.estimator import DEFAULT_WEIGHTS
+
+    assert main(["eval", "-o", str(tmp_path), "--evs", "0", "--estimators", "naive", "--repeats", "1", "-q",
+                 "--no-adaptive", "--weights", f"mine={DEFAULT_WEIGHTS}"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("| mine | +0 |") == 1 and "| naive | +0 | 1.123 |" in out
+    assert main(["eval", "-o", str(tmp_path), "--weights", "nolabel"]) == 1
+    assert "LABEL=PATH" in capsys.readouterr().err
+    assert main(["eval", "-o", str(tmp_path), "--weights", f"x={tmp_path / 'gone.safetensors'}"]) == 1
+    assert "gone.safetensors: no model weights" in capsys.readouterr().err

@@ -27,3 +27,10 @@ def test_channels_hold_colour_clipped_fraction_and_the_recovered_excess(rng):
 def test_wrong_pixels_are_refused():
     with pytest.raises(ValueError, match="uint8"):
         network_input(np.zeros((8, 16, 3), np.float32), 4)
+
+
+def test_small_panoramas_are_upsampled_to_the_network_size(rng):
+    ldr = rng.integers(0, 256, size=(8, 16, 3), dtype=np.uint8)
+    x = network_input(ldr, 32)
+    assert x.shape == (7, 32, 64)
+    np.testing.assert_allclose(x[:4, ::4, ::4], network_input(ldr, 8)[:4], atol=1e-6)

@@ -19,7 +19,7 @@ def synth(tmp_path_factory):
 def test_procedural_examples_are_deterministic_and_exposed():
     a, b = L.procedural_example(5, 16, 2), L.procedural_example(5, 16, 2)
     np.testing.assert_array_equal(a["x"], b["x"])
-    assert a["x"].shape == (4, 16, 32) and a["log_hdr"].shape == (3, 16, 32) and a["sh"].shape == (9, 3)
+    assert a["x"].shape == (7, 16, 32) and a["log_hdr"].shape == (3, 16, 32) and a["sh"].shape == (9, 3)
     # the target is the exposed HDR's projection: its mean radiance matches the AE target's (same map)
     mean_map = sh.project(np.moveaxis(np.expm1(a["log_hdr"].astype(np.float64)), 0, -1), 0)[0]
     np.testing.assert_allclose(mean_map, a["sh"][0], rtol=0.02)

@@ -32,6 +32,27 @@ def test_reconstruction_loss_is_the_solid_angle_weighted_l2(rng):
     assert float(sh_loss(pred, target)) == float(((pred - target) ** 2).mean())
 
 
+def test_scaled_losses_are_relative_and_robust(rng):
+    from panolight_core import metrics
+
+    _, _, target = _batch(rng)
+    pred = target.clone()
+    pred[:, 0] += 1.0
+    scale = torch.tensor([1.0, 10.0], dtype=target.dtype)
+    # per sample log(1 + e / s^2): the same absolute miss counts 100x less squared in a 10x brighter scene
+    expected = (np.log1p(1 / 9) + np.log1p(1 / 9 / 100)) / 2
+    np.testing.assert_allclose(float(sh_loss(pred, target, scale)), expected, rtol=1e-6)
+    far = target.clone()
+    far[:, 0] += 1e4  # a wild miss grows the loss only logarithmically
+    assert float(sh_loss(far, target, scale)) < 20 and float(sh_loss(target, target, scale)) == 0
+    # the relative reconstruction loss is the evaluation's m-RMSE (on a coarser grid), scale-free
+    pred = target * torch.tensor([1.0, 1.3, 0.7])[None, None] + 0.1 * torch.tensor(rng.normal(size=target.shape))
+    want = np.mean([metrics.m_rmse(t.numpy(), p.numpy()) for t, p in zip(target, pred)])
+    got = float(reconstruction_loss(pred, target, height=64, relative=True))
+    np.testing.assert_allclose(got, want, rtol=0.05)
+    np.testing.assert_allclose(float(reconstruction_loss(pred * 7.0, target, height=64, relative=True)), got, rtol=1e-6)
+
+
 def test_extremes_are_finite_with_finite_gradients(rng):
     image, normals, target = _batch(rng)
     for img in (torch.zeros_like(image), image * 1e6):

@@ -30,7 +30,9 @@ def _cfg():
 def test_two_stage_training_logs_checkpoints_resumes_and_exports(data, tmp_path):
     out = tmp_path / "run"
     kw = dict(ae_epochs=1, batch_size=2, procedural=6, val_procedural=2, cache=tmp_path / "cache")
-    res = T.train(_cfg(), data, out, epochs=2, log=lambda m: None, **kw)
+    first = []
+    res = T.train(_cfg(), data, out, epochs=2, log=first.append, **kw)
+    assert any("epoch 2: best validation m-RMSE so far, exported" in m for m in first)  # early stopping
     rows = list(csv.DictReader(open(out / "metrics.csv")))
     assert [r["stage"] for r in rows] == ["ae", "lighting"]
     assert all(np.isfinite(float(r["train_loss"])) and np.isfinite(float(r["val_m_rmse"])) for r in rows)

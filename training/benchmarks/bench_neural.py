@@ -1,6 +1,7 @@
 """Latency of the learned estimator's networks (random weights are fine for timing): the shipped
 ``small`` configuration against the ``paper``-size one, torch and numpy paths, one LDR panorama at each
-configuration's input size, medians of repeated runs in one process.
+configuration's input size, medians of repeated runs in one process; then the whole numpy estimate
+(input reduction + physical highlight guess + network) on a 1024 x 512 LDR, against the analytic one.
 
     python -m training.benchmarks.bench_neural [--repeats 7]
 """
@@ -13,6 +14,7 @@ import time
 import numpy as np
 import torch
 
+from panolight_core.nn.inputs import CHANNELS
 from panolight_core.nn.model import forward
 from training.models import LightingNet, load_config
 
@@ -40,7 +42,7 @@ def main(argv=None):
         cfg = load_config(name)
         net = LightingNet(cfg).eval()
         h = cfg["input_height"]
-        x = torch.rand(1, 3, h, 2 * h)
+        x = torch.rand(1, CHANNELS, h, 2 * h)
         weights = {k: v.detach().numpy() for k, v in net.state_dict().items()}
         with torch.no_grad():
             t_torch = median_ms(lambda: net(x), args.repeats)
@@ -50,6 +52,16 @@ def main(argv=None):
         print(f"| {name} | {2 * h}x{h} | {n:,} | {n * 4 / 2 ** 20:.1f} | {t_torch:.1f} | {t_np:.1f} |")
     s, p = rows["small"], rows["paper"]
     print(f"\nsmall vs paper: {p[0] / s[0]:.0f}x faster with torch, {p[1] / s[1]:.0f}x faster with numpy")
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.data import studio_hdri
+    from panolight_core.estimators import available, estimate
+    from panolight_core.io import read_image
+
+    ldr = hdr_to_ldr(np.maximum(read_image(studio_hdri("city")).astype(np.float64), 0.0), 0.0, 90)
+    print("\n| whole estimate, 1024x512 LDR in memory | median ms |\n|---|---:|")
+    for name in [n for n in ("analytic", "neural") if n in available()]:
+        rows[f"estimate-{name}"] = median_ms(lambda: estimate(ldr, 2, name), args.repeats)
+        print(f"| {name} | {rows[f'estimate-{name}']:.1f} |")
     return rows
 
 
