@@ -224,6 +224,11 @@ def test_extension_zip_installs_offline_and_works(tmp_path):
 
     zpath = build_extension(tmp_path / "dist")
     pano = _small_city(tmp_path, 32)
+    from panolight_core.camera import hdr_to_ldr
+    from PIL import Image
+
+    ldr = tmp_path / "city_small.jpg"
+    Image.fromarray(hdr_to_ldr(read_image(pano).astype(np.float64), 0.0)).save(ldr, quality=90)
     code = f"""
 import bpy, sys
 r = bpy.ops.extensions.package_install_files(filepath={str(zpath)!r}, repo='user_default', enable_on_install=True)
@@ -233,6 +238,12 @@ assert bpy.ops.panolight.estimate_lighting() == {{'FINISHED'}}
 assert bpy.ops.panolight.build_environment() == {{'FINISHED'}}
 bundled = [m for m in sys.modules if m.endswith('panolight.panolight_core.sh')]
 assert bundled, 'the bundled core was not used'
+assert bpy.ops.panolight.load_panorama(filepath={str(ldr)!r}) == {{'FINISHED'}}
+assert bpy.ops.panolight.estimate_lighting(estimator='neural') == {{'FINISHED'}}
+assert bpy.ops.panolight.build_environment() == {{'FINISHED'}}
+nn = [m for n, m in sys.modules.items() if n.endswith('panolight.panolight_core.nn.estimator')]
+assert nn and nn[0].DEFAULT_WEIGHTS.is_file(), 'the bundled weights were not used'
+assert 'torch' not in sys.modules, 'the learned estimator must not need torch'
 print('ok', bundled[0])
 """
     env = {**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path / "blender"), "PYTHONNOUSERSITE": "1"}
