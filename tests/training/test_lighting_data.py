@@ -9,11 +9,9 @@ from training.relight_data import procedural_pool
 from training.synth import store
 
 
-@pytest.fixture(scope="module")
-def synth(tmp_path_factory):
-    root = tmp_path_factory.mktemp("synth")
-    store.synthesize(root, 2, height=32, spp=4)
-    return root
+@pytest.fixture
+def synth(tiny_synth):
+    return tiny_synth
 
 
 def test_procedural_examples_are_deterministic_and_exposed():
@@ -41,9 +39,9 @@ def test_relit_targets_relight_the_image_into_the_autoencoder_target(synth):
 def test_prepare_writes_loadable_arrays_without_pickles(synth, tmp_path):
     out = L.prepare(tmp_path / "p.npz", synth=synth, procedural=3, height=8, lmax=1, workers=1)
     arr = L.load(out)
-    assert len(arr["sh"]) == 3 + 2 * 2 and arr["sh"].shape[1:] == (4, 3)
-    assert (arr["geo_index"] >= 0).sum() == 2 == len(arr["normals"])
+    assert len(arr["sh"]) == 3 + 2 * 6 and arr["sh"].shape[1:] == (4, 3)
+    assert (arr["geo_index"] >= 0).sum() == 6 == len(arr["normals"])
     both = L.concat([arr, arr])
-    assert len(both["sh"]) == 14 and both["geo_index"].max() == 3
+    assert len(both["sh"]) == 30 and both["geo_index"].max() == 11
     name = L.cache_name(synth=synth, procedural=3, height=8, lmax=1, seed=0)
     assert name != L.cache_name(synth=synth, procedural=4, height=8, lmax=1, seed=0)

@@ -10,14 +10,11 @@ import torch
 from panolight_core.nn.model import forward
 from panolight_core.nn.safetensors_np import load_safetensors
 from training import train as T
-from training.synth import store
 
 
-@pytest.fixture(scope="module")
-def data(tmp_path_factory):
-    root = tmp_path_factory.mktemp("synth")
-    store.synthesize(root, 6, height=32, spp=2)
-    return root
+@pytest.fixture
+def data(tiny_synth):
+    return tiny_synth
 
 
 def _cfg():
