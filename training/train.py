@@ -112,7 +112,7 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
     """Train ``config`` (name, path or dict) on procedural environments plus the synthetic samples under
     ``data`` (may be None); write metrics.csv, checkpoint.pt and the exported weights to ``out``.
     cache: folder of the prepared arrays (default: ``data``, else ``out``). max_minutes: stop after the
-    epoch that crosses this budget (the exported model is the last finished epoch). ae_from: a
+    epoch that crosses this budget (the exported model is still the best validation epoch). ae_from: a
     model.safetensors whose autoencoder to start from (with ae_epochs=0: ablations of the lighting
     stage share one trained autoencoder, as the paper's two-stage training allows)."""
     cfg = load_config(config) if not isinstance(config, dict) else config
