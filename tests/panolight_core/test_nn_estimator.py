@@ -69,3 +69,15 @@ def test_bad_weight_files_are_named(tmp_path):
     assert safetensors_np.load_safetensors(other)[0]["w"].shape == (1,)
     with pytest.raises(PanoLightError, match="lacks"):
         E.load_model(other)
+
+
+def test_extreme_panoramas_give_finite_lighting():
+    """All black (log of zero), all clipped (every cell saturated), and one lone clipped pixel."""
+    black = np.zeros((64, 128, 3), np.uint8)
+    white = np.full((64, 128, 3), 255, np.uint8)
+    dot = black.copy()
+    dot[10, 20] = 255
+    for ldr in (black, white, dot):
+        c = estimate(ldr, 2, "neural").coeffs
+        assert np.isfinite(c).all()
+    assert abs(estimate(black, 2, "neural").coeffs).max() < 1.0  # nothing seen, nothing invented
