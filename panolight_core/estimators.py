@@ -92,6 +92,10 @@ def register_model(label: str, weights) -> str:
     """Make a learned model file usable as estimator ``label`` (evaluation of trained variants)."""
     from .nn.estimator import load_model
 
+    if label in ("ambient", "naive", "analytic", "neural", "auto") or not label.replace("-", "").replace("_", "").isalnum():
+        raise PanoLightError(f"{label!r} cannot name a trained model: use letters, digits, '-' or '_', and not "
+                             f"a built-in estimator's name")
+
     load_model(weights)  # fail now, naming the file, not in the middle of an evaluation
     _REGISTRY[label] = neural_estimator(weights, label)
     return label

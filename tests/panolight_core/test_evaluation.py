@@ -31,6 +31,8 @@ def test_eval_scores_trained_variants_by_label_and_names_bad_ones(tmp_path, caps
                  "--no-adaptive", "--weights", f"mine={DEFAULT_WEIGHTS}"]) == 0
     out = capsys.readouterr().out
     assert out.count("| mine | +0 |") == 1 and "| naive | +0 | 1.123 |" in out
+    assert main(["eval", "-o", str(tmp_path), "--weights", f"naive={DEFAULT_WEIGHTS}"]) == 1
+    assert "built-in" in capsys.readouterr().err
     assert main(["eval", "-o", str(tmp_path), "--weights", "nolabel"]) == 1
     assert "LABEL=PATH" in capsys.readouterr().err
     assert main(["eval", "-o", str(tmp_path), "--weights", f"x={tmp_path / 'gone.safetensors'}"]) == 1
