@@ -250,7 +250,7 @@ def run_train(args) -> int:
     res = train(args.config, args.data, args.out, epochs=args.epochs, ae_epochs=args.ae_epochs,
                 batch_size=args.batch_size, lr=args.lr, seed=args.seed, procedural=args.procedural,
                 val_procedural=args.val_procedural, cache=args.cache, max_minutes=args.max_minutes,
-                ae_from=args.ae_from, log=_log(args.quiet))
+                ae_from=args.ae_from, hdr=args.hdr, log=_log(args.quiet))
     print(f"train: weights in {res['weights']}", file=sys.stderr)
     return 0
 
@@ -413,6 +413,9 @@ def build_parser() -> argparse.ArgumentParser:
                                "model.safetensors and config.json.")
     tr.add_argument("config", help="small | paper | a JSON config path (training/configs/)")
     tr.add_argument("--data", default=None, help="dataset folder written by 'panolight synth' (optional)")
+    tr.add_argument("--hdr", default=None, metavar="DIR",
+                    help="a folder of real HDR panoramas (.exr/.hdr, e.g. Laval) added as training examples; "
+                         "Blender's studio HDRIs are refused (they are the evaluation set)")
     tr.add_argument("--procedural", type=int, default=4000,
                     help="procedural environments in the training set (default 4000)")
     tr.add_argument("--val-procedural", type=int, default=400, help="procedural validation environments (default 400)")

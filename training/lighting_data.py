@@ -10,6 +10,8 @@ ev ~ N(0, 1) clipped to +-2.5, JPEG q90 half of the time) and reduced to the net
 - ``relit``: the paper's Eq. 5: the same panorama's LDR image relit through its normals by two blended
   pool lightings (x100, deringed); lighting = the coefficients that relit it (uncoupled data made
   coupled). Its normals and image are kept for the photometric loss.
+- ``hdr``: a real HDR panorama from a folder of your own (Laval style; Blender's studio HDRIs are
+  refused); its lighting is its own SH.
 Targets are in the LDR's linear units (the HDR times the camera's exposure k; 1 = clip level): ``sh``
 (K, 3) the exact projection at the source resolution, ``log_hdr`` (3, h, 2h) log(1 + area-averaged HDR)
 for the autoencoder.
@@ -29,7 +31,7 @@ from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.nn.inputs import network_input
 from panolight_core.resample import area_downsample
 
-KINDS = ("procedural", "synthetic", "relit")
+KINDS = ("procedural", "synthetic", "relit", "hdr")
 PROCEDURAL_HEIGHT = 256
 EV_SIGMA, EV_LIMIT, JPEG_SHARE = 1.0, 2.5, 0.5
 FORMAT_VERSION = 2
@@ -80,10 +82,20 @@ def synthetic_examples(path, index: int, height: int, lmax: int, pool: np.ndarra
     return [coupled, relit]
 
 
+def hdr_example(path, index: int, height: int, lmax: int, seed: int) -> dict:
+    """A real HDR panorama seen by the camera (coupled: its lighting is its own SH)."""
+    from panolight_core.io import read_image
+
+    hdr = np.maximum(read_image(path).astype(np.float64), 0.0)
+    return _coupled(hdr, np.random.default_rng([seed, index, 3]), height, lmax, "hdr")
+
+
 def _job(args):
     kind, a, b, height, lmax, pool, seed = args
     if kind == "procedural":
         return [procedural_example(a, height, lmax)]
+    if kind == "hdr":
+        return [hdr_example(a, b, height, lmax, seed)]
     return synthetic_examples(a, b, height, lmax, pool, seed)
 
 
@@ -96,19 +108,21 @@ def _files(synth) -> list:
     return list(synth) if isinstance(synth, (list, tuple)) else list_samples(synth)
 
 
-def prepare(out, *, synth=None, procedural: int = 0, height: int = 64, lmax: int = 2, seed: int = 0,
+def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64, lmax: int = 2, seed: int = 0,
             workers: int | None = None, progress=None) -> Path:
     """Write the arrays of ``procedural`` procedural examples (seeds seed*10^7 + i) and of every sample
-    of ``synth`` (a folder or a list of sample files; coupled + relit) to ``out`` (.npz, uncompressed,
-    no pickles). Returns ``out``."""
+    of ``synth`` (a folder or a list of sample files; coupled + relit) and every panorama of ``hdr`` (a
+    list of .exr/.hdr files, relight_data.hdr_files) to ``out`` (.npz, uncompressed, no pickles).
+    Returns ``out``."""
     from training.relight_data import procedural_pool
 
     files = _files(synth)
     pool = procedural_pool(256, lmax, seed=10 ** 6 + seed) if files else None
     jobs = [("procedural", seed * 10 ** 7 + i, None, height, lmax, None, seed) for i in range(procedural)]
     jobs += [("synthetic", f, i, height, lmax, pool, seed) for i, f in enumerate(files)]
+    jobs += [("hdr", f, i, height, lmax, None, seed) for i, f in enumerate(hdr or [])]
     if not jobs:
-        raise ValueError("nothing to prepare: give procedural > 0 or a folder of synthetic samples")
+        raise ValueError("nothing to prepare: give procedural > 0, synthetic samples or HDR panoramas")
     examples = []
     workers = workers or min(len(jobs), os.cpu_count() or 1)
     chunks = (_job(j) for j in jobs) if workers == 1 else \
@@ -126,7 +140,8 @@ def prepare(out, *, synth=None, procedural: int = 0, height: int = 64, lmax: int
               "normals": np.array([examples[i]["normals"] for i in geo], np.float16).reshape(-1, 3, height, 2 * height),
               "image": np.array([examples[i]["image"] for i in geo], np.float16).reshape(-1, 3, height, 2 * height),
               "meta": np.array(json.dumps({"version": FORMAT_VERSION, "height": height, "lmax": lmax, "seed": seed,
-                                           "procedural": procedural, "synthetic": len(files)}))}
+                                           "procedural": procedural, "synthetic": len(files),
+                                           "hdr": len(hdr or [])}))}
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.tmp{os.getpid()}.npz")
@@ -135,10 +150,11 @@ def prepare(out, *, synth=None, procedural: int = 0, height: int = 64, lmax: int
     return out
 
 
-def cache_name(*, synth, procedural, height, lmax, seed) -> str:
+def cache_name(*, synth, procedural, height, lmax, seed, hdr=None) -> str:
     """A file name that changes whenever what ``prepare`` would write changes."""
     files = [Path(p).name for p in _files(synth)]
-    key = json.dumps([FORMAT_VERSION, files, procedural, height, lmax, seed])
+    key = json.dumps([FORMAT_VERSION, files, procedural, height, lmax, seed]
+                     + ([[str(Path(p).resolve()) for p in hdr]] if hdr else []))
     return f"prepared-{hashlib.sha256(key.encode()).hexdigest()[:12]}.npz"
 
 

@@ -111,10 +111,9 @@ def procedural_pool(count: int = 256, lmax: int = 2, seed: int = 10 ** 6, height
     return np.stack([sh.project(environment(seed + i, height)[0], lmax) for i in range(count)])
 
 
-def folder_pool(root, lmax: int = 2) -> np.ndarray:
-    """(N, K, 3) SH of every .exr/.hdr panorama in a folder (Laval-style lighting). Refuses the public set."""
+def hdr_files(root) -> list[Path]:
+    """Every .exr/.hdr panorama under a folder, sorted. Refuses the public set (Blender's studio HDRIs)."""
     from panolight_core.data import studio_hdri_dir
-    from panolight_core.io import read_image
 
     root = Path(root).resolve()
     try:
@@ -126,7 +125,14 @@ def folder_pool(root, lmax: int = 2) -> np.ndarray:
     files = sorted(p for p in root.rglob("*") if p.suffix.lower() in (".exr", ".hdr"))
     if not files:
         raise PanoLightError(f"{root}: no .exr or .hdr panoramas")
-    return np.stack([sh.project(read_image(f).astype(np.float64), lmax) for f in files])
+    return files
+
+
+def folder_pool(root, lmax: int = 2) -> np.ndarray:
+    """(N, K, 3) SH of every .exr/.hdr panorama in a folder (Laval-style lighting). Refuses the public set."""
+    from panolight_core.io import read_image
+
+    return np.stack([sh.project(read_image(f).astype(np.float64), lmax) for f in hdr_files(root)])
 
 
 # -------------------------------------------------------------------------------------- the dataset

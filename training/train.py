@@ -41,10 +41,10 @@ def _distributed():
     return 0, 1
 
 
-def _datasets(cfg, data, procedural, val_procedural, seed, cache, log):
+def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None):
     """Prepare (or reuse) the cached train and validation arrays (procedural and synthetic parts cached
     apart, so more Mitsuba samples do not redo the procedural ones); the first 10 % of the synthetic
-    samples and procedural seeds of their own are held out."""
+    samples and of the HDR panoramas, and procedural seeds of their own, are held out."""
     from training.synth.store import list_samples
 
     files = list_samples(data) if data else []
@@ -52,18 +52,22 @@ def _datasets(cfg, data, procedural, val_procedural, seed, cache, log):
         from panolight_core.errors import PanoLightError
 
         raise PanoLightError(f"{data}: no synthetic samples (write some with 'panolight synth --out {data}')")
-    n_val = len(files) // 10
+    from training.relight_data import hdr_files
+
+    real = hdr_files(hdr) if hdr else []
+    n_val, n_val_hdr = len(files) // 10, len(real) // 10
     h, lmax = cfg["input_height"], cfg["lmax"]
     out = []
-    for name, fs, n_proc, s in (("train", files[n_val:], procedural, seed), ("val", files[:n_val], val_procedural, seed + 500)):
+    for name, fs, n_proc, hs, s in (("train", files[n_val:], procedural, real[n_val_hdr:], seed),
+                                    ("val", files[:n_val], val_procedural, real[:n_val_hdr], seed + 500)):
         parts = []
-        for what, kw in (("procedural", {"procedural": n_proc}), ("synthetic", {"synth": fs})):
+        for what, kw in (("procedural", {"procedural": n_proc}), ("synthetic", {"synth": fs}), ("HDR", {"hdr": hs})):
             if not any(kw.values()):
                 continue
-            kw = {"synth": None, "procedural": 0, **kw}
+            kw = {"synth": None, "procedural": 0, "hdr": None, **kw}
             path = Path(cache) / lighting_data.cache_name(height=h, lmax=lmax, seed=s, **kw)
             if not path.is_file():
-                count = kw["procedural"] or len(kw["synth"])
+                count = kw["procedural"] or len(kw["synth"] or kw["hdr"])
                 log(f"preparing the {name} set's {count} {what} samples -> {path}")
                 lighting_data.prepare(path, height=h, lmax=lmax, seed=s, **kw,
                                       progress=_every(lambda d, n: log(f"  {name} {what}: {d}/{n}"), 250))
@@ -108,24 +112,26 @@ def _lighting_loss(model, b, weights):
 
 def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size: int = 16, lr: float | None = None,
           seed: int = 0, procedural: int = 4000, val_procedural: int = 400, cache=None, max_minutes=None,
-          ae_from=None, log=print) -> dict:
+          ae_from=None, hdr=None, log=print) -> dict:
     """Train ``config`` (name, path or dict) on procedural environments plus the synthetic samples under
     ``data`` (may be None); write metrics.csv, checkpoint.pt and the exported weights to ``out``.
     cache: folder of the prepared arrays (default: ``data``, else ``out``). max_minutes: stop after the
     epoch that crosses this budget (the exported model is still the best validation epoch). ae_from: a
     model.safetensors whose autoencoder to start from (with ae_epochs=0: ablations of the lighting
-    stage share one trained autoencoder, as the paper's two-stage training allows)."""
+    stage share one trained autoencoder, as the paper's two-stage training allows). hdr: a folder of
+    real HDR panoramas (Laval style) added as coupled examples; Blender's studio HDRIs are refused."""
     cfg = load_config(config) if not isinstance(config, dict) else config
     rank, world = _distributed()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
     if rank == 0:  # one process prepares the arrays, the others then read them
-        train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out, log)
+        train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out, log, hdr)
     if world > 1:
         torch.distributed.barrier()
     if rank != 0:
-        train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out, lambda m: None)
+        train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out,
+                                       lambda m: None, hdr)
     net = LightingNet(cfg)
     if ae_from is not None:
         from safetensors.torch import load_file

@@ -45,3 +45,25 @@ def test_prepare_writes_loadable_arrays_without_pickles(synth, tmp_path):
     assert len(both["sh"]) == 30 and both["geo_index"].max() == 11
     name = L.cache_name(synth=synth, procedural=3, height=8, lmax=1, seed=0)
     assert name != L.cache_name(synth=synth, procedural=4, height=8, lmax=1, seed=0)
+
+
+def test_real_hdr_folders_become_coupled_examples_and_the_public_set_is_refused(tmp_path):
+    from panolight_core.data import studio_hdri_dir
+    from panolight_core.errors import PanoLightError
+    from panolight_core.io import write_image
+    from training.models import load_config
+    from training.relight_data import hdr_files
+    from training.synth.environments import environment
+    from training.train import _datasets
+
+    folder = tmp_path / "laval"
+    folder.mkdir()
+    for i in range(10):
+        write_image(folder / f"pano{i}.exr", environment(100 + i, 32)[0].astype(np.float32))
+    cfg = {**load_config("small"), "input_height": 8}
+    train, val = _datasets(cfg, None, 2, 1, 0, tmp_path / "cache", lambda m: None, hdr=folder)
+    assert (train["kind"] == L.KINDS.index("hdr")).sum() == 9 and (val["kind"] == L.KINDS.index("hdr")).sum() == 1
+    example = L.hdr_example(folder / "pano3.exr", 3, 8, 2, 0)
+    assert np.isfinite(example["sh"]).all() and example["x"].shape == (7, 8, 16)
+    with pytest.raises(PanoLightError, match="public evaluation set"):
+        hdr_files(studio_hdri_dir())
