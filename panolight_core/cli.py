@@ -411,7 +411,7 @@ def build_parser() -> argparse.ArgumentParser:
                                "  torchrun --nproc_per_node 4 -m training.train paper --data data/synth --out runs/paper\n"
                                "A run folder holds checkpoint.pt (resumed automatically), metrics.csv, "
                                "model.safetensors and config.json.")
-    tr.add_argument("config", help="small | paper | a JSON config path (training/configs/)")
+    tr.add_argument("config", help="small | paper | ablation/VARIANT (e.g. ablation/full-prior) | a JSON config path")
     tr.add_argument("--data", default=None, help="dataset folder written by 'panolight synth' (optional)")
     tr.add_argument("--hdr", default=None, metavar="DIR",
                     help="a folder of real HDR panoramas (.exr/.hdr, e.g. Laval) added as training examples; "
