@@ -18,6 +18,7 @@ for the autoencoder.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -125,12 +126,12 @@ def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64,
         raise ValueError("nothing to prepare: give procedural > 0, synthetic samples or HDR panoramas")
     examples = []
     workers = workers or min(len(jobs), os.cpu_count() or 1)
-    chunks = (_job(j) for j in jobs) if workers == 1 else \
-        ProcessPoolExecutor(workers).map(_job, jobs, chunksize=16)
-    for done, exs in enumerate(chunks, 1):
-        examples.extend(exs)
-        if progress:
-            progress(done, len(jobs))
+    with ProcessPoolExecutor(workers) if workers > 1 else contextlib.nullcontext() as pool_ex:
+        chunks = pool_ex.map(_job, jobs, chunksize=16) if pool_ex else (_job(j) for j in jobs)
+        for done, exs in enumerate(chunks, 1):
+            examples.extend(exs)
+            if progress:
+                progress(done, len(jobs))
     geo = [i for i, e in enumerate(examples) if "normals" in e]
     geo_index = np.full(len(examples), -1, np.int32)
     geo_index[geo] = np.arange(len(geo))
