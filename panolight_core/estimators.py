@@ -63,9 +63,14 @@ def naive(pixels: np.ndarray, lmax: int) -> Estimate:
     return Estimate(sh.project(lin, lmax).astype(np.float64), "naive", radiance=lin)
 
 
+def _exact_hdr(pixels: np.ndarray, lmax: int, name: str) -> Estimate:
+    """HDR input needs no recovery: its exact projection."""
+    return Estimate(sh.project(pixels, lmax).astype(np.float64), name, {"input": "hdr"}, pixels)
+
+
 def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
     if pixels.dtype != np.uint8:
-        return Estimate(sh.project(pixels, lmax).astype(np.float64), "analytic", {"input": "hdr"}, pixels)
+        return _exact_hdr(pixels, lmax, "analytic")
     work = max(WORK_HEIGHT, 4 * (lmax + 1))
     recovered, blobs = recover_highlights(pixels, work)
     return Estimate(sh.project(recovered, lmax), "analytic",
@@ -79,7 +84,7 @@ def neural_estimator(weights=None, label: str = "neural"):
         from .nn import estimator as nn_estimator
 
         if pixels.dtype != np.uint8:
-            return Estimate(sh.project(pixels, lmax).astype(np.float64), label, {"input": "hdr"}, pixels)
+            return _exact_hdr(pixels, lmax, label)
         model = nn_estimator.load_model(weights or nn_estimator.DEFAULT_WEIGHTS)
         coeffs, hdr = nn_estimator.predict(model, pixels, lmax)
         return Estimate(coeffs, label, {"input": "ldr", "weights": model.path.name,
@@ -92,7 +97,7 @@ def register_model(label: str, weights) -> str:
     """Make a learned model file usable as estimator ``label`` (evaluation of trained variants)."""
     from .nn.estimator import load_model
 
-    if label in ("ambient", "naive", "analytic", "neural", "auto") or not label.replace("-", "").replace("_", "").isalnum():
+    if label in BUILTIN + ("auto",) or not label.replace("-", "").replace("_", "").isalnum():
         raise PanoLightError(f"{label!r} cannot name a trained model: use letters, digits, '-' or '_', and not "
                              f"a built-in estimator's name")
 
@@ -108,6 +113,7 @@ def _neural_shipped() -> bool:
 
 
 _REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic, "neural": neural_estimator()}
+BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these
 AUTO = "analytic"  # what ``auto`` means: the best on the public set (README "The learned estimator")
 
 

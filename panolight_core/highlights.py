@@ -231,6 +231,12 @@ def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: 
         sat = np.maximum(np.maximum(img[..., 0], img[..., 1]), img[..., 2]) >= CLIP_LEVEL
         rad = area_downsample(img, work_height)
         frac = area_downsample(sat[..., None].astype(np.float32), work_height)[..., 0]
+    return recover_work_maps(rad, frac, core_radius)
+
+
+def recover_work_maps(rad: np.ndarray, frac: np.ndarray, core_radius: float = CORE_RADIUS):
+    """``recover_highlights`` on work maps already made (``ldr_work_maps``): rad (h, 2h, 3) linear
+    radiance, updated in place and returned, frac (h, 2h) clipped fraction. Returns (map, blobs)."""
     labels, feats = blob_features(rad, frac)
     if not feats:
         return rad, []

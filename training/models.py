@@ -22,6 +22,7 @@ import torch.nn as nn
 import torch.nn.functional as F
 
 from panolight_core import sh
+from panolight_core.color import srgb_to_linear
 from panolight_core.nn.inputs import CHANNELS
 from panolight_core.nn.prior import spectral_prior
 from training.losses import equirect_pad
@@ -83,7 +84,7 @@ class Autoencoder(nn.Module):
             h = F.elu(conv(torch.cat([h, skip], dim=1)))
         log_gain = torch.clamp(self.out(h) + x[:, 4:7], max=20.0)
         srgb, a = x[:, :3], x[:, 3:4]
-        lin = torch.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+        lin = srgb_to_linear(srgb)
         return lin + a * torch.exp(log_gain)
 
 

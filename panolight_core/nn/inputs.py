@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..color import linear_to_srgb
-from ..highlights import ldr_work_maps, recover_highlights
+from ..highlights import ldr_work_maps, recover_work_maps
 
 CHANNELS = 7
 BASE_EXCESS = 0.05
@@ -34,7 +34,7 @@ def network_input(ldr: np.ndarray, height: int) -> np.ndarray:
         cols = np.arange(2 * height) * ldr.shape[1] // (2 * height)
         ldr = ldr[rows][:, cols]
     lin, frac = ldr_work_maps(ldr, height)
-    recovered, _ = recover_highlights(ldr, height)
+    recovered, _ = recover_work_maps(lin.copy(), frac)
     frac = frac[..., None]
     excess = np.maximum(recovered - lin, 0.0) / np.maximum(frac, 1e-6) * (frac > 0)
     x = np.concatenate([linear_to_srgb(np.clip(lin, 0.0, 1.0)), frac, np.log(excess + BASE_EXCESS)], axis=-1)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import sh
+from ..color import srgb_to_linear
 from .ops import conv2d, elu, linear, upsample_nearest2x
 from .prior import spectral_prior
 
@@ -26,7 +27,7 @@ def forward(weights: dict, config: dict, x: np.ndarray) -> tuple[np.ndarray, np.
         h = elu(_conv(np.concatenate([upsample_nearest2x(h), skip], axis=1), weights, f"ae.dec.{i}"))
     log_gain = np.minimum(_conv(h, weights, "ae.out") + x[:, 4:7], 20.0)
     srgb, a = x[:, :3], x[:, 3:4]
-    lin = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+    lin = srgb_to_linear(srgb)
     hdr = lin + a * np.exp(log_gain)
     h = np.log1p(np.maximum(hdr, 0.0))
     for i, s in enumerate(config["encoder_strides"]):
