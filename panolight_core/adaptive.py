@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import sh
-from .lights import extract_lights, light_irradiance
+from .lights import extract_lights, light_coeffs, light_irradiance
 from .order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE, select_order
 
 IRRADIANCE_RINGING = 0.01  # negative irradiance beyond 1 % of the mean irradiance shows on diffuse surfaces
@@ -34,6 +34,15 @@ class LightingModel:
     def parameter_count(self) -> int:
         """Floats stored: 3 per SH coefficient, 8 per light (direction 3, colour 3, intensity, angle)."""
         return int(self.coeffs.size) + 8 * len(self.lights)
+
+    def project(self, lmax: int) -> np.ndarray:
+        """(K, 3) SH of the whole model at order lmax: lights as uniform disks (exact cap projection)
+        plus the SH part truncated or zero-padded to lmax (EVALUATION.md's whole-model scoring)."""
+        k = (lmax + 1) ** 2
+        out = light_coeffs(self.lights, lmax)
+        n = min(k, self.coeffs.shape[0])
+        out[:n] += self.coeffs[:n]
+        return out
 
     def irradiance(self, normals: np.ndarray) -> np.ndarray:
         """(..., 3) irradiance at unit normals (..., 3)."""

@@ -7,6 +7,8 @@ float32 linear radiance for HDR (and 16-bit) files.
 - naive:    sRGB -> linear, then the exact projection (no highlight recovery).
 - analytic: HDR -> the exact projection; LDR -> sRGB -> linear, clipped highlights re-inflated by the
             physical power-law model of ``highlights``, projection of the recovered map.
+- sources:  per-source energy (``sources``): every clipped region gets the energy a model learned from
+            real HDR panoramas predicts for it (the expected-error optimum of its predicted ratio).
 - neural:   the paper's learned estimator (LDR -> HDR autoencoder -> lighting encoder) with the shipped
             weights (panolight_core/models), numpy only; HDR inputs are projected exactly.
 - auto:     the best estimator available (see ``resolve``).
@@ -40,6 +42,7 @@ class Estimate:
     estimator: str
     info: dict = field(default_factory=dict)
     radiance: np.ndarray | None = None
+    recovery: object | None = None  # sources.Recovery for the per-source estimator (hdr.exr is made from it)
 
     @property
     def lmax(self) -> int:
@@ -77,6 +80,18 @@ def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
                     {"input": "ldr", "work_height": work, "clipped_regions": blobs}, recovered)
 
 
+def per_source(pixels: np.ndarray, lmax: int) -> Estimate:
+    if pixels.dtype != np.uint8:
+        return _exact_hdr(pixels, lmax, "sources")
+    from . import sources
+
+    model = sources.load_source_model()
+    rec = sources.recover(pixels, model)
+    return Estimate(sh.project(rec.work, lmax), "sources",
+                    {"input": "ldr", "work_height": rec.frac.shape[0], "model": model.path.name,
+                     "clipped_regions": rec.region_info()}, rec.work, rec)
+
+
 def neural_estimator(weights=None, label: str = "neural"):
     """An estimator function running the learned model in ``weights`` (default: the shipped file)."""
 
@@ -112,7 +127,8 @@ def _neural_shipped() -> bool:
     return nn_estimator.DEFAULT_WEIGHTS.is_file()
 
 
-_REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic, "neural": neural_estimator()}
+_REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic, "sources": per_source,
+             "neural": neural_estimator()}
 BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these
 AUTO = "analytic"  # what ``auto`` means: the best on the public set (README "The learned estimator")
 

@@ -165,3 +165,41 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
         info["reason"] = "; ".join(reasons) or (f"no region is brighter than {base:g}" if threshold is not None
                                                 else f"no region is brighter than {peak_ratio:g} x the median luminance")
     return lights, residual, info
+
+
+def light_coeffs(lights, lmax: int) -> np.ndarray:
+    """(K, 3) SH coefficients of lights taken as uniform disks (EVALUATION.md's whole-model scoring).
+
+    A light of direction d, RGB energy intensity x color (radiance units x sr) and angular diameter a is a
+    spherical cap of half-angle a/2 carrying that energy; its zonal band factors are exact:
+    L_lm = E f_l Y_lm(d), f_l = (P_(l-1)(c) - P_(l+1)(c)) / ((2l+1)(1-c)), c = cos(a/2), f_0 = 1,
+    which tends to 1 for every l as the cap shrinks to a point.
+    """
+    k = (lmax + 1) ** 2
+    out = np.zeros((k, 3))
+    if not lights:
+        return out
+    from .sh.indexing import degrees_orders
+
+    degrees = degrees_orders(lmax)[0]
+    for light in lights:
+        d = np.asarray(light["direction"], dtype=np.float64)
+        d = d / np.linalg.norm(d)
+        c = math.cos(0.5 * float(light.get("angle", 0.0)))
+        energy = float(light["intensity"]) * np.asarray(light["color"], dtype=np.float64)
+        band = _cap_band_factors(c, lmax)
+        out += (np.asarray(sh.basis(d[None], lmax))[0] * band[degrees])[:, None] * energy[None, :]
+    return out
+
+
+def _cap_band_factors(c: float, lmax: int) -> np.ndarray:
+    """f_l for l = 0..lmax of a uniform cap with cos(half-angle) = c (1 for a point)."""
+    f = np.ones(lmax + 1)
+    if 1.0 - c < 1e-10:
+        return f
+    p = [1.0, c]  # Legendre P_0, P_1 at c, by recurrence
+    for n in range(1, lmax + 1):
+        p.append(((2 * n + 1) * c * p[n] - n * p[n - 1]) / (n + 1))
+    for l in range(1, lmax + 1):
+        f[l] = (p[l - 1] - p[l + 1]) / ((2 * l + 1) * (1.0 - c))
+    return f

@@ -1,0 +1,121 @@
+"""Leave-scenes-out cross-validation of the per-source energy model (``source_energy cv``)."""
+from __future__ import annotations
+
+import json
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from panolight_core import metrics, sh, sources
+from panolight_core.adaptive import fit_model
+from panolight_core.camera import hdr_to_ldr, ldr_to_linear
+from panolight_core.highlights import CLIP_LEVEL, recover_highlights
+
+EVS = (-2.0, 0.0, 2.0)
+
+
+def whole_model_coeffs(radiance: np.ndarray, lmax: int = 2) -> np.ndarray:
+    """The default model of a recovered map (lights + auto-order SH), projected to ``lmax``."""
+    return fit_model(radiance, light_threshold=CLIP_LEVEL).project(lmax)
+
+
+def score_scene(hdr: np.ndarray, variants: dict, evs=EVS, jpeg: int = 90) -> list[dict]:
+    """EVALUATION.md on one HDR: rows of (ev, estimator, m_rmse, irr_rmse). variants: name ->
+    function(ldr, truth_exposed) -> radiance map (or 'naive'/'analytic' builtins)."""
+    gt = sh.project(hdr, 2)
+    rows = []
+    for ev in evs:
+        ldr = hdr_to_ldr(hdr, ev, jpeg, robust=True)
+        for name, fn in variants.items():
+            if name == "naive":
+                q = sh.project(ldr_to_linear(ldr), 2)
+            else:
+                q = whole_model_coeffs(fn(ldr))
+            rows.append({"ev": ev, "estimator": name, "m_rmse": metrics.m_rmse(gt, q),
+                         "irr_rmse": metrics.irr_rmse(gt, q)})
+    return rows
+
+
+def fold_variants(model: sources.SourceModel) -> dict:
+    def learned(shrink):
+        def run(ldr):
+            def fn(reg):
+                mu, sigma, _ = model.predict(reg.features)
+                return mu, sigma, np.maximum(mu - shrink * sigma ** 2, 0.0)
+            return sources.recover(ldr, log_ratio_fn=fn).work
+        return run
+
+    return {"naive": None,
+            "analytic": lambda ldr: recover_highlights(ldr, 64)[0],
+            "power-law regions": lambda ldr: sources.recover(ldr, log_ratio_fn=sources.power_law_log_ratio).work,
+            "learned (mu)": learned(0.0),
+            "learned (mu - 0.5 s2)": learned(0.5),
+            "learned (mu - s2)": learned(1.0),
+            "learned (mu - 1.5 s2)": learned(1.5)}
+
+
+def cross_validate(files, X, y, w, g, args):
+    from training.source_energy import fit, load_hdr
+
+    n = len(files)
+    rng = np.random.default_rng(args.seed)
+    perm = rng.permutation(n)
+    folds = [perm[i::args.folds] for i in range(args.folds)]
+    rows = []
+    t0 = time.perf_counter()
+    for k, test in enumerate(folds):
+        train = ~np.isin(g, test)
+        mean, spread, _ = fit(X[train], y[train], w[train], args.seed, g[train])
+        model = sources.SourceModel(mean, spread, 1.0, sources.FEATURES, {}, Path("fold"))
+        pred = mean.predict(X[~train])
+        variants = fold_variants(model)
+        for i in test:
+            hdr = load_hdr(files[i])
+            for r in score_scene(hdr, variants):
+                rows.append(dict(r, scene=files[i].stem, fold=k))
+        rmse = float(np.sqrt(np.average((pred - y[~train]) ** 2, weights=w[~train])))
+        print(f"fold {k + 1}/{len(folds)}: {len(test)} scenes, held-out log-ratio RMSE {rmse:.3f} "
+              f"({time.perf_counter() - t0:.0f} s)")
+    summary = summarise(rows)
+    print(markdown(summary))
+    out = Path(args.out or "docs/source_energy_cv.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps({"rows": rows, "summary": summary, "folds": [[files[i].stem for i in f] for f in folds]},
+                              indent=1) + "\n", encoding="utf-8")
+    print(f"wrote {out}")
+    return rows, summary
+
+
+def summarise(rows) -> list[dict]:
+    """Per (estimator, ev): mean and median m-RMSE and irr-RMSE, ratios to naive, wins against naive."""
+    out = []
+    names = list(dict.fromkeys(r["estimator"] for r in rows))
+    evs = sorted(set(r["ev"] for r in rows))
+    for ev in evs:
+        naive = {r["scene"]: r for r in rows if r["ev"] == ev and r["estimator"] == "naive"}
+        nm = [r["m_rmse"] for r in naive.values()]
+        ni = [r["irr_rmse"] for r in naive.values()]
+        for name in names:
+            sel = [r for r in rows if r["ev"] == ev and r["estimator"] == name]
+            m = [r["m_rmse"] for r in sel]
+            i = [r["irr_rmse"] for r in sel]
+            out.append({"estimator": name, "ev": ev, "scenes": len(sel),
+                        "mean_m": float(np.mean(m)), "median_m": float(np.median(m)), "mean_irr": float(np.mean(i)),
+                        "median_irr": float(np.median(i)),
+                        "mean_m_x_naive": float(np.mean(m) / np.mean(nm)),
+                        "median_m_x_naive": float(np.median(m) / np.median(nm)),
+                        "mean_irr_x_naive": float(np.mean(i) / np.mean(ni)),
+                        "wins": sum(r["m_rmse"] < naive[r["scene"]]["m_rmse"] for r in sel)})
+    return out
+
+
+def markdown(summary) -> str:
+    lines = ["| estimator | ev | mean m-RMSE | median m-RMSE | mean irr-RMSE | mean / naive | median / naive | "
+             "irr mean / naive | wins vs naive |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for s in summary:
+        lines.append(f"| {s['estimator']} | {s['ev']:+g} | {s['mean_m']:.3f} | {s['median_m']:.3f} | {s['mean_irr']:.3f} | "
+                     f"{s['mean_m_x_naive']:.2f}x | {s['median_m_x_naive']:.2f}x | {s['mean_irr_x_naive']:.2f}x | "
+                     f"{s['wins']}/{s['scenes']} |")
+    return "\n".join(lines)
