@@ -130,7 +130,7 @@ def _neural_shipped() -> bool:
 _REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic, "sources": per_source,
              "neural": neural_estimator()}
 BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these
-AUTO = "analytic"  # what ``auto`` means: the best on the public set (README "The learned estimator")
+AUTO = "sources"  # what ``auto`` means: the best on the cross-validation over the 50 real HDRs (docs/accuracy.md)
 
 
 def available() -> tuple[str, ...]:

@@ -2,11 +2,15 @@
 
 For each scene and ev: ground truth = exact projection of the HDR (lmax 2); input = the camera model's
 8-bit LDR, JPEG q90 by default (EVALUATION.md's reference numbers reproduce to two decimals only with
-JPEG inputs: without it sunset's naive m-RMSE is 0.3447, not 0.35); each estimator's coefficients are scored with m-RMSE, irr-RMSE and the
-dominant-light angle, and timed (median of ``repeats`` runs on the in-memory LDR, decode excluded: the
-decode-inclusive figure is in training/benchmarks/bench_estimate.py).
-The estimated light direction is the brightest direction of the estimate's radiance (256 x 128 grid);
-a constant estimate (ambient) has none.
+JPEG inputs: without it sunset's naive m-RMSE is 0.3447, not 0.35). The baselines (ambient, naive) are
+scored as EVALUATION.md defines them (a projection); every other estimator as what ``panolight
+estimate`` writes by default, the whole model (explicit lights as disks + the auto-order SH, projected
+to lmax; ``adaptive.LightingModel.project``). Each row has m-RMSE, irr-RMSE, the dominant-light angle
+and the sun's share of the irradiance facing it (true and estimated; sun scenes), and the estimator's
+time (median of ``repeats`` runs on the in-memory LDR, decode excluded: the decode-inclusive figure is
+in training/benchmarks/bench_estimate.py). The estimated light direction is the first light's peak
+direction, else the brightest direction of the model's radiance (256 x 128 grid); a constant estimate
+(ambient) has none.
 """
 from __future__ import annotations
 
@@ -27,6 +31,46 @@ from .estimators import available, estimate
 from .io import read_image
 
 SUN_SCENES = ("city", "courtyard", "forest", "sunrise", "sunset")
+BASELINES = ("ambient", "naive")
+SUN_CONE_DEG = 3.0  # the true sun: pixels within this angle of the dominant direction, above their ring
+
+
+def true_sun_share(hdr: np.ndarray, direction) -> float:
+    """Share of the irradiance facing ``direction`` that comes from the source there: the pixels within
+    SUN_CONE_DEG, less the median of the ring out to twice that (HDR ground truth)."""
+    h, w = hdr.shape[:2]
+    dirs = sh.pixel_directions(h, w)
+    omega = sh.pixel_solid_angles(h, w)
+    d = np.asarray(direction, dtype=np.float64)
+    cos = dirs @ d
+    ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    lum = np.asarray(hdr, dtype=np.float64) @ LUMINANCE_WEIGHTS
+    ring = (ang > SUN_CONE_DEG) & (ang < 2 * SUN_CONE_DEG)
+    bg = float(np.median(lum[ring])) if ring.any() else 0.0
+    core = ang <= SUN_CONE_DEG
+    sun = float((np.maximum(lum[core] - bg, 0.0) * omega[core] * np.maximum(cos[core], 0.0)).sum())
+    total = float((lum * omega * np.maximum(cos, 0.0)).sum())
+    return sun / total if total > 0 else 0.0
+
+
+def model_sun_share(model, direction) -> float | None:
+    """Share of the model's irradiance facing ``direction`` carried by its first (brightest) light."""
+    if not model.lights:
+        return 0.0
+    from .lights import light_irradiance
+
+    n = np.asarray(direction, dtype=np.float64)[None]
+    sun = float(light_irradiance(model.lights[:1], n)[0] @ LUMINANCE_WEIGHTS)
+    total = float(model.irradiance(n)[0] @ LUMINANCE_WEIGHTS)
+    return sun / total if total > 0 else None
+
+
+def scored_model(est, hdr_input: bool):
+    """The whole model ``panolight estimate`` writes for an estimate (lights + auto-order SH)."""
+    from .adaptive import fit_model
+    from .highlights import CLIP_LEVEL
+
+    return fit_model(est.radiance, light_threshold=None if hdr_input else CLIP_LEVEL)
 
 
 def estimated_direction(coeffs: np.ndarray):
@@ -51,6 +95,7 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
             hdr = read_image(studio_hdri(scene)).astype(np.float64)
         gt = sh.project(hdr, lmax)
         true_dir = metrics.dominant_light_direction(hdr)
+        true_share = true_sun_share(hdr, true_dir)
         for ev in evs:
             ldr = hdr_to_ldr(hdr, ev, jpeg_quality)
             for name in estimators:
@@ -58,11 +103,19 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                 for _ in range(max(1, repeats)):
                     t = time.perf_counter()
                     est = estimate(ldr, lmax, name)
+                    if name not in BASELINES:
+                        model = scored_model(est, False)
                     times.append(time.perf_counter() - t)
-                d = estimated_direction(est.coeffs)
+                if name in BASELINES:
+                    coeffs, share, d = est.coeffs, None, estimated_direction(est.coeffs)
+                else:
+                    coeffs = model.project(lmax)
+                    share = model_sun_share(model, true_dir) if scene in SUN_SCENES else None
+                    d = np.asarray(model.lights[0]["peak_direction"]) if model.lights else estimated_direction(coeffs)
                 rows.append({"scene": scene, "ev": ev, "estimator": name,
-                             "m_rmse": metrics.m_rmse(gt, est.coeffs), "irr_rmse": metrics.irr_rmse(gt, est.coeffs),
+                             "m_rmse": metrics.m_rmse(gt, coeffs), "irr_rmse": metrics.irr_rmse(gt, coeffs),
                              "light_angle_deg": None if d is None else metrics.angle_deg(true_dir, d),
+                             "sun_share": share, "true_sun_share": true_share if scene in SUN_SCENES else None,
                              "ms": 1e3 * statistics.median(times)})
             log(f"{scene} ev {ev:+g}: " + ", ".join(
                 f"{r['estimator']} {r['m_rmse']:.3f}" for r in rows if r["scene"] == scene and r["ev"] == ev))
@@ -71,10 +124,15 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
         for ev in evs:
             sel = [r for r in rows if r["estimator"] == name and r["ev"] == ev]
             angles = [r["light_angle_deg"] for r in sel if r["light_angle_deg"] is not None and r["scene"] in SUN_SCENES]
+            naive = {r["scene"]: r for r in rows if r["estimator"] == "naive" and r["ev"] == ev}
             summary[f"{name}@{ev:+g}"] = {
                 "estimator": name, "ev": ev,
                 "mean_m_rmse": float(np.mean([r["m_rmse"] for r in sel])),
+                "median_m_rmse": float(np.median([r["m_rmse"] for r in sel])),
                 "mean_irr_rmse": float(np.mean([r["irr_rmse"] for r in sel])),
+                "median_irr_rmse": float(np.median([r["irr_rmse"] for r in sel])),
+                "wins_vs_naive": (sum(r["m_rmse"] < naive[r["scene"]]["m_rmse"] for r in sel if r["scene"] in naive)
+                                  if naive else None),
                 "mean_sun_angle_deg": float(np.mean(angles)) if angles else None,
                 "median_ms": float(statistics.median([r["ms"] for r in sel]))}
     return {"rows": rows, "summary": summary,
@@ -174,11 +232,28 @@ def markdown(result: dict) -> str:
         means = [result["summary"][f"{n}@{ev:+g}"] for n in s["estimators"]]
         out.append("| **mean** | " + " | ".join(f"**{m['mean_m_rmse']:.3f} / {m['mean_irr_rmse']:.3f}**" for m in means) + " |")
         out += ["", "cells: m-RMSE / irr-RMSE / dominant-light angle in degrees (lower is better)", ""]
-    out += ["## Summary", "", "| estimator | ev | mean m-RMSE | mean irr-RMSE | mean sun angle (5 sun scenes) | median ms |",
-            "|---|---:|---:|---:|---:|---:|"]
+    out += ["## Summary", "", "Baselines (ambient, naive) are projections; other estimators are scored as their whole "
+            "model (lights + SH). Wins: scenes whose m-RMSE beats naive's.", "",
+            "| estimator | ev | mean m-RMSE | median m-RMSE | mean irr-RMSE | median irr-RMSE | wins vs naive | "
+            "mean sun angle (5 sun scenes) | median ms |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for m in result["summary"].values():
-        out.append(f"| {m['estimator']} | {m['ev']:+g} | {m['mean_m_rmse']:.3f} | {m['mean_irr_rmse']:.3f} | "
+        wins = "n/a" if m.get("wins_vs_naive") is None else f"{m['wins_vs_naive']}/{len(s['scenes'])}"
+        out.append(f"| {m['estimator']} | {m['ev']:+g} | {m['mean_m_rmse']:.3f} | {m['median_m_rmse']:.3f} | "
+                   f"{m['mean_irr_rmse']:.3f} | {m['median_irr_rmse']:.3f} | {wins} | "
                    f"{_fmt(m['mean_sun_angle_deg'], 1)} | {m['median_ms']:.1f} |")
+    shares = [r for r in result["rows"] if r.get("true_sun_share") is not None and r.get("sun_share") is not None]
+    if shares:
+        out += ["", "## The sun's share of the irradiance facing it (sun scenes; true / estimated)", "",
+                "| scene | ev | " + " | ".join(n for n in s["estimators"] if n not in BASELINES) + " |",
+                "|---|---:|" + "---:|" * len([n for n in s["estimators"] if n not in BASELINES])]
+        for scene in s["scenes"]:
+            for ev in s["evs"]:
+                cells = [next((f"{r['true_sun_share']:.0%} / {r['sun_share']:.0%}" for r in shares
+                               if r["scene"] == scene and r["ev"] == ev and r["estimator"] == n), "n/a")
+                         for n in s["estimators"] if n not in BASELINES]
+                if any(c != "n/a" for c in cells):
+                    out.append(f"| {scene} | {ev:+g} | " + " | ".join(cells) + " |")
     return "\n".join(out) + "\n"
 
 

@@ -19,7 +19,7 @@ from .errors import PanoLightError
 from .order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE
 from .sh.window import default_width
 
-OUTPUT_FILES = ("lighting.json", "radiance.exr", "irradiance.exr", "preview.png")
+OUTPUT_FILES = ("lighting.json", "hdr.exr", "radiance.exr", "irradiance.exr", "preview.png")
 
 
 def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model: str = "auto",
@@ -110,6 +110,9 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
 
     shown = ldr_to_linear(pixels) if not hdr else pixels
     preview = estimate_preview(shown, radiance, fitted, sh.lmax_from_count(coeffs.shape[0]))
+    from .hdri import hdr_panorama
+
+    write_image(out_dir / "hdr.exr", hdr_panorama(pixels, est) * np.float32(scale))
     write_image(out_dir / "radiance.exr", radiance)
     write_image(out_dir / "irradiance.exr", irradiance)
     _write_png(out_dir / "preview.png", preview)

@@ -51,9 +51,9 @@ def fold_variants(model: sources.SourceModel) -> dict:
             "analytic": lambda ldr: recover_highlights(ldr, 64)[0],
             "power-law regions": lambda ldr: sources.recover(ldr, log_ratio_fn=sources.power_law_log_ratio).work,
             "learned (mu)": learned(0.0),
+            "learned (mu - 0.25 s2)": learned(0.25),
             "learned (mu - 0.5 s2)": learned(0.5),
-            "learned (mu - s2)": learned(1.0),
-            "learned (mu - 1.5 s2)": learned(1.5)}
+            "learned (mu - s2)": learned(1.0)}
 
 
 def cross_validate(files, X, y, w, g, args):
