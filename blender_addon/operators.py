@@ -18,10 +18,8 @@ from bpy.props import EnumProperty, FloatProperty, StringProperty
 from . import world as W
 from .core import core
 
-ESTIMATORS = [("auto", "Auto", "The best available estimator"),
-              ("analytic", "Analytic", "sRGB to linear with clipped-highlight recovery; exact for HDR"),
-              ("naive", "Naive", "sRGB to linear only"),
-              ("neural", "Neural", "The learned estimator (paper network, numpy; no torch needed)")]
+ESTIMATORS = [("auto", "Auto", f"The best estimator measured ({core.estimators.AUTO})")] + \
+    [(name, label, text) for name, (label, text) in core.estimators.DESCRIPTIONS.items()]
 ORDERS = [("auto", "Auto", "The smallest SH order the scene needs")] + \
     [(str(i), str(i), f"SH order {i}: {(i + 1) ** 2} coefficients") for i in range(9)]
 MODELS = [("auto", "Lights + SH", "Explicit lights for compact sources plus SH"), ("sh", "SH only", "SH only")]
@@ -40,7 +38,7 @@ def _panorama(world):
 
 
 def _fit(pixels, estimator, lmax, model, tolerance):
-    """Runs in a worker thread: numpy only, never bpy."""
+    """Runs in a worker thread: numpy only, never bpy. Returns (lighting document, HDRI (H, W, 3))."""
     fitted, est = core.pipeline.fit_pixels(pixels, lmax=None if lmax == "auto" and model == "auto" else lmax,
                                            estimator=estimator, model=model, tolerance=tolerance)
     doc = core.lighting.make_lighting(fitted.coeffs, lights=fitted.lights,
@@ -48,7 +46,7 @@ def _fit(pixels, estimator, lmax, model, tolerance):
                                       "relative: 1 = the LDR camera's clip level (white)",
                                       estimator={k: v for k, v in est.info.items() if k != "clipped_regions"},
                                       model=fitted.info)
-    return doc
+    return doc, core.hdri.hdr_panorama(pixels, est)
 
 
 class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
@@ -113,8 +111,10 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
         pixels = W.image_pixels(_panorama(world))
         return world, pixels
 
-    def _store(self, context, world, doc):
+    def _store(self, context, world, result):
+        doc, hdri = result
         world["panolight_lighting"] = json.dumps(doc)
+        world["panolight_hdri"] = W.radiance_image(hdri, W.HDRI_IMAGE_NAME).name
         n = len(doc.get("lights", []))
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
@@ -122,11 +122,11 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     def execute(self, context):
         try:
             world, pixels = self._inputs(context)
-            doc = _fit(pixels, self.estimator, self.lmax, self.model, self.tolerance)
+            result = _fit(pixels, self.estimator, self.lmax, self.model, self.tolerance)
         except Exception as exc:  # reported in the UI, not as a traceback
             self.report({"ERROR"}, f"PanoLight: {exc}")
             return {"CANCELLED"}
-        self._store(context, world, doc)
+        self._store(context, world, result)
         return {"FINISHED"}
 
     def invoke(self, context, event):
@@ -212,15 +212,24 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
             self.report({"ERROR"}, f"PanoLight: {exc}")
             return {"CANCELLED"}
         s = _settings(context)
-        coeffs = np.asarray(doc["coefficients"], dtype=np.float64)
-        h = max(64, min(1024, s.radiance_height))
-        radiance = np.maximum(core.sh.reconstruct(coeffs, h, 2 * h), 0.0).astype(np.float32)
-        image = W.radiance_image(radiance)
+        if s.lighting_source == "HDRI":
+            image = bpy.data.images.get(world.get("panolight_hdri") or "")
+            if image is None:
+                self.report({"ERROR"}, "PanoLight: no reconstructed HDRI: use Estimate lighting first")
+                return {"CANCELLED"}
+            lights = []  # the sun and lamps are in the HDRI itself
+        else:
+            coeffs = np.asarray(doc["coefficients"], dtype=np.float64)
+            h = max(64, min(1024, s.radiance_height))
+            radiance = np.maximum(core.sh.reconstruct(coeffs, h, 2 * h), 0.0).astype(np.float32)
+            image = W.radiance_image(radiance)
+            lights = doc.get("lights", []) if s.create_lights else []
         W.build_world(panorama, image, **_world_kwargs(context))
-        lights = doc.get("lights", []) if s.create_lights else []
         W.set_lights(lights, context.scene, s.lighting_strength, s.lighting_rotation)
         context.scene.world = world
-        self.report({"INFO"}, f"PanoLight: environment built (SH order {doc['lmax']}, {len(lights)} sun lamp(s))")
+        what = "the reconstructed HDRI" if s.lighting_source == "HDRI" else \
+            f"SH order {doc['lmax']}, {len(lights)} sun lamp(s)"
+        self.report({"INFO"}, f"PanoLight: environment built ({what})")
         return {"FINISHED"}
 
 

@@ -1,7 +1,7 @@
 """The PanoLight panel (World properties, and a PanoLight tab in the 3D viewport sidebar) and settings."""
 
 import bpy
-from bpy.props import BoolProperty, FloatProperty, IntProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 
 class PanoLightSettings(bpy.types.PropertyGroup):
@@ -14,6 +14,11 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                   description="Glossy rays see the panorama instead of the smooth SH lighting")
     create_lights: BoolProperty(name="Sun lamps for explicit lights", default=True)
     radiance_height: IntProperty(name="SH map height", default=256, min=64, max=1024)
+    lighting_source: EnumProperty(
+        name="Light with", default="SH",
+        items=[("SH", "SH lighting + sun lamps", "A smooth SH radiance map plus sun lamps for compact sources"),
+               ("HDRI", "Reconstructed HDRI", "Lighting and reflections from the full-resolution HDR panorama, "
+                "its clipped sun and lamps filled with their estimated energy")])
 
 
 def draw_panel(layout, context):
@@ -27,6 +32,7 @@ def draw_panel(layout, context):
     op = box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
     box.label(text="Estimated" if world is not None and world.get("panolight_lighting") else "Not estimated yet")
     box = layout.box()
+    box.prop(s, "lighting_source")
     box.prop(s, "background_strength")
     box.prop(s, "lighting_strength")
     box.prop(s, "background_rotation")

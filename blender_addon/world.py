@@ -17,6 +17,7 @@ import numpy as np
 WORLD_NAME = "PanoLight"
 LIGHTS_COLLECTION = "PanoLight Lights"
 SH_IMAGE_NAME = "PanoLight SH Radiance"
+HDRI_IMAGE_NAME = "PanoLight HDRI"
 TAG = "panolight"
 
 
@@ -46,15 +47,17 @@ def load_panorama(filepath: str):
     return image
 
 
-def radiance_image(radiance: np.ndarray):
-    """Create or update the float image holding the SH radiance map ((H, W, 3) linear, top row first)."""
+def radiance_image(radiance: np.ndarray, name: str = SH_IMAGE_NAME):
+    """Create or update a packed float image (the SH radiance map, or the reconstructed HDRI with
+    ``name=HDRI_IMAGE_NAME``) from (H, W, 3) linear pixels, top row first."""
     h, w = radiance.shape[:2]
-    image = bpy.data.images.get(SH_IMAGE_NAME)
+    image = bpy.data.images.get(name)
     if image is not None and tuple(image.size) != (w, h):
         bpy.data.images.remove(image)
         image = None
     if image is None:
-        image = bpy.data.images.new(SH_IMAGE_NAME, w, h, alpha=False, float_buffer=True)
+        image = bpy.data.images.new(name, w, h, alpha=False, float_buffer=True)
+        image[TAG] = True
     image.colorspace_settings.name = "Linear Rec.709"
     rgba = np.ones((h, w, 4), dtype=np.float32)
     rgba[..., :3] = radiance[::-1]

@@ -26,7 +26,6 @@ from .camera import ldr_to_linear
 from .errors import PanoLightError
 from .highlights import recover_highlights
 
-NAMES = ("ambient", "naive", "analytic")
 WORK_HEIGHT = 64  # rows of the highlight work map; 64 and 128 score alike on synthetic scenes (training/eval_synthetic.py)
 
 
@@ -129,6 +128,14 @@ def _neural_shipped() -> bool:
 
 _REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic, "sources": per_source,
              "neural": neural_estimator()}
+DESCRIPTIONS = {  # name -> (label, one line), for CLI help and Blender menus
+    "sources": ("Per-source energy", "Each clipped sun, lamp or window gets the energy a model learned from real "
+                "HDR panoramas predicts; exact for HDR"),
+    "analytic": ("Analytic", "sRGB to linear with power-law highlight recovery; exact for HDR"),
+    "naive": ("Naive", "sRGB to linear only"),
+    "ambient": ("Ambient", "A constant environment (the naive L00)"),
+    "neural": ("Neural", "The paper's network (numpy; no torch needed)"),
+}
 BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these
 AUTO = "sources"  # what ``auto`` means: the best on the cross-validation over the 50 real HDRs (docs/accuracy.md)
 

@@ -16,10 +16,12 @@ def test_estimate_hdr_writes_its_outputs_and_they_are_right(tmp_path, rng):
     src = write_image(tmp_path / "in.exr", img)
     out = tmp_path / "out"
     assert main(["estimate", str(src), "-o", str(out), "--lmax", "3", "--resolution", "64x32", "-q"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["irradiance.exr", "lighting.json", "preview.png", "radiance.exr"]
+    assert sorted(p.name for p in out.iterdir()) == ["hdr.exr", "irradiance.exr", "lighting.json", "preview.png",
+                                                     "radiance.exr"]
     coeffs, doc = read_lighting(out / "lighting.json")
     np.testing.assert_allclose(coeffs, sh.project(img.astype(np.float64), 3), rtol=1e-5, atol=1e-6)
-    assert doc["source"]["sha256"] and doc["estimator"]["name"] == "analytic" and doc["order"]["mode"] == "fixed"
+    np.testing.assert_array_equal(read_image(out / "hdr.exr"), img)  # an HDR input is its own HDRI
+    assert doc["source"]["sha256"] and doc["estimator"]["name"] == "sources" and doc["order"]["mode"] == "fixed"
     assert set(doc["timings"]) == {"read_s", "estimate_s", "model_s", "write_s"}
     np.testing.assert_allclose(read_image(out / "radiance.exr"), sh.reconstruct(coeffs, 32, 64), rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(read_image(out / "irradiance.exr", negative="error"),
