@@ -201,7 +201,7 @@ def run_render_mitsuba(args) -> int:
     res = render_figure(args.inputs, args.out, meshes=args.meshes, spp=args.spp, resolution=args.resolution_wh,
                         yaw=args.yaw, pitch=args.pitch, fov=args.fov, materials=args.materials,
                         in_panorama=not args.no_panorama_view, compare_hdr=args.compare_hdr,
-                        log=_log(args.quiet))
+                        from_ldr=args.from_ldr, log=_log(args.quiet))
     print(f"render-mitsuba: {len(res['renders'])} EXR renders and {res['figure']} in {res['seconds']:.0f} s "
           f"({res['variant']}, {res['spp']} spp)", file=sys.stderr)
     return 0
@@ -358,6 +358,10 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--fov", type=float, default=50.0, help="horizontal field of view in degrees (default 50)")
     m.add_argument("--materials", nargs="+", default=["mirror", "plastic", "gold"], help="columns of the figure")
     m.add_argument("--compare-hdr", action="store_true", help="add a row lit by the input HDR itself")
+    m.add_argument("--from-ldr", type=float, default=None, metavar="EV",
+                   help="estimate each HDR input from the JPEG an auto-exposing camera takes of it at this ev "
+                        "(EVALUATION.md, q90), as the paper's figure estimates from photographs; with "
+                        "--compare-hdr the ground-truth row is the HDR in the JPEG's units")
     m.add_argument("--no-panorama-view", action="store_true", help="skip the objects-in-the-panorama renders")
     m.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     m.set_defaults(func=run_render_mitsuba)

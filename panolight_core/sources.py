@@ -48,7 +48,8 @@ FEATURES = (
     "compactness", "log_extent_deg", "ring0", "ring1", "ring2", "ring3", "ring_falloff", "exponent",
     "log_power_law_gain", "ring_saturation", "ring_blue_red", "log_held_mean", "share_of_clipped",
     "rank", "log_regions", "log_scene_clipped", "log_median", "log_mean", "log_upper_lower",
-    "sky_blue_red", "log_lower_contrast", "log_brightest_ring_elsewhere",
+    "sky_blue_red", "log_lower_contrast", "log_brightest_ring_elsewhere", "log_scene_over_held",
+    "log_upper_over_held",
 )
 
 
@@ -200,9 +201,12 @@ def region_features(rad: np.ndarray, frac_any: np.ndarray, frac_all: np.ndarray,
             ring_color[2] / max(ring_color[0], 1e-3), _log10(held[i] / max(region_sr[i], 1e-12)),
         ]
     share = clipped_sr / max(scene_clipped, 1e-12)
+    scene_e = float((lum * omega).sum())
+    upper_e = float((lum * omega)[upper].sum())
     for i in range(n):
         others = np.delete(ring0_all, i)
-        feats[i, 17:] = [share[i], min(i, 10), *scene, _log10(others.max() if others.size else 1e-4, 1e-4)]
+        feats[i, 17:] = [share[i], min(i, 10), *scene, _log10(others.max() if others.size else 1e-4, 1e-4),
+                         _log10(scene_e / max(held[i], 1e-12)), _log10(upper_e / max(held[i], 1e-12))]
     return Regions(labels, clipped_sr, held, centre, color, exponent, feats)
 
 

@@ -327,9 +327,12 @@ def default_meshes() -> list[Path]:
                          "pass --meshes PATH [PATH ...] (.ply or .obj, +Y up)")
 
 
-def load_input(path, lmax="auto"):
-    """(coeffs, lights, panorama or None, label) from a panorama (estimated here with the default
-    adaptive model) or a lighting.json (its source panorama is used as background when it exists)."""
+def load_input(path, lmax="auto", from_ldr=None):
+    """(coeffs, lights, panorama or None, label, truth or None) from a panorama (estimated here with the
+    default adaptive model) or a lighting.json (its source panorama is used as background when it
+    exists). from_ldr: an ev; an HDR input is first turned into the JPEG an auto-exposing camera takes
+    (EVALUATION.md, q90), which is estimated and shown, and ``truth`` is the HDR in that JPEG's units
+    (k x HDR), for the ground-truth row; the figure then estimates from a photograph, as the paper's."""
     from panolight_core.adaptive import fit_model
     from panolight_core.estimators import estimate
     from panolight_core.highlights import CLIP_LEVEL
@@ -345,21 +348,30 @@ def load_input(path, lmax="auto"):
         if src.is_file():
             px = read_image(src, ldr_as_uint8=True)
             pano = ldr_to_linear(px) if px.dtype == np.uint8 else px
-        return coeffs, doc.get("lights", []), pano, p.parent.name or p.stem
+        return coeffs, doc.get("lights", []), pano, p.parent.name or p.stem, None
     px = read_image(p, ldr_as_uint8=True)
     hdr = px.dtype != np.uint8
+    truth = None
+    if hdr and from_ldr is not None:
+        from panolight_core.camera import auto_exposure, hdr_to_ldr
+
+        truth = np.maximum(np.asarray(px, dtype=np.float64), 0.0)
+        k = auto_exposure(truth, from_ldr, robust=True)
+        px, truth, hdr = hdr_to_ldr(truth, from_ldr, 90, scale=k), truth * k, False
     est = estimate(px, 8, "auto")
     model = fit_model(est.radiance, lmax=lmax, light_threshold=None if hdr else CLIP_LEVEL)
     pano = px if hdr else ldr_to_linear(px)
-    return model.coeffs, model.lights, np.asarray(pano, dtype=np.float64), p.stem
+    label = p.stem if truth is None else f"{p.stem} JPEG ev {from_ldr:+g}"
+    return model.coeffs, model.lights, np.asarray(pano, dtype=np.float64), label, truth
 
 
 def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320, 240), yaw: float = 0.0,
                   pitch: float = -12.0, fov: float = 50.0, materials=("mirror", "plastic", "gold"),
                   in_panorama: bool = True, compare_hdr: bool = False, env_height: int = 256,
-                  log=print) -> dict:
+                  from_ldr: float | None = None, log=print) -> dict:
     """Render every input x material (perspective view, and optionally the in-panorama view), write an
-    EXR per render and figure.png (rows: inputs, columns: materials). Returns the paths and timings."""
+    EXR per render and figure.png (rows: inputs, columns: materials). from_ldr: estimate HDR inputs
+    from their camera JPEG at that ev (see load_input). Returns the paths and timings."""
     from panolight_core.io import read_image, write_image
     from panolight_core.preview import exposure_for, tonemap
 
@@ -373,12 +385,14 @@ def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320,
     total = len(materials) * sum(1 + int(compare_hdr and hdr) for hdr in is_hdr)
     done = 0
     for inp in inputs:
-        coeffs, lights, pano, label = load_input(inp)
+        coeffs, lights, pano, label, truth = load_input(inp, from_ldr=from_ldr)
         if pano is None:
             pano = np.full((64, 128, 3), 0.5)
         bg = sample_equirect(pano, perspective_rays(w, h, fov, yaw, pitch))
         variants = [("estimated", scene_emitters(coeffs, lights, env_height))]
-        if compare_hdr and Path(inp).suffix.lower() in (".exr", ".hdr"):
+        if compare_hdr and truth is not None:
+            variants.append(("ground truth", hdr_emitter(truth)))
+        elif compare_hdr and Path(inp).suffix.lower() in (".exr", ".hdr"):
             variants.append(("ground truth", hdr_emitter(np.asarray(read_image(inp), dtype=np.float64))))
         elif compare_hdr:
             log(f"{inp}: not an HDR file, so no ground-truth row for it")

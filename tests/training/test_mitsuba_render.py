@@ -146,3 +146,30 @@ def test_bad_mesh_is_reported():
         mr.mesh_shapes(["nope.ply"], "mirror", 0.0)
     with pytest.raises(PanoLightError, match="unknown material"):
         mr.mesh_shapes(mr.default_meshes(), "velvet", 0.0)
+
+
+def test_figure_from_the_camera_jpeg_has_truth_in_the_jpeg_units(tmp_path):
+    """--from-ldr: an HDR input is estimated from its camera JPEG; the truth row is k x HDR."""
+    from panolight_core.camera import auto_exposure
+    from panolight_core.data import studio_hdri
+    from panolight_core.io import read_image
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hdr = np.maximum(read_image(studio_hdri("city")).astype(np.float64), 0.0)
+        coeffs, lights, pano, label, truth = mr.load_input(studio_hdri("city"), from_ldr=0.0)
+    np.testing.assert_allclose(truth, hdr * auto_exposure(hdr, 0.0, robust=True))
+    assert pano.max() <= 1.0 + 1e-6 and "JPEG ev +0" in label  # the background is the photograph
+    from panolight_core import sh
+    from panolight_core.adaptive import LightingModel
+
+    naive, true = sh.project(pano, 2)[0, 1], sh.project(truth, 2)[0, 1]
+    got = LightingModel(lights, coeffs).project(2)[0, 1]
+    assert naive < got and abs(got - true) < abs(naive - true)  # the clipped energy came back, not all of it
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = mr.render_figure([str(studio_hdri("city"))], tmp_path / "fig", spp=2, resolution=(24, 18),
+                               compare_hdr=True, from_ldr=0.0, in_panorama=False, materials=("plastic",),
+                               log=lambda m: None)
+    assert len(res["renders"]) == 2 and any("ground_truth" in r for r in res["renders"])

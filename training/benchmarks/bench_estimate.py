@@ -1,8 +1,10 @@
 """End-to-end estimate speed: read a 2048 x 1024 JPEG from disk and estimate its lighting.
 
 The JPEG is made from each Blender studio HDRI (upsampled 2x, the EVALUATION.md camera at ev 0,
-quality 90) in a temporary folder. Each estimator is timed on decode + estimate, interleaved over the
-scenes and repeated; medians are printed with their ratio to the 50 ms target (issue 3).
+quality 90) in a temporary folder. Each estimator is timed on decode + estimate, and on decode +
+estimate + the default lighting model (lights + auto SH order, what ``panolight estimate`` writes),
+interleaved over the scenes and repeated; medians are printed with their ratio to the 100 ms target
+(issue 12; issue 3's was 50 ms for decode + estimate).
 
     python -m training.benchmarks.bench_estimate [--repeats 15] [--scenes city sunset ...]
 """
@@ -21,8 +23,9 @@ from panolight_core.camera import hdr_to_ldr
 from panolight_core.data import STUDIO_HDRIS, studio_hdri
 from panolight_core.estimators import available, estimate
 from panolight_core.io import read_image
+from panolight_core.pipeline import fit_pixels
 
-TARGET_MS = 50.0
+TARGET_MS = 100.0
 
 
 def main(argv=None):
@@ -42,8 +45,8 @@ def main(argv=None):
             path = Path(tmp) / f"{scene}.jpg"
             Image.fromarray(hdr_to_ldr(big, 0)).save(path, quality=90)
             files.append(path)
-        names = available()
-        times = {n: [] for n in names + ("decode only",)}
+        names = tuple(n for n in available() if n != "neural")  # the network has bench_neural.py
+        times = {n: [] for n in names + tuple(f"{n} + model" for n in names) + ("decode only",)}
         for f in files:  # warm-up
             for n in names:
                 estimate(read_image(f, ldr_as_uint8=True), 2, n)
@@ -56,8 +59,11 @@ def main(argv=None):
                     t = time.perf_counter()
                     estimate(read_image(f, ldr_as_uint8=True), 2, n)
                     times[n].append(time.perf_counter() - t)
+                    t = time.perf_counter()
+                    fit_pixels(read_image(f, ldr_as_uint8=True), estimator=n)
+                    times[f"{n} + model"].append(time.perf_counter() - t)
     print(f"# decode + estimate, 2048 x 1024 JPEG q90, lmax 2; {len(files)} scenes x {args.repeats} repeats\n")
-    print("| estimator | median ms | p90 ms | x 50 ms target |")
+    print("| estimator | median ms | p90 ms | x 100 ms target |")
     print("|---|---:|---:|---:|")
     out = {}
     for n, ts in times.items():
