@@ -88,7 +88,7 @@ def per_source(pixels: np.ndarray, lmax: int) -> Estimate:
     rec = sources.recover(pixels, model)
     return Estimate(sh.project(rec.work, lmax), "sources",
                     {"input": "ldr", "work_height": rec.frac.shape[0], "model": model.path.name,
-                     "clipped_regions": rec.region_info()}, rec.work, rec)
+                     "decision": rec.decision, "clipped_regions": rec.region_info()}, rec.work, rec)
 
 
 def neural_estimator(weights=None, label: str = "neural"):

@@ -38,7 +38,15 @@ def score_scene(hdr: np.ndarray, variants: dict, evs=EVS, jpeg: int = 90) -> lis
     return rows
 
 
-def fold_variants(model: sources.SourceModel) -> dict:
+SHRINKS = (0.0, 0.25, 0.5, 1.0)
+DECIDED = "learned (expected-error decision)"  # what the shipped estimator reports
+
+
+def variant_label(shrink: float) -> str:
+    return "learned (mu)" if shrink == 0 else f"learned (mu - {shrink:g} s2)"
+
+
+def fold_variants(model: sources.SourceModel, shrinks=SHRINKS) -> dict:
     def learned(shrink):
         def run(ldr):
             def fn(reg):
@@ -50,10 +58,8 @@ def fold_variants(model: sources.SourceModel) -> dict:
     return {"naive": None,
             "analytic": lambda ldr: recover_highlights(ldr, 64)[0],
             "power-law regions": lambda ldr: sources.recover(ldr, log_ratio_fn=sources.power_law_log_ratio).work,
-            "learned (mu)": learned(0.0),
-            "learned (mu - 0.25 s2)": learned(0.25),
-            "learned (mu - 0.5 s2)": learned(0.5),
-            "learned (mu - s2)": learned(1.0)}
+            **{variant_label(c): learned(c) for c in shrinks},
+            DECIDED: lambda ldr: sources.recover(ldr, model, decide=True).work}
 
 
 def cross_validate(files, X, y, w, g, args):
@@ -82,8 +88,10 @@ def cross_validate(files, X, y, w, g, args):
     print(markdown(summary))
     out = Path(args.out or "docs/source_energy_cv.json")
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"rows": rows, "summary": summary, "folds": [[files[i].stem for i in f] for f in folds]},
-                              indent=1) + "\n", encoding="utf-8")
+    out.write_text(json.dumps({"rows": rows, "summary": summary, "shipped": DECIDED,
+                               "augment": args.augment, "seed": args.seed,
+                               "folds": [[files[i].stem for i in f] for f in folds]}, indent=1) + "\n",
+                   encoding="utf-8")
     print(f"wrote {out}")
     return rows, summary
 

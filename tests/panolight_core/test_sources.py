@@ -136,3 +136,29 @@ def test_huge_input_costs_its_work_map():
     big = np.repeat(np.repeat(ldr, 16, axis=0), 16, axis=1)  # 4096 x 2048
     a, b = estimate(ldr, 2, "sources"), estimate(big, 2, "sources")
     np.testing.assert_allclose(a.coeffs, b.coeffs, rtol=1e-6, atol=1e-9)
+
+
+def test_decision_errors_are_the_metric(rng):
+    from panolight_core.metrics import _relative_weighted_rmse
+
+    q = rng.normal(size=(3, 9, 3)) + np.array([3.0, 0, 0, 0, 0, 0, 0, 0, 0])[:, None]
+    g = rng.normal(size=(2, 9, 3)) + np.array([3.0, 0, 0, 0, 0, 0, 0, 0, 0])[:, None]
+    q[2] *= -1  # a map with a negative median: scale 1, as EVALUATION.md says
+    h, w = 16, 32
+    grid = sh.basis(sh.pixel_directions(h, w).reshape(-1, 3), 2)
+    wts = sh.pixel_solid_angles(h, w).ravel() / (4 * math.pi)
+    got = sources._weighted_errors(np.matmul(grid, q), np.matmul(grid, g), wts)
+    for c in range(3):
+        for s in range(2):
+            ref = _relative_weighted_rmse(sh.reconstruct(g[s], h, w), sh.reconstruct(q[c], h, w))
+            assert got[c, s] == pytest.approx(ref, rel=1e-9)
+
+
+def test_decision_without_uncertainty_reports_the_mean():
+    ldr, _ = _sun_ldr(64)
+    rad, fa, fb = sources.work_maps(ldr)
+    reg = sources.region_features(rad, fa, fb)
+    mu = np.full(reg.count, math.log(40.0))
+    c, expected = sources.choose_shrink(rad, reg, mu, np.full(reg.count, 1e-9))
+    assert c == 0.0 and expected["0"] == pytest.approx(0.0, abs=1e-6)  # the truth is known: report it
+    assert expected["none"] > 0.1 and expected["1"] == pytest.approx(0.0, abs=1e-6)
