@@ -1,0 +1,47 @@
+"""Training the per-source energy model: the exported trees equal scikit-learn's, the data is honest."""
+import numpy as np
+import pytest
+
+from panolight_core import sources
+from panolight_core.errors import PanoLightError
+from training import source_energy as se
+
+
+def test_exported_trees_match_sklearn_and_round_trip_through_safetensors(tmp_path, rng):
+    from sklearn.ensemble import GradientBoostingRegressor
+
+    x = rng.normal(size=(400, len(sources.FEATURES)))
+    y = np.sin(x[:, 0]) + 0.5 * x[:, 3] ** 2 + 0.1 * rng.normal(size=400)
+    w = rng.random(400)
+    gbt = GradientBoostingRegressor(n_estimators=40, max_depth=3, learning_rate=0.1, random_state=0)
+    gbt.fit(x, y, sample_weight=w)
+    ens = se._export(gbt)
+    np.testing.assert_allclose(ens.predict(x), gbt.predict(x), rtol=0, atol=1e-10)
+    path = se.save(tmp_path / "m.safetensors", ens, ens, 0.5, {"trained_on": "test"})
+    model = sources.load_source_model(path)
+    mu, sigma, reported = model.predict(x[:10])
+    np.testing.assert_allclose(mu, gbt.predict(x[:10]), atol=1e-10)
+    assert model.shrink == 0.5 and model.meta["trained_on"] == "test"
+
+
+def test_training_data_refuses_the_public_set_and_a_missing_folder(tmp_path):
+    from panolight_core.data import studio_hdri_dir
+
+    with pytest.raises(PanoLightError, match="public evaluation set"):
+        se.scene_files(studio_hdri_dir())
+    with pytest.raises(PanoLightError, match="no such folder"):
+        se.scene_files(tmp_path / "nothing")
+
+
+def test_random_camera_rows_have_honest_targets(rng):
+    h = 64
+    hdr = np.full((h, 2 * h, 3), 0.2)
+    hdr[10:12, 30:32] = 2000.0  # a sun
+    for _ in range(4):
+        ldr, truth = se.camera(hdr, rng)
+        assert ldr.dtype == np.uint8 and ldr.shape == truth.shape and truth.shape[0] in (h // 2, h, 2 * h)
+        x, y, share = se.region_rows(ldr, truth)
+        assert x.shape == (y.size, len(sources.FEATURES)) and np.all(np.isfinite(x))
+        assert np.all(y >= 0) and np.all((share >= 0) & (share <= 1 + 1e-9))
+        if y.size:
+            assert np.exp(y.max()) > 10  # the sun's region holds far more than its clipped pixels show
