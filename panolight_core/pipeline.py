@@ -58,6 +58,10 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
     resolve(estimator)  # a wrong estimator name fails before any reading
     if model not in ("auto", "sh"):
         raise PanoLightError(f"--model must be 'auto' or 'sh', got {model!r}")
+    for name in OUTPUT_FILES:  # an output never replaces the input (estimate hdr.exr -o . would)
+        if (out_dir / name).resolve() == src.resolve():
+            raise PanoLightError(f"{src}: the output {name} in {out_dir} would overwrite the input; "
+                                 f"choose another output folder (-o)")
     t0 = time.perf_counter()
     log(f"reading {src}")
     pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error")

@@ -127,3 +127,12 @@ def test_demo_estimates_a_made_jpeg_against_the_truth(tmp_path, capsys):
     ours = float(said.split("irr-RMSE ")[1].split(" ")[0])
     naive = float(said.split("(naive lmax 2: ")[1].split(")")[0])
     assert ours < naive  # city: the clipped sun is worth recovering
+
+
+def test_estimate_never_overwrites_its_input(tmp_path, capsys):
+    img = np.full((32, 64, 3), 0.5, np.float32)
+    src = write_image(tmp_path / "hdr.exr", img)
+    before = src.read_bytes()
+    assert main(["estimate", str(src), "-o", str(tmp_path), "-q"]) == 1
+    assert "would overwrite the input" in capsys.readouterr().err
+    assert src.read_bytes() == before
