@@ -414,7 +414,7 @@ class Recovery:
 
 
 def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None,
-            height: int = WORK_HEIGHT, decide: bool = True) -> Recovery:
+            height: int = WORK_HEIGHT, decide: bool = True, tolerance: float | None = None) -> Recovery:
     """Recover the clipped energy of a uint8 sRGB panorama with the learned model (default: the shipped
     one) or ``log_ratio_fn(regions) -> (mu, sigma, reported)`` (alternatives and oracles in evaluation).
 
@@ -428,7 +428,7 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
     else:
         mu, sigma, reported = (model or load_source_model()).predict(regions.features)
         if decide and regions.count:
-            c, expected = choose_shrink(rad, regions, mu, sigma)
+            c, expected = choose_shrink(rad, regions, mu, sigma, tolerance=tolerance)
             reported = np.zeros_like(mu) if math.isinf(c) else np.maximum(mu - c * sigma ** 2, 0.0)
             decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
     return Recovery(fill_regions(rad, regions, reported), rad, frac_all, regions, mu, sigma, reported, decision)
@@ -449,6 +449,7 @@ def power_law_log_ratio(regions: Regions):
 SHRINK_CANDIDATES = (0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0, math.inf)  # inf: keep every region at its clip level
 DECISION_SAMPLES = 64
 DECISION_CORRELATION = 0.5  # how much of a region's error is shared by the scene (one exposure, one camera)
+DECISION_TOLERANCE = 0.05
 _DECISION_GRID = (32, 64)
 
 
@@ -468,14 +469,18 @@ def _weighted_errors(q: np.ndarray, g: np.ndarray, w: np.ndarray) -> np.ndarray:
     return num / np.where(np.abs(den) > 0, den, np.inf)[None, :]
 
 
-def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.ndarray, seed: int = 0):
+def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.ndarray, seed: int = 0,
+                  tolerance: float | None = None):
     """Pick c in SHRINK_CANDIDATES so that log r_i = max(mu_i - c sigma_i^2, 0) minimises the expected
     m-RMSE + irr-RMSE at lmax 2 when the truth is drawn from the model's own predictive distribution
     (log r_i = mu_i + sigma_i z_i, z correlated DECISION_CORRELATION across the scene's regions).
 
     The metric's median scaling makes over-estimates dangerous beyond the simple |r_hat/r - 1| argument
     (a bright enough source drags the median of an lmax-2 map to zero): deciding under the metric
-    itself weighs that too. base: the plain linearised work map. Returns (c, expected errors per c)."""
+    itself weighs that too. Of the candidates within ``tolerance`` (default DECISION_TOLERANCE, relative)
+    of the lowest expected error the most conservative is taken. base: the plain linearised work map.
+    Returns (c, expected errors per c)."""
+    tolerance = DECISION_TOLERANCE if tolerance is None else tolerance
     n = regions.count
     if n == 0:
         return 0.0, {}
@@ -509,7 +514,10 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
         q, g = (convolve_lambert(qc), convolve_lambert(gc)) if conv else (qc, gc)
         err += _weighted_errors(np.matmul(grid_y, q), np.matmul(grid_y, g), wgrid)
     expected = err.mean(axis=1)
-    best = int(np.argmin(expected))
+    # the least energy whose expected error is within ``tolerance`` of the best: near-ties go to the
+    # side where a wrong answer costs least (an over-estimate's cost is unbounded)
+    ok = np.flatnonzero(expected <= expected.min() * (1.0 + tolerance) + 1e-12)
+    best = int(ok.max())
     return SHRINK_CANDIDATES[best], {("none" if math.isinf(c) else f"{c:g}"): round(float(e), 6)
                                      for c, e in zip(SHRINK_CANDIDATES, expected)}
 

@@ -7,16 +7,18 @@ sRGB (a gamma 1.8-2.6 or a soft filmic shoulder), JPEG quality 75-95 or none, an
 2048 wide. Every clipped region of each LDR becomes one row: its features (sources.FEATURES) and its
 target, the natural log of true energy / held energy over the region's work cells.
 
-Model: gradient-boosted regression trees (scikit-learn, squared loss on the log ratio) for mu, and a
-second ensemble on the out-of-fold absolute residuals for the spread; both are exported as arrays to
-safetensors (no pickle) and run in numpy (sources.TreeEnsemble, parity tested).
+Model: gradient-boosted regression trees (scikit-learn, squared loss on the log ratio, rows weighted by
+0.02 + sqrt of their share of the scene's true energy) for mu, and a second ensemble on the
+out-of-fold (by scene) absolute residuals for the spread; both are exported as arrays to safetensors
+(no pickle) and run in numpy (sources.TreeEnsemble, parity tested). The estimator then decides the
+reported energies per scene (sources.choose_shrink).
 
 Cross-validation by whole scenes (5 folds, every augmentation of a test scene stays out of its
 training folds): each held-out scene is scored exactly as EVALUATION.md says (ev -2/0/+2, JPEG q90,
 whole model: lights + SH projected to lmax 2) for naive, analytic, the power-law-only region model
 and the learned one; the pooled table goes to docs/accuracy.md.
 
-    python -m training.source_energy cv   [--augment 16] [--out docs/source_energy_cv.json]
+    python -m training.source_energy cv   [--augment 16] [--out docs/source_energy_cv.json]   # about 8 min here
     python -m training.source_energy ship [--augment 16] [--out panolight_core/models/sources.safetensors]
 """
 from __future__ import annotations
@@ -218,8 +220,9 @@ def main(argv=None) -> int:
     ap.add_argument("--hdri", default=str(DEFAULT_HDRI), help="folder of real HDR panoramas (default: %(default)s)")
     ap.add_argument("--augment", type=int, default=16, help="random cameras per scene (default 16)")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--shrink", type=float, default=1.0, help="reported log ratio = mu - SHRINK sigma^2 (default 1: "
-                                                                "the expected-error optimum)")
+    ap.add_argument("--shrink", type=float, default=0.5,
+                    help="the fallback rule stored with the model, log r = mu - SHRINK sigma^2, used when the "
+                         "expected-error decision is off (default 0.5; the estimator decides per scene)")
     ap.add_argument("--folds", type=int, default=5)
     ap.add_argument("--out", default=None)
     args = ap.parse_args(argv)

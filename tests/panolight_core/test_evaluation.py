@@ -37,3 +37,18 @@ def test_eval_scores_trained_variants_by_label_and_names_bad_ones(tmp_path, caps
     assert "LABEL=PATH" in capsys.readouterr().err
     assert main(["eval", "-o", str(tmp_path), "--weights", f"x={tmp_path / 'gone.safetensors'}"]) == 1
     assert "gone.safetensors: no model weights" in capsys.readouterr().err
+
+
+def test_summary_has_medians_wins_and_the_hdri_score():
+    result = evaluation.run(scenes=("city", "sunset", "interior"), evs=(0.0,), estimators=["naive", "sources"],
+                            repeats=1)
+    s = result["summary"]["sources@+0"]
+    rows = [r for r in result["rows"] if r["estimator"] == "sources"]
+    naive = {r["scene"]: r["m_rmse"] for r in result["rows"] if r["estimator"] == "naive"}
+    assert s["median_m_rmse"] == sorted(r["m_rmse"] for r in rows)[1]
+    assert s["wins_vs_naive"] == sum(r["m_rmse"] < naive[r["scene"]] for r in rows)
+    for r in rows:  # hdr.exr agrees with the whole model it was made with
+        assert abs(r["hdri_m_rmse"] - r["m_rmse"]) <= 0.02 * r["m_rmse"] + 0.01
+    city = next(r for r in rows if r["scene"] == "city")
+    assert 0.0 <= city["true_sun_share"] <= 1.0 and city["light_angle_deg"] is not None
+    assert "| sources | +0 |" in evaluation.markdown(result)
