@@ -414,7 +414,8 @@ class Recovery:
 
 
 def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None,
-            height: int = WORK_HEIGHT, decide: bool = True, tolerance: float | None = None) -> Recovery:
+            height: int = WORK_HEIGHT, decide: bool = True, tolerance: float | None = None,
+            min_median_ratio: float | None = None) -> Recovery:
     """Recover the clipped energy of a uint8 sRGB panorama with the learned model (default: the shipped
     one) or ``log_ratio_fn(regions) -> (mu, sigma, reported)`` (alternatives and oracles in evaluation).
 
@@ -428,7 +429,8 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
     else:
         mu, sigma, reported = (model or load_source_model()).predict(regions.features)
         if decide and regions.count:
-            c, expected = choose_shrink(rad, regions, mu, sigma, tolerance=tolerance)
+            c, expected = choose_shrink(rad, regions, mu, sigma, tolerance=tolerance,
+                                        min_median_ratio=min_median_ratio)
             reported = np.zeros_like(mu) if math.isinf(c) else np.maximum(mu - c * sigma ** 2, 0.0)
             decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
     return Recovery(fill_regions(rad, regions, reported), rad, frac_all, regions, mu, sigma, reported, decision)
@@ -450,6 +452,7 @@ SHRINK_CANDIDATES = (0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0, math.inf)  # inf: keep 
 DECISION_SAMPLES = 64
 DECISION_CORRELATION = 0.5  # how much of a region's error is shared by the scene (one exposure, one camera)
 DECISION_TOLERANCE = 0.05
+MIN_MEDIAN_RATIO = 0.1
 _DECISION_GRID = (32, 64)
 
 
@@ -470,7 +473,7 @@ def _weighted_errors(q: np.ndarray, g: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.ndarray, seed: int = 0,
-                  tolerance: float | None = None):
+                  tolerance: float | None = None, min_median_ratio: float | None = None):
     """Pick c in SHRINK_CANDIDATES so that log r_i = max(mu_i - c sigma_i^2, 0) minimises the expected
     m-RMSE + irr-RMSE at lmax 2 when the truth is drawn from the model's own predictive distribution
     (log r_i = mu_i + sigma_i z_i, z correlated DECISION_CORRELATION across the scene's regions).
@@ -478,9 +481,12 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     The metric's median scaling makes over-estimates dangerous beyond the simple |r_hat/r - 1| argument
     (a bright enough source drags the median of an lmax-2 map to zero): deciding under the metric
     itself weighs that too. Of the candidates within ``tolerance`` (default DECISION_TOLERANCE, relative)
-    of the lowest expected error the most conservative is taken. base: the plain linearised work map.
+    of the lowest expected error the most conservative is taken, skipping candidates whose lmax-2 map
+    has a median below ``min_median_ratio`` of its mean (MIN_MEDIAN_RATIO). base: the plain linearised
+    work map.
     Returns (c, expected errors per c)."""
     tolerance = DECISION_TOLERANCE if tolerance is None else tolerance
+    min_median_ratio = MIN_MEDIAN_RATIO if min_median_ratio is None else min_median_ratio
     n = regions.count
     if n == 0:
         return 0.0, {}
@@ -514,9 +520,18 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
         q, g = (convolve_lambert(qc), convolve_lambert(gc)) if conv else (qc, gc)
         err += _weighted_errors(np.matmul(grid_y, q), np.matmul(grid_y, g), wgrid)
     expected = err.mean(axis=1)
+    # a candidate whose lmax-2 map has a median near zero (its source rings the rest of the sphere
+    # down) makes the metric's median scale explode for any truth that does not share it: never report
+    # one while a healthier candidate exists (the last candidate, no recovery, is the plain map)
+    qmap = np.matmul(grid_y, qc)
+    med = np.median(qmap.reshape(qmap.shape[0], -1), axis=1)
+    mean = np.einsum("n,cnk->c", wgrid, qmap) / 3.0
+    healthy = med >= min_median_ratio * np.maximum(mean, 1e-300)
+    healthy[-1] = True
+    pool = np.where(healthy, expected, np.inf)
     # the least energy whose expected error is within ``tolerance`` of the best: near-ties go to the
     # side where a wrong answer costs least (an over-estimate's cost is unbounded)
-    ok = np.flatnonzero(expected <= expected.min() * (1.0 + tolerance) + 1e-12)
+    ok = np.flatnonzero(pool <= pool.min() * (1.0 + tolerance) + 1e-12)
     best = int(ok.max())
     return SHRINK_CANDIDATES[best], {("none" if math.isinf(c) else f"{c:g}"): round(float(e), 6)
                                      for c, e in zip(SHRINK_CANDIDATES, expected)}
