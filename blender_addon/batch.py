@@ -1,7 +1,8 @@
 """Headless PanoLight: load a panorama, estimate its lighting, build the world, optionally render and save.
 
     blender -b [scene.blend] --python <extension>/batch.py -- --input PANO [--output-blend OUT.blend]
-            [--render OUT.png] [--estimator auto|analytic|naive|neural] [--lmax auto|N] [--samples 64]
+            [--render OUT.png] [--estimator auto|sources|analytic|naive|ambient|neural] [--lmax auto|N]
+            [--samples 64]
             [--resolution 640x360]
 The same works with the bpy module: ``python batch.py -- --input PANO ...``. Exits non-zero with one
 line on stderr when something fails.
@@ -32,7 +33,8 @@ def parse(argv):
     ap.add_argument("--input", required=True, help="panorama (.jpg/.png/.exr/.hdr, 2:1)")
     ap.add_argument("--output-blend", help="save the .blend here")
     ap.add_argument("--render", help="render the scene's camera to this image (PNG or EXR)")
-    ap.add_argument("--estimator", default="auto", choices=["auto", "analytic", "naive", "neural"])
+    ap.add_argument("--estimator", default="auto",
+                    choices=["auto", "sources", "analytic", "naive", "ambient", "neural"])
     ap.add_argument("--lmax", default="auto", help="SH order 0..8 or auto (default)")
     ap.add_argument("--samples", type=int, default=64, help="Cycles samples for --render (default 64)")
     ap.add_argument("--resolution", default=None, help="render size WxH (default: the scene's)")

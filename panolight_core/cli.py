@@ -15,6 +15,8 @@ OUTPUTS_HELP = """\
 outputs (in OUTDIR; nothing is written anywhere else):
   lighting.json   SH radiance coefficients and explicit lights (Blender world frame, Z up), estimator, input
                   hash, timings, the chosen model/order/deringing and why (schema: panolight_core/schemas)
+  hdr.exr         the full-resolution HDR panorama: the input linearised, its clipped sun, lamps and windows
+                  filled with their estimated energy (an HDRI for any renderer; SH = lighting.json's model)
   radiance.exr    the SH part's radiance map at --resolution (the lights are in lighting.json)
   irradiance.exr  diffuse irradiance of the whole model (lights + SH) for a surface facing each direction
   preview.png     input | SH radiance | a white diffuse sphere lit by the estimate, each auto-exposed
@@ -266,8 +268,11 @@ def _add_estimate_options(p, default_estimator="auto"):
     p.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE,
                    help=f"with --lmax auto: allowed diffuse relighting error relative to order 8 "
                         f"(default {DEFAULT_TOLERANCE})")
+    from .estimators import AUTO, DESCRIPTIONS
+
     p.add_argument("--estimator", default=default_estimator,
-                   help="analytic | naive | ambient | neural | auto (default auto = the best available)")
+                   help="; ".join(f"{n}: {text}" for n, (_, text) in DESCRIPTIONS.items())
+                   + f"; auto (default): {AUTO}, the best measured")
     p.add_argument("--exposure", type=float, default=0.0, metavar="EV",
                    help="scale the estimated lighting by 2^EV (default 0)")
     p.add_argument("--window", type=_window, default="none",

@@ -267,25 +267,31 @@ def test_batch_script_end_to_end_and_clear_failure(tmp_path):
 
 def test_build_from_the_reconstructed_hdri(tmp_path):
     from panolight_core.camera import hdr_to_ldr
+    from panolight_core.hdri import hdr_panorama
+    from panolight_core.pipeline import fit_pixels
     from PIL import Image
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         hdr = read_image(studio_hdri("city")).astype(np.float64)
-    jpg = tmp_path / "city.jpg"
-    Image.fromarray(hdr_to_ldr(hdr, 0.0)).save(jpg, quality=95)
+    ldr = hdr_to_ldr(hdr, 0.0, 90)
+    png = tmp_path / "city.png"  # lossless: Blender and the core read the same pixels
+    Image.fromarray(ldr).save(png)
     s = bpy.context.scene.panolight
     s.lighting_source = "HDRI"
     try:
-        _estimate_and_build(jpg)
+        _estimate_and_build(png)
     finally:
         s.lighting_source = "SH"
     world = bpy.context.scene.world
     images = {n.image.name for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeTexEnvironment"}
-    assert images == {"city.jpg", "PanoLight HDRI"}
+    assert images == {"city.png", "PanoLight HDRI"}
     assert len(bpy.data.collections["PanoLight Lights"].objects) == 0  # the sun is in the HDRI, not a lamp
     image = bpy.data.images["PanoLight HDRI"]
     assert tuple(image.size) == (1024, 512) and image.is_float
     px = np.empty(1024 * 512 * 4, np.float32)
     image.pixels.foreach_get(px)
-    assert px.reshape(512, 1024, 4)[..., :3].max() > 2.0  # the clipped sky and sun came back above white
+    got = px.reshape(512, 1024, 4)[::-1, :, :3]
+    want = hdr_panorama(ldr, fit_pixels(ldr)[1])
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)  # the core's hdr.exr, top row first
+    assert want.max() > 1.5  # the clipped sky and sun came back above white
