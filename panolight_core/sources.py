@@ -41,7 +41,8 @@ from .resample import area_downsample
 WORK_HEIGHT = 128  # rows of the source work map (1.4 degree cells): a 0.5 degree sun still marks its cells
 MAX_REGIONS = 48  # regions modelled, largest clipped area first; smaller speckles keep the clip level
 RING_EDGES_DEG = (0.0, 2.0, 5.0, 10.0, 20.0)  # rings beyond the region's edge, degrees
-SHAPE_MAX_EXTENT_DEG = 10.0  # regions up to this radius are filled like a source; wider ones evenly
+SHAPE_MAX_EXTENT_DEG = 10.0  # regions up to this radius are shaped by their glare's power law
+WIDE_CONCENTRATION = 0.0  # profile exponent of wider regions (0: an even fill)
 MODEL_PATH = Path(__file__).resolve().parent / "models" / "sources.safetensors"
 FEATURES = (
     "log_clipped_sr", "log_region_sr", "elevation", "log_any_over_all_clipped", "full_cells",
@@ -74,7 +75,8 @@ class Regions:
     """Clipped regions of a work map: labels (h, w) int (-1 outside), and per region (n,) arrays:
     clipped solid angle (sr), held luminance energy (clip units x sr, over the region's cells), unit
     centre direction (n, 3), excess colour (n, 3, luminance 1), glare exponent p, features (n, F);
-    share (h, w): each cell's fraction of its region's clipped solid angle (where its excess goes).
+    share (h, w): each cell's share of its region's excess energy: its clipped solid angle weighted by
+    the region's profile (``shape_exponents``).
 
     The excess colour is white in the camera's balance, as the clipped pixels are: given each region's
     true energy, white scores m-RMSE 0.35 mean / 0.30 median on the 50 real HDRs at ev 0, the glare
@@ -94,11 +96,11 @@ class Regions:
         return int(self.held.size)
 
     def shape_exponents(self) -> np.ndarray:
-        """(n,) exponent of the profile ``fill_full_resolution`` gives each region: its glare's p for a
-        compact region (extent <= SHAPE_MAX_EXTENT_DEG, a sun or lamp), 0 (an even fill) for a wide one,
-        where the source could sit anywhere inside."""
+        """(n,) exponent q of the profile max(t, t_core)^-q around its centre that each region's excess
+        follows (in the work map and in ``fill_full_resolution``): its glare's p for a compact region
+        (extent <= SHAPE_MAX_EXTENT_DEG, a sun or lamp), WIDE_CONCENTRATION for a wide one."""
         extent = 10.0 ** self.features[:, FEATURES.index("log_extent_deg")]
-        return np.where(extent <= SHAPE_MAX_EXTENT_DEG, self.exponent, 0.0)
+        return np.where(extent <= SHAPE_MAX_EXTENT_DEG, self.exponent, WIDE_CONCENTRATION)
 
 
 def _log10(v, floor=1e-6):
@@ -167,11 +169,13 @@ def region_features(rad: np.ndarray, frac_any: np.ndarray, frac_all: np.ndarray,
     color = np.ones((n, 3))  # the excess is white (luminance 1): see Regions
     exponent = np.zeros(n)
     ring0_all = np.zeros(n)
+    inside_angles = []
     for i in range(n):
         c = centre[i]
         ang = np.arccos(np.clip(dirs @ c, -1.0, 1.0))
         inside = labels == i
         extent = float(ang[inside].max()) + math.radians(0.5 * cell_deg)
+        inside_angles.append((inside, ang[inside]))
         t_c = math.sqrt(clipped_sr[i] / math.pi)
         rings = []
         ring_rgb = None
@@ -209,9 +213,13 @@ def region_features(rad: np.ndarray, frac_any: np.ndarray, frac_all: np.ndarray,
         others = np.delete(ring0_all, i)
         feats[i, 17:] = [share[i], min(i, 10), *scene, _log10(others.max() if others.size else 1e-4, 1e-4),
                          _log10(scene_e / max(held[i], 1e-12)), _log10(upper_e / max(held[i], 1e-12))]
-    share_map = np.zeros((h, w))
-    share_map[m] = (omega * frac)[m] / np.maximum(clipped_sr[lab], 1e-300)
-    return Regions(labels, clipped_sr, held, centre, color, exponent, feats, share_map)
+    regions = Regions(labels, clipped_sr, held, centre, color, exponent, feats, np.zeros((h, w)))
+    q = regions.shape_exponents()
+    t_floor = max(CORE_RADIUS, math.radians(0.5 * cell_deg))
+    for i, (cells, ang_in) in enumerate(inside_angles):
+        wt = (omega * frac)[cells] * np.maximum(ang_in, t_floor) ** (-q[i])
+        regions.share[cells] = wt / max(float(wt.sum()), 1e-300)
+    return regions
 
 
 # --- the learned model: regression trees as arrays -------------------------------------------------
@@ -314,8 +322,8 @@ def load_source_model(path=MODEL_PATH) -> SourceModel:
 # --- recovery ---------------------------------------------------------------------------------------
 
 def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray) -> np.ndarray:
-    """Work map with each region's excess (r - 1) x held added to its cells in proportion to their
-    clipped area (``Regions.share``), in the region's colour. Returns a new (h, w, 3) map."""
+    """Work map with each region's excess (r - 1) x held added to its cells by ``Regions.share``, in
+    the region's colour. Returns a new (h, w, 3) map."""
     out = np.array(rad, dtype=np.float64, copy=True)
     if regions.count == 0:
         return out

@@ -38,9 +38,10 @@ def score_scene(hdr: np.ndarray, variants: dict, evs=EVS, jpeg: int = 90) -> lis
     return rows
 
 
-SHRINKS = (0.0, 0.5)
-MEDIAN_GUARDS = (0.0, 0.05, 0.1, 0.2)  # the decision's min_median_ratio (tolerance 0.05 chosen by an earlier CV)
-DECIDED = f"learned (decision, median guard {sources.MIN_MEDIAN_RATIO:g})"  # what the shipped estimator reports
+SHRINKS = (0.0,)
+WIDE_CONCENTRATIONS = (0.0, 1.0, 2.0, 3.0)  # profile of wide regions' excess (the decision's guard and tolerance
+# were chosen by earlier runs: min_median_ratio 0.1 and tolerance 0.05)
+DECIDED = f"learned (decision, wide regions q = {sources.WIDE_CONCENTRATION:g})"  # what the estimator reports
 
 
 def variant_label(shrink: float) -> str:
@@ -56,14 +57,21 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS) -> dict:
             return sources.recover(ldr, log_ratio_fn=fn).work
         return run
 
-    def decided(guard):
-        return lambda ldr: sources.recover(ldr, model, decide=True, min_median_ratio=guard).work
+    def decided(q):
+        def run(ldr):
+            keep = sources.WIDE_CONCENTRATION
+            sources.WIDE_CONCENTRATION = q
+            try:
+                return sources.recover(ldr, model).work
+            finally:
+                sources.WIDE_CONCENTRATION = keep
+        return run
 
     return {"naive": None,
             "analytic": lambda ldr: recover_highlights(ldr, 64)[0],
             "power-law regions": lambda ldr: sources.recover(ldr, log_ratio_fn=sources.power_law_log_ratio).work,
             **{variant_label(c): learned(c) for c in shrinks},
-            **{f"learned (decision, median guard {g:g})": decided(g) for g in MEDIAN_GUARDS}}
+            **{f"learned (decision, wide regions q = {q:g})": decided(q) for q in WIDE_CONCENTRATIONS}}
 
 
 def cross_validate(files, X, y, w, g, args):
