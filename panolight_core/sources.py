@@ -1,27 +1,29 @@
 """Per-source energy: how much light each clipped region of an LDR panorama really holds.
 
 An 8-bit panorama keeps nothing above its clip level, so the energy of a sun or a lamp has to be
-predicted from what the picture does show. For each clipped region (connected cells of a work map
-that hold a pixel at 254/255, seam- and pole-aware) ``region_features`` measures what an LDR shows:
-its clipped area and extent, elevation, how many channels clipped, the glare around it (ring
-luminance at four angular distances, the power-law exponent fitted on it and the physical model's
-gain, ``highlights.power_law_gain``) and the scene around it (exposure statistics, sky brightness and
-colour, lit/shadow contrast, the other regions). A learned model (``models/sources.safetensors``,
-gradient-boosted trees exported to arrays, trained on real HDR panoramas by
-``training/source_energy.py``) maps them to the log of the region's energy ratio
-r = true energy / energy the pixels hold, as a mean mu and a spread sigma (the uncertainty).
+predicted from what the picture does show. A region is a connected set of work-map cells (128 rows,
+seam- and pole-aware) holding pixels at 254/255 in all three channels. ``region_features`` measures
+what the LDR shows of it: clipped area and extent, elevation, how many channels clipped around it,
+its glare (ring luminance at four angular distances, the power-law exponent fitted on it and the
+physical model's gain, ``highlights.power_law_gain``) and the scene around it (exposure statistics,
+sky brightness and colour, lit/shadow contrast, the other regions). A learned model
+(``models/sources.safetensors``: gradient-boosted trees exported to arrays, trained on real HDR
+panoramas by ``training/source_energy.py``) maps them to the log of the region's energy ratio
+r = true energy / energy its cells hold, as a mean mu and a spread sigma (the uncertainty).
 
 Which value to report. m-RMSE punishes an over-estimate without bound and an under-estimate at most
-by the source's energy: for a dominant source the error is |r_hat / r - 1|. With log r ~ N(mu, sigma^2)
-the expected error is smallest at log r_hat = mu - sigma^2 (the derivative of E|e^t - 1| vanishes where
-the shift is -sigma^2), so the reported ratio is exp(mu - SHRINK sigma^2), never below 1 (clipping only
-hides light). SHRINK = 1 is that optimum; the model file may carry a cross-validated value.
+by the source's energy: for a dominant source the error is |r_hat / r - 1|, smallest in expectation
+at log r_hat = mu - sigma^2 when log r ~ N(mu, sigma^2). The metric's median scaling adds more (a
+bright enough estimate drags the median of an lmax-2 map to zero), so ``choose_shrink`` decides per
+scene under the metric itself: log r_hat = max(mu - c sigma^2, 0) with the c of lowest expected error
+over truths drawn from the predictive distribution. Never below 1: clipping only hides light.
 
-The excess energy (r - 1) x held goes into the region's clipped cells in proportion to their clipped
-area, in the colour of its glare ring, so the recovered work map holds exactly r x held in the region;
-``fill_full_resolution`` writes the same energy into the full-resolution clipped pixels, shaped like a
-source (a power law around the region's centre: a sun's disk and aureole, flat for a window).
-Work maps: radiance (h, 2h, 3) linear in clip units (1 = white), Blender world frame (CONVENTIONS.md).
+The excess (r - 1) x held goes into the region's cells by ``Regions.share`` (their clipped area,
+shaped by ``Regions.shape_exponents``), white in the camera's balance, so the recovered work map holds
+exactly r x held in the region; ``fill_full_resolution`` puts the same energy into the full-resolution
+clipped pixels, shaped like a source (a compact region peaks along its glare's power law; a wide one
+is filled evenly). Work maps: radiance (h, 2h, 3) linear in clip units (1 = white), Blender world
+frame (CONVENTIONS.md).
 """
 from __future__ import annotations
 
@@ -176,7 +178,6 @@ def region_features(rad: np.ndarray, frac_any: np.ndarray, frac_all: np.ndarray,
         inside = labels == i
         extent = float(ang[inside].max()) + math.radians(0.5 * cell_deg)
         inside_angles.append((inside, ang[inside]))
-        t_c = math.sqrt(clipped_sr[i] / math.pi)
         rings = []
         ring_rgb = None
         for k in range(4):
@@ -206,12 +207,12 @@ def region_features(rad: np.ndarray, frac_any: np.ndarray, frac_all: np.ndarray,
             _log10(rings[3], 1e-4) - _log10(rings[0], 1e-4), p, math.log10(gain), math.log10(sat),
             ring_color[2] / max(ring_color[0], 1e-3), _log10(held[i] / max(region_sr[i], 1e-12)),
         ]
-    share = clipped_sr / max(scene_clipped, 1e-12)
+    clipped_share = clipped_sr / max(scene_clipped, 1e-12)
     scene_e = float((lum * omega).sum())
     upper_e = float((lum * omega)[upper].sum())
     for i in range(n):
         others = np.delete(ring0_all, i)
-        feats[i, 17:] = [share[i], min(i, 10), *scene, _log10(others.max() if others.size else 1e-4, 1e-4),
+        feats[i, 17:] = [clipped_share[i], min(i, 10), *scene, _log10(others.max() if others.size else 1e-4, 1e-4),
                          _log10(scene_e / max(held[i], 1e-12)), _log10(upper_e / max(held[i], 1e-12))]
     regions = Regions(labels, clipped_sr, held, centre, color, exponent, feats, np.zeros((h, w)))
     q = regions.shape_exponents()
@@ -335,11 +336,6 @@ def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray) -> np
     return out
 
 
-def excess_map(work: np.ndarray, base: np.ndarray) -> np.ndarray:
-    """(h, w, 3) excess radiance of a recovered work map over the plain linearised one (>= 0)."""
-    return np.maximum(np.asarray(work, dtype=np.float64) - base, 0.0)
-
-
 def fill_full_resolution(linear: np.ndarray, clipped: np.ndarray, excess: np.ndarray,
                          centres=(), exponents=(), labels=None) -> np.ndarray:
     """Full-resolution HDR: ``linear`` (H, W, 3) plus the work map's ``excess`` (h, w, 3) put back into
@@ -407,7 +403,8 @@ class Recovery:
 
     def region_info(self) -> list[dict]:
         """Per region, for lighting.json: direction, clipped solid angle (sr), held and recovered energy
-        (luminance, clip units x sr), ratio with its 68 % interval, colour and glare exponent."""
+        (luminance, clip units x sr), ratio with its 68 % interval, angular radius (extent, degrees),
+        colour and glare exponent."""
         r = self.regions
         out = []
         for i in range(r.count):
@@ -417,6 +414,7 @@ class Recovery:
                         "ratio": float(math.exp(self.log_ratio[i])),
                         "ratio_68": [float(math.exp(max(self.mu[i] - self.sigma[i], 0.0))),
                                      float(math.exp(self.mu[i] + self.sigma[i]))],
+                        "extent_deg": float(10.0 ** r.features[i, FEATURES.index("log_extent_deg")]),
                         "color": [round(float(v), 6) for v in r.color[i]], "exponent": float(r.exponent[i])})
         return out
 
@@ -451,7 +449,6 @@ def power_law_log_ratio(regions: Regions):
     ratio = (regions.held + (gain - 1.0) * regions.clipped_sr) / np.maximum(regions.held, 1e-30)
     lr = np.log(np.maximum(ratio, 1.0))
     return lr, np.zeros_like(lr), lr
-
 
 
 # --- the decision: the reported energies minimise the expected error under the metric itself ---------

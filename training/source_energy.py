@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import os
 import time
 import warnings
@@ -35,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core import sh, sources
-from panolight_core.camera import auto_exposure, hdr_to_ldr
+from panolight_core.camera import auto_exposure
 from panolight_core.color import LUMINANCE_WEIGHTS, linear_to_srgb
 from panolight_core.errors import PanoLightError
 from panolight_core.io import read_image
