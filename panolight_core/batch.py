@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import sys
 import time
 from pathlib import Path
@@ -55,14 +56,23 @@ def shard(items: list, index: int, count: int) -> list:
     return items[index - 1::count]
 
 
+def _safe_name(stem: str) -> str:
+    """A folder name that stays inside the output folder: letters, digits, '-', '_' and inner dots only
+    (an input named '...png' has the stem '..', which must not become OUT/..)."""
+    name = re.sub(r"[^A-Za-z0-9._-]+", "_", stem).lstrip(".")
+    return name or "panorama"
+
+
 def output_names(inputs: list[Path]) -> dict[Path, str]:
-    """Folder name per input: its stem, plus a short hash of its full path where stems collide.
-    Computed over the full (unsharded) list so all shards agree."""
-    stems: dict[str, int] = {}
-    for p in inputs:
-        stems[p.stem] = stems.get(p.stem, 0) + 1
-    return {p: p.stem if stems[p.stem] == 1 else f"{p.stem}-{hashlib.sha1(str(p).encode()).hexdigest()[:8]}"
-            for p in inputs}
+    """Folder name per input: its sanitised stem (``_safe_name``), plus a short hash of its full path
+    where names collide (compared without case, for case-insensitive file systems), so two inputs never
+    share a folder. Computed over the full (unsharded) list so all shards agree."""
+    safe = {p: _safe_name(p.stem) for p in inputs}
+    counts: dict[str, int] = {}
+    for name in safe.values():
+        counts[name.lower()] = counts.get(name.lower(), 0) + 1
+    return {p: name if counts[name.lower()] == 1 else f"{name}-{hashlib.sha1(str(p).encode()).hexdigest()[:8]}"
+            for p, name in safe.items()}
 
 
 class Progress:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import warnings
 from pathlib import Path
@@ -78,6 +79,23 @@ def _lmax(text: str) -> str:
     if not 0 <= v <= 100:
         raise argparse.ArgumentTypeError(f"--lmax must be in 0..100, got {v}")
     return text
+
+
+def _number(name: str, lo: float, hi: float, integer: bool = False):
+    """An argparse type: a finite number in [lo, hi] (NaN, Inf and out-of-range values get one line)."""
+    def parse(text: str):
+        try:
+            v = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be {'an integer' if integer else 'a number'}, "
+                                             f"got {text!r}") from None
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise argparse.ArgumentTypeError(f"{name} must be between {lo:g} and {hi:g}, got {text!r}")
+        return v
+    return parse
+
+
+MAX_EXPOSURE_EV = 60.0  # 2^60 keeps any clip-level radiance finite in float32 outputs
 
 
 def _window(text: str) -> str:
@@ -265,7 +283,7 @@ def _add_estimate_options(p, default_estimator="auto"):
     p.add_argument("--lmax", type=_lmax, default=None,
                    help="SH order 0..100, or 'auto': the smallest order 0..8 within --tolerance "
                         "(default: auto with --model auto, 2 with --model sh)")
-    p.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE,
+    p.add_argument("--tolerance", type=_number("--tolerance", 0.0, 1.0), default=DEFAULT_TOLERANCE,
                    help=f"with --lmax auto: allowed diffuse relighting error relative to order 8 "
                         f"(default {DEFAULT_TOLERANCE})")
     from .estimators import AUTO, DESCRIPTIONS
@@ -273,12 +291,14 @@ def _add_estimate_options(p, default_estimator="auto"):
     p.add_argument("--estimator", default=default_estimator,
                    help="; ".join(f"{n}: {text}" for n, (_, text) in DESCRIPTIONS.items())
                    + f"; auto (default): {AUTO}, the best measured")
-    p.add_argument("--exposure", type=float, default=0.0, metavar="EV",
+    p.add_argument("--exposure", type=_number("--exposure", -MAX_EXPOSURE_EV, MAX_EXPOSURE_EV), default=0.0,
+                   metavar="EV",
                    help="scale the estimated lighting by 2^EV (default 0)")
     p.add_argument("--window", type=_window, default="none",
                    help="force deringing: auto (weakest sinc^4 window with non-negative radiance) or a fixed "
                         "sinc4 | lanczos | hanning; default none leaves it to --model")
-    p.add_argument("--window-width", type=float, default=None, help="width of a fixed window (default 2 (lmax+1))")
+    p.add_argument("--window-width", type=_number("--window-width", 1e-6, 1e6), default=None,
+                   help="width of a fixed window (default 2 (lmax+1))")
     p.add_argument("--resolution", type=_resolution, default=(512, 256),
                    help="size of radiance.exr / irradiance.exr, WxH (default 512x256)")
     p.add_argument("--repair-nonfinite", action="store_true", help="replace NaN/Inf pixels instead of refusing")
@@ -354,7 +374,8 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--out", required=True, help="output folder (created)")
     m.add_argument("--meshes", nargs="+", default=None,
                    help=".ply/.obj meshes with +Y up (default: ../shared/data/meshes/bunny.ply and armadillo.obj)")
-    m.add_argument("--spp", type=int, default=512, help="samples per pixel (default 512, the paper's)")
+    m.add_argument("--spp", type=_number("--spp", 1, 1 << 20, integer=True), default=512,
+                   help="samples per pixel (default 512, the paper's)")
     m.add_argument("--resolution", dest="resolution_wh", type=lambda t: tuple(int(v) for v in t.lower().split("x")),
                    default=(320, 240), help="perspective render size WxH (default 320x240)")
     m.add_argument("--yaw", type=float, default=0.0, help="view azimuth in degrees, 0 = panorama centre, 90 = "

@@ -92,8 +92,18 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
     t_model = time.perf_counter() - t1 - t_est
     w, h = resolution
     log(f"reconstructing radiance and irradiance at {w}x{h}" + (f" ({len(lights)} light(s))" if lights else ""))
-    radiance = sh.reconstruct(coeffs, h, w).astype(np.float32)
-    irradiance = fitted.irradiance_map(h, w).astype(np.float32)
+    from .hdri import hdr_panorama
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        radiance = sh.reconstruct(coeffs, h, w).astype(np.float32)
+        irradiance = fitted.irradiance_map(h, w).astype(np.float32)
+        hdri = hdr_panorama(pixels, est) * np.float32(scale)
+    outputs = {"the SH coefficients": coeffs, "radiance.exr": radiance, "irradiance.exr": irradiance,
+               "hdr.exr": hdri, "the lights": np.array([light["intensity"] for light in lights], dtype=np.float64)}
+    bad = [name for name, a in outputs.items() if not np.all(np.isfinite(a))]
+    if bad:  # refuse before writing anything: an all-Inf EXR is a silent wrong answer
+        raise PanoLightError(f"{src}: {', '.join(bad)} would not be finite (the input's radiance times "
+                             f"2^{exposure_ev:g} overflows 32-bit floats); lower --exposure or rescale the input")
     out_dir.mkdir(parents=True, exist_ok=True)
     log(f"writing {out_dir}/")
     t2 = time.perf_counter()
@@ -114,9 +124,7 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
 
     shown = ldr_to_linear(pixels) if not hdr else pixels
     preview = estimate_preview(shown, radiance, fitted, sh.lmax_from_count(coeffs.shape[0]))
-    from .hdri import hdr_panorama
-
-    write_image(out_dir / "hdr.exr", hdr_panorama(pixels, est) * np.float32(scale))
+    write_image(out_dir / "hdr.exr", hdri)
     write_image(out_dir / "radiance.exr", radiance)
     write_image(out_dir / "irradiance.exr", irradiance)
     _write_png(out_dir / "preview.png", preview)

@@ -34,6 +34,7 @@ EYE_HEIGHT = 1.0
 DISTANCE = 3.0
 OBJECT_HEIGHT = 0.9
 GROUND_ALBEDO = 0.5
+MAX_RENDER_ORDER = 30  # lighting files above this order are refused (lmax 100 needed over 24 GB)
 MATERIALS = {
     "mirror": {"type": "conductor", "material": "none"},
     "plastic": {"type": "roughplastic", "int_ior": 1.9, "ext_ior": 1.0, "alpha": 0.1,
@@ -343,6 +344,10 @@ def load_input(path, lmax="auto", from_ldr=None):
     p = Path(path)
     if p.suffix.lower() == ".json":
         coeffs, doc = read_lighting(p)
+        order = sh.lmax_from_count(coeffs.shape[0])
+        if order > MAX_RENDER_ORDER:  # the envmap is the SH sampled per texel: memory grows as lmax^2
+            raise PanoLightError(f"{p}: SH order {order} is above the {MAX_RENDER_ORDER} render-mitsuba renders; "
+                                 f"re-estimate with a lower --lmax")
         src = Path(doc.get("source", {}).get("path", ""))
         pano = None
         if src.is_file():

@@ -55,3 +55,30 @@ def test_batch_keeps_going_and_reports(tmp_path, rng):
     assert main(["batch", str(src / "p0.png"), str(src / "p1.png"), "-o", str(out2), "-q", "--shard", "1/2"]) == 0
     assert main(["batch", str(src / "p0.png"), str(src / "p1.png"), "-o", str(out2), "-q", "--shard", "2/2"]) == 0
     assert sorted(p.name for p in out2.iterdir()) == ["batch_report-1-of-2.json", "batch_report-2-of-2.json", "p0", "p1"]
+
+
+def test_output_names_stay_inside_and_never_collide(tmp_path):
+    names = ["...png", "..jpg", ".hidden.jpg", "a b.jpg", "A.jpg", "a.jpg", "x/../y.jpg", "sub/a.jpg"]
+    inputs = [tmp_path / n for n in names]
+    out = output_names(inputs)
+    assert len(set(v.lower() for v in out.values())) == len(inputs)  # unique, even without case
+    root = (tmp_path / "OUT").resolve()
+    for name in out.values():
+        assert not name.startswith(".") and "/" not in name and "\\\\" not in name
+        assert (root / name).resolve().parent == root
+
+
+def test_batch_with_dot_names_writes_only_inside_its_folder(tmp_path):
+    import numpy as np
+
+    src = tmp_path / "in"
+    src.mkdir()
+    img = np.full((16, 32, 3), 0.5, np.float32)
+    write_image(src / "...exr", img)
+    write_image(src / "..exr", img)
+    (tmp_path / "lighting.json").write_text("mine")
+    out = tmp_path / "out"
+    assert main(["batch", str(src / "...exr"), str(src / "..exr"), "-o", str(out), "-q"]) == 0
+    assert (tmp_path / "lighting.json").read_text() == "mine"
+    folders = [p for p in out.iterdir() if p.is_dir()]
+    assert len(folders) == 2 and all((f / "lighting.json").is_file() for f in folders)

@@ -136,3 +136,25 @@ def test_estimate_never_overwrites_its_input(tmp_path, capsys):
     assert main(["estimate", str(src), "-o", str(tmp_path), "-q"]) == 1
     assert "would overwrite the input" in capsys.readouterr().err
     assert src.read_bytes() == before
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--tolerance", "-1"], "--tolerance must be between"), (["--tolerance", "nan"], "--tolerance must be between"),
+    (["--window-width", "-3"], "--window-width must be between"), (["--exposure", "2000"], "--exposure must be"),
+    (["--exposure", "inf"], "--exposure must be")])
+def test_bad_numbers_get_one_line(tmp_path, capsys, args, message):
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    with pytest.raises(SystemExit) as exc:
+        main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q", *args])
+    assert exc.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_overflowing_outputs_are_refused_before_writing(tmp_path, capsys):
+    img = np.full((16, 32, 3), 3.0e38, np.float32)  # float-max pixels: their projection overflows
+    src = write_image(tmp_path / "huge.exr", img)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q"]) == 1
+    assert "would not be finite" in capsys.readouterr().err and not (tmp_path / "o").exists()
+    src2 = write_image(tmp_path / "bright.exr", np.full((16, 32, 3), 1e30, np.float32))
+    assert main(["estimate", str(src2), "-o", str(tmp_path / "o2"), "--exposure", "59", "-q"]) == 1
+    assert "would not be finite" in capsys.readouterr().err and not (tmp_path / "o2").exists()

@@ -173,3 +173,17 @@ def test_figure_from_the_camera_jpeg_has_truth_in_the_jpeg_units(tmp_path):
                                compare_hdr=True, from_ldr=0.0, in_panorama=False, materials=("plastic",),
                                log=lambda m: None)
     assert len(res["renders"]) == 2 and any("ground_truth" in r for r in res["renders"])
+
+
+def test_render_refuses_zero_spp_and_absurd_orders(tmp_path, capsys):
+    from panolight_core.cli import main
+    from panolight_core.lighting import make_lighting, write_lighting
+
+    doc = make_lighting(np.zeros(((mr.MAX_RENDER_ORDER + 2) ** 2, 3)))
+    path = tmp_path / "lighting.json"
+    write_lighting(path, doc)
+    assert main(["render-mitsuba", str(path), "--out", str(tmp_path / "r"), "-q"]) == 1
+    assert f"above the {mr.MAX_RENDER_ORDER}" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main(["render-mitsuba", str(path), "--out", str(tmp_path / "r"), "--spp", "0"])
+    assert exc.value.code == 2 and "--spp must be between" in capsys.readouterr().err
