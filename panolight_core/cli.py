@@ -475,12 +475,36 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminate(signum, frame):
+    """SIGTERM (a render farm cancelling a job, ``kill``) unwinds like Ctrl-C: the writers' ``finally``
+    blocks remove their temporary files, and the exit status says why (128 + 15)."""
+    raise _Terminated()
+
+
+class _Terminated(KeyboardInterrupt):
+    pass
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
+    import signal
+    import threading
+
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return _run(args)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("always", PanoLightWarning)
         warnings.showwarning = lambda m, c, f, l, file=None, line=None: print(f"warning: {m}", file=sys.stderr)
@@ -493,6 +517,9 @@ def main(argv=None) -> int:
             where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
             print(f"panolight: error: {where}{exc.strerror or exc}", file=sys.stderr)
             return 1
+        except _Terminated:
+            print("panolight: terminated (SIGTERM)", file=sys.stderr)
+            return 143
         except KeyboardInterrupt:
             print("panolight: interrupted", file=sys.stderr)
             return 130

@@ -125,6 +125,10 @@ def write_lighting(path, doc: dict) -> Path:
     p = Path(path)
     validate(doc, p)
     tmp = p.with_name(f".{p.name}.tmp{os.getpid()}")
-    tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-    os.replace(tmp, p)
+    try:
+        tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        os.replace(tmp, p)
+    finally:  # interrupted (Ctrl-C, SIGTERM) or failed: no temporary file left behind
+        if tmp.exists():
+            tmp.unlink()
     return p

@@ -134,6 +134,15 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
 
 
 def _write_png(path: Path, rgb8: np.ndarray):
+    """8-bit RGB PNG, written to a temporary name and renamed (never half-written)."""
+    import os
+
     from PIL import Image
 
-    Image.fromarray(rgb8, "RGB").save(path)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}.png")
+    try:
+        Image.fromarray(rgb8, "RGB").save(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()

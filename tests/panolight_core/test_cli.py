@@ -1,6 +1,7 @@
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -158,3 +159,24 @@ def test_overflowing_outputs_are_refused_before_writing(tmp_path, capsys):
     src2 = write_image(tmp_path / "bright.exr", np.full((16, 32, 3), 1e30, np.float32))
     assert main(["estimate", str(src2), "-o", str(tmp_path / "o2"), "--exposure", "59", "-q"]) == 1
     assert "would not be finite" in capsys.readouterr().err and not (tmp_path / "o2").exists()
+
+
+def test_sigterm_mid_write_exits_143_and_leaves_no_temporary_files(tmp_path, capsys, monkeypatch):
+    import signal
+
+    from panolight_core import pipeline
+
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    real = pipeline.write_image
+
+    def write_then_terminate(path, image, **kw):
+        if Path(path).name == "radiance.exr":  # the farm cancels the job while outputs are written
+            os.kill(os.getpid(), signal.SIGTERM)
+        return real(path, image, **kw)
+
+    monkeypatch.setattr(pipeline, "write_image", write_then_terminate)
+    out = tmp_path / "o"
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 143
+    assert "terminated" in capsys.readouterr().err
+    assert not [p for p in out.iterdir() if ".tmp" in p.name]
+    assert signal.getsignal(signal.SIGTERM) is not None  # the previous handler is back
