@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..color import SRGB8_TO_LINEAR, linear_to_srgb, srgb_to_linear
+from ..color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR, linear_to_srgb, srgb_to_linear
 from ..errors import ImageError, PanoLightWarning
 from ..sh.grid import MAX_SIDE  # larger images are refused as absurd
 from . import hdr as _hdr
@@ -60,21 +60,87 @@ def _check_size(path, h: int, w: int, equirect: bool):
         raise ImageError(path, f"equirectangular panoramas must be 2:1 (width = 2 x height); got {w} x {h}")
 
 
+def _exr_colour(names) -> str | None:
+    """Which colour layout an EXR part's channel names hold: "RGB", "YC" (luminance + chroma), "Y", or None."""
+    names = set(names)
+    if {"R", "G", "B"} <= names:
+        return "RGB"
+    if {"Y", "RY", "BY"} <= names:
+        return "YC"
+    return "Y" if "Y" in names else None
+
+
+def _exr_names(header) -> set:
+    return {getattr(c, "name", str(c)) for c in header.get("channels", [])}
+
+
+def _exr_window(header, key):
+    (x0, y0), (x1, y1) = header[key]
+    return int(x0), int(y0), int(x1), int(y1)
+
+
+def _choose_exr_part(path, parts) -> int:
+    """The part that holds the panorama: colour channels over the full display window, 2:1 preferred,
+    then the largest. Says which (a warning) when the file has several parts; refuses crops."""
+    found = []
+    for i, part in enumerate(parts):
+        layout = _exr_colour(_exr_names(part.header))
+        if layout is None:
+            continue
+        x0, y0, x1, y1 = _exr_window(part.header, "dataWindow")
+        w, h = x1 - x0 + 1, y1 - y0 + 1
+        full = _exr_window(part.header, "dataWindow") == _exr_window(part.header, "displayWindow")
+        found.append((full, w == 2 * h, w * h, -i, i, w, h, layout))
+    if not found:
+        names = sorted({c for p in parts for c in _exr_names(p.header)})
+        raise ValueError(f"no R, G, B (or Y) channels in any part; channels are {names}")
+    full, _, _, _, i, w, h, layout = max(found)
+    if not full:
+        x0, y0, x1, y1 = _exr_window(parts[i].header, "dataWindow")
+        d = _exr_window(parts[i].header, "displayWindow")
+        raise ValueError(f"its data window ({x0},{y0})-({x1},{y1}) is a crop of its display window "
+                         f"({d[0]},{d[1]})-({d[2]},{d[3]}); a panorama must cover the whole sphere")
+    if len(parts) > 1:
+        name = parts[i].name() if callable(getattr(parts[i], "name", None)) else str(i)
+        warnings.warn(PanoLightWarning(f"{path}: {len(parts)} parts; using part {i} ({name!r}, {w} x {h} "
+                                       f"{layout}), the largest full-frame colour part"))
+    return i
+
+
 def _read_exr(path) -> np.ndarray:
     import OpenEXR
 
-    head = OpenEXR.File(str(path), header_only=True).header()
-    (x0, y0), (x1, y1) = head["dataWindow"]
-    yield int(y1 - y0 + 1), int(x1 - x0 + 1)
-    channels = OpenEXR.File(str(path)).channels()
-    if "RGB" in channels:
-        yield channels["RGB"].pixels
-    elif "RGBA" in channels:
-        yield channels["RGBA"].pixels[..., :3]
-    elif "Y" in channels:
-        yield np.repeat(channels["Y"].pixels[..., None], 3, axis=-1)
+    heads = OpenEXR.File(str(path), header_only=True).parts
+    i = _choose_exr_part(path, heads)
+    x0, y0, x1, y1 = _exr_window(heads[i].header, "dataWindow")
+    yield y1 - y0 + 1, x1 - x0 + 1  # checked against the size budget before any pixel is decoded
+    layout = _exr_colour(_exr_names(heads[i].header))
+    channels = OpenEXR.File(str(path)).parts[i].channels
+    if layout == "RGB":
+        key = "RGB" if "RGB" in channels else "RGBA"
+        yield channels[key].pixels[..., :3]
+    elif layout == "YC":
+        yield _luminance_chroma_to_rgb(channels, y1 - y0 + 1, x1 - x0 + 1)
     else:
-        raise ValueError(f"no R, G, B (or Y) channels; channels are {sorted(channels)}")
+        yield np.repeat(channels["Y"].pixels[..., None], 3, axis=-1)
+
+
+def _luminance_chroma_to_rgb(channels, h: int, w: int) -> np.ndarray:
+    """OpenEXR's luminance/chroma (Y, RY = (R - Y) / Y, BY = (B - Y) / Y; chroma often subsampled) -> RGB
+    with Rec.709 weights (the CONVENTIONS.md primaries)."""
+    y = np.asarray(channels["Y"].pixels, dtype=np.float32)
+
+    def full(name):
+        c = channels[name]
+        a = np.asarray(c.pixels, dtype=np.float32)
+        a = np.repeat(np.repeat(a, int(c.ySampling), axis=0), int(c.xSampling), axis=1)
+        return a[:h, :w]
+
+    r = y * (1.0 + full("RY"))
+    b = y * (1.0 + full("BY"))
+    wr, wg, wb = (float(v) for v in LUMINANCE_WEIGHTS)
+    g = (y - wr * r - wb * b) / wg
+    return np.stack([r, g, b], axis=-1)
 
 
 def _read_hdr(path):
@@ -90,7 +156,7 @@ def _read_pil(path, as_uint8=False):
     with Image.open(path) as im:
         yield im.height, im.width
         if im.format == "PNG" and (im.mode in ("I;16", "I;16B", "I") or _png_bit_depth(path) == 16):
-            yield _read_png16(path)
+            yield _read_png16(path, as_uint8)
             return
         im.load()
         rgb = np.asarray(im.convert("RGB"))
@@ -103,7 +169,10 @@ def _png_bit_depth(path) -> int:
     return head[24] if head.startswith(b"\x89PNG") and len(head) >= 25 else 8
 
 
-def _read_png16(path) -> np.ndarray:
+def _read_png16(path, as_uint8: bool = False) -> np.ndarray:
+    """A 16-bit PNG: display-referred sRGB, i.e. LDR with more precision. as_uint8: rounded to the 8-bit
+    values the same picture saved as 8 bits would hold, so the LDR estimators find its clipped pixels;
+    else float32 linear."""
     import png
 
     w, h, rows, info = png.Reader(filename=str(path)).asDirect()
@@ -111,6 +180,8 @@ def _read_png16(path) -> np.ndarray:
     if info["planes"] in (1, 2):
         arr = np.repeat(arr[..., :1], 3, axis=-1)
     arr = arr[..., :3].astype(np.float32) / float(2 ** info["bitdepth"] - 1)
+    if as_uint8:
+        return np.round(arr * 255.0).astype(np.uint8)
     return srgb_to_linear(arr).astype(np.float32)
 
 
@@ -121,8 +192,9 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
                ldr_as_uint8: bool = False) -> np.ndarray:
     """Read a panorama as (H, W, 3) float32 linear RGB.
 
-    ldr_as_uint8: return 8-bit PNG/JPEG files as their (H, W, 3) uint8 sRGB values instead (no
-    linearisation; estimators that need the clipped pixels exactly use this). Other formats are unaffected.
+    ldr_as_uint8: return PNG/JPEG files as their (H, W, 3) uint8 sRGB values instead (no linearisation;
+    estimators that need the clipped pixels exactly use this; a 16-bit PNG is rounded to 8 bits, as it is
+    display-referred LDR). Other formats are unaffected.
     equirect: require a 2:1 image. nonfinite: "error" (default) refuses NaN/Inf pixels, "repair"
     sets NaN and -Inf to 0 and +Inf to the largest finite value, with a PanoLightWarning.
     negative: "clamp" (default) sets negative radiance to 0 with a PanoLightWarning, "error" refuses it.

@@ -143,3 +143,82 @@ def test_write_errors_and_atomicity(tmp_path, pano):
     with pytest.raises(ImageError, match="bit_depth"):
         write_image(tmp_path / "a.jpg", pano, bit_depth=16)
     assert sorted(p.name for p in tmp_path.iterdir()) == []  # no partial files left behind
+
+
+def _exr_parts(path, parts):
+    import OpenEXR
+
+    with OpenEXR.File([OpenEXR.Part({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                                     **head}, ch, name=name) for name, head, ch in parts]) as f:
+        f.write(str(path))
+    return path
+
+
+def test_multipart_exr_uses_the_panorama_part_and_says_so(tmp_path):
+    import warnings
+
+    import numpy as np
+
+    from panolight_core.errors import PanoLightWarning
+    from panolight_core.io import read_image
+
+    pano = np.random.default_rng(1).random((8, 16, 3)).astype(np.float32)
+    disp = ((0, 0), (15, 7))
+    path = _exr_parts(tmp_path / "multi.exr", [
+        ("mask", {"displayWindow": disp, "dataWindow": ((0, 0), (3, 3))}, {"Y": np.zeros((4, 4), np.float32)}),
+        ("beauty", {"displayWindow": disp, "dataWindow": disp}, {"RGB": pano})])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = read_image(path)
+    np.testing.assert_array_equal(got, pano)
+    assert any(isinstance(w.message, PanoLightWarning) and "using part 1 ('beauty'" in str(w.message) for w in caught)
+
+
+def test_cropped_exr_is_refused(tmp_path):
+    import numpy as np
+    import pytest
+
+    from panolight_core.errors import ImageError
+    from panolight_core.io import read_image
+
+    path = _exr_parts(tmp_path / "crop.exr", [
+        ("crop", {"displayWindow": ((0, 0), (31, 15)), "dataWindow": ((0, 0), (15, 7))},
+         {"RGB": np.ones((8, 16, 3), np.float32)})])
+    with pytest.raises(ImageError, match="crop.exr: .*is a crop of its display window"):
+        read_image(path)
+
+
+def test_luminance_chroma_exr_keeps_its_colour(tmp_path):
+    import OpenEXR
+    import numpy as np
+
+    from panolight_core.color import LUMINANCE_WEIGHTS
+    from panolight_core.io import read_image
+
+    rgb = (np.random.default_rng(2).random((8, 16, 3)) + 0.1).astype(np.float32)
+    y = (rgb @ LUMINANCE_WEIGHTS.astype(np.float32)).astype(np.float32)
+    ch = {"Y": y, "RY": (rgb[..., 0] - y) / y, "BY": (rgb[..., 2] - y) / y}
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, ch) as f:
+        f.write(str(tmp_path / "yc.exr"))
+    np.testing.assert_allclose(read_image(tmp_path / "yc.exr"), rgb, rtol=1e-5, atol=1e-6)
+
+
+def test_16bit_png_is_ldr_for_the_estimators(tmp_path):
+    import numpy as np
+    import png
+
+    from panolight_core.estimators import estimate
+    from panolight_core.io import read_image
+
+    rng = np.random.default_rng(3)
+    v8 = rng.integers(0, 200, (32, 64, 3)).astype(np.uint8)
+    v8[5:8, 10:14] = 255  # a clipped lamp
+    v16 = v8.astype(np.uint16) * 257
+    path = tmp_path / "p16.png"
+    with open(path, "wb") as f:
+        png.Writer(64, 32, bitdepth=16, greyscale=False).write(f, v16.reshape(32, -1).tolist())
+    got = read_image(path, ldr_as_uint8=True)
+    assert got.dtype == np.uint8
+    np.testing.assert_array_equal(got, v8)
+    a, b = estimate(got, 2, "sources"), estimate(v8, 2, "sources")  # the same lighting as the 8-bit picture
+    np.testing.assert_allclose(a.coeffs, b.coeffs)
