@@ -104,6 +104,15 @@ def validate(doc, source="lighting") -> dict:
             bad(f"{where}: intensity must be a finite non-negative number")
         if "angle" in light and (not _number(light["angle"]) or not 0 <= light["angle"] <= math.pi):
             bad(f"{where}: angle must be in [0, pi] radians")
+        if light["type"] == "area" and "angle" not in light:
+            bad(f"{where}: an area light needs its angular diameter 'angle' (radians)")
+    src = doc.get("source")
+    if src is not None:
+        if not isinstance(src, dict):
+            bad(f"'source' must be an object with 'path' and 'sha256', got {type(src).__name__}")
+        for key in ("path", "sha256"):
+            if key in src and not isinstance(src[key], str):
+                bad(f"'source.{key}' must be a string")
     return doc
 
 

@@ -328,6 +328,30 @@ def default_meshes() -> list[Path]:
                          "pass --meshes PATH [PATH ...] (.ply or .obj, +Y up)")
 
 
+def _verified_source(lighting_path: Path, source: dict) -> Path | None:
+    """The panorama a lighting file was estimated from, as its background: only when ``source.path``
+    is a file whose SHA-256 is ``source.sha256`` (a lighting file cannot make the renderer read any
+    other file); otherwise a warning and None (a neutral background)."""
+    import hashlib
+    import warnings
+
+    from panolight_core.errors import PanoLightWarning
+
+    path, digest = source.get("path"), source.get("sha256")
+    if not path:
+        return None
+    p = Path(path)
+    try:
+        ok = bool(digest) and p.is_file() and hashlib.sha256(p.read_bytes()).hexdigest() == digest
+    except OSError:
+        ok = False
+    if not ok:
+        warnings.warn(PanoLightWarning(f"{lighting_path}: its source panorama {path} is missing or not the file "
+                                       f"it was estimated from (SHA-256 differs); rendering over a grey background"))
+        return None
+    return p
+
+
 def load_input(path, lmax="auto", from_ldr=None):
     """(coeffs, lights, panorama or None, label, truth or None) from a panorama (estimated here with the
     default adaptive model) or a lighting.json (its source panorama is used as background when it
@@ -348,9 +372,9 @@ def load_input(path, lmax="auto", from_ldr=None):
         if order > MAX_RENDER_ORDER:  # the envmap is the SH sampled per texel: memory grows as lmax^2
             raise PanoLightError(f"{p}: SH order {order} is above the {MAX_RENDER_ORDER} render-mitsuba renders; "
                                  f"re-estimate with a lower --lmax")
-        src = Path(doc.get("source", {}).get("path", ""))
         pano = None
-        if src.is_file():
+        src = _verified_source(p, doc.get("source") or {})
+        if src is not None:
             px = read_image(src, ldr_as_uint8=True)
             pano = ldr_to_linear(px) if px.dtype == np.uint8 else px
         return coeffs, doc.get("lights", []), pano, p.parent.name or p.stem, None

@@ -151,15 +151,18 @@ def _read_hdr(path):
 
 
 def _read_pil(path, as_uint8=False):
-    from PIL import Image
+    """JPEG/PNG: size first (from the header, as displayed: EXIF orientation 5-8 swaps it), then pixels
+    turned upright by their EXIF orientation."""
+    from PIL import Image, ImageOps
 
     with Image.open(path) as im:
-        yield im.height, im.width
+        orientation = im.getexif().get(0x0112, 1)
+        yield (im.width, im.height) if orientation in (5, 6, 7, 8) else (im.height, im.width)
         if im.format == "PNG" and (im.mode in ("I;16", "I;16B", "I") or _png_bit_depth(path) == 16):
             yield _read_png16(path, as_uint8)
             return
         im.load()
-        rgb = np.asarray(im.convert("RGB"))
+        rgb = np.asarray(ImageOps.exif_transpose(im).convert("RGB"))
     yield rgb if as_uint8 else SRGB8_TO_LINEAR[rgb]
 
 

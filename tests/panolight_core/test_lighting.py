@@ -63,3 +63,21 @@ def test_not_json_and_missing(tmp_path):
     with pytest.raises(LightingFileError, match="finite"):
         validate({"lmax": 0, "coefficients": [[float("nan"), 0, 0]], "frame": "blender-world-z-up",
                   "basis": "real-orthonormal-no-condon-shortley"})
+
+
+def test_area_lights_need_an_angle_and_source_must_be_an_object():
+    import pytest
+
+    from panolight_core.errors import PanoLightError
+    from panolight_core.lighting import make_lighting, validate
+
+    doc = make_lighting(np.zeros((1, 3)), lights=[{"type": "area", "direction": [0, 0, 1], "color": [1, 1, 1],
+                                                   "intensity": 1.0, "angle": 0.2}])
+    validate(doc)
+    del doc["lights"][0]["angle"]
+    with pytest.raises(PanoLightError, match="area light needs its angular diameter"):
+        validate(doc, "x.json")
+    doc = make_lighting(np.zeros((1, 3)))
+    doc["source"] = "photo.jpg"
+    with pytest.raises(PanoLightError, match="'source' must be an object"):
+        validate(doc, "x.json")

@@ -187,3 +187,25 @@ def test_render_refuses_zero_spp_and_absurd_orders(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["render-mitsuba", str(path), "--out", str(tmp_path / "r"), "--spp", "0"])
     assert exc.value.code == 2 and "--spp must be between" in capsys.readouterr().err
+
+
+def test_a_lighting_file_cannot_point_the_renderer_at_any_file(tmp_path):
+    import hashlib
+    import warnings
+
+    from panolight_core.errors import PanoLightWarning
+    from panolight_core.io import write_image
+    from panolight_core.lighting import make_lighting, write_lighting
+
+    pano = write_image(tmp_path / "pano.exr", np.full((8, 16, 3), 0.25, np.float32))
+    secret = tmp_path / "secret.exr"
+    write_image(secret, np.full((8, 16, 3), 9.0, np.float32))
+    digest = hashlib.sha256(pano.read_bytes()).hexdigest()
+    for target, expect_bg in ((pano, True), (secret, False)):
+        doc = make_lighting(np.zeros((1, 3)), source={"path": str(target), "sha256": digest})
+        path = write_lighting(tmp_path / "lighting.json", doc)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            _, _, bg, _, _ = mr.load_input(path)
+        assert (bg is not None) == expect_bg
+        assert expect_bg or any(isinstance(w.message, PanoLightWarning) for w in caught)

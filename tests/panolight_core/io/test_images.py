@@ -222,3 +222,17 @@ def test_16bit_png_is_ldr_for_the_estimators(tmp_path):
     np.testing.assert_array_equal(got, v8)
     a, b = estimate(got, 2, "sources"), estimate(v8, 2, "sources")  # the same lighting as the 8-bit picture
     np.testing.assert_allclose(a.coeffs, b.coeffs)
+
+
+@pytest.mark.parametrize("orientation", [1, 3, 6])
+def test_exif_orientation_is_applied(tmp_path, orientation):
+    from PIL import Image
+
+    upright = (np.random.default_rng(4).random((16, 32, 3)) * 255).astype(np.uint8)
+    # what a camera stores: the picture turned, plus a tag saying how to turn it upright (6: 90 deg clockwise)
+    stored = {1: upright, 3: upright[::-1, ::-1], 6: np.rot90(upright, 1)}[orientation]
+    im = Image.fromarray(np.ascontiguousarray(stored))
+    exif = im.getexif()
+    exif[0x0112] = orientation
+    im.save(tmp_path / "o.png", exif=exif)
+    np.testing.assert_array_equal(read_image(tmp_path / "o.png", ldr_as_uint8=True), upright)
