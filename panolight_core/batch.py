@@ -24,18 +24,45 @@ def collect_inputs(paths, list_file=None, recursive: bool = False) -> list[Path]
         if not lf.is_file():
             raise PanoLightError(f"{lf}: input list not found")
         base = lf.parent
-        for line in lf.read_text(encoding="utf-8").splitlines():
+        try:
+            text = lf.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            raise PanoLightError(f"{lf}: not a text list of panorama paths (binary data)") from None
+        if "\x00" in text:
+            raise PanoLightError(f"{lf}: not a text list of panorama paths (binary data)")
+        for line in text.splitlines():
             line = line.strip()
             if line and not line.startswith("#"):
                 p = Path(line)
                 entries.append(p if p.is_absolute() else base / p)
     for p in entries:
-        if p.is_dir():
+        if _is_dir(p):
             pattern = "**/*" if recursive else "*"
-            found += [f for f in p.glob(pattern) if f.is_file() and f.suffix.lower() in EXTENSIONS]
+            found += [f for f in p.glob(pattern) if f.suffix.lower() in EXTENSIONS and _is_file(f)]
         else:
             found.append(p)
-    return sorted({f.resolve() for f in found}, key=str)
+    return sorted({_resolved(f) for f in found}, key=str)
+
+
+def _is_dir(p: Path) -> bool:
+    try:
+        return p.is_dir()
+    except OSError:  # a symlink loop, a name too long: it fails later, as one input, with its reason
+        return False
+
+
+def _is_file(p: Path) -> bool:
+    try:
+        return p.is_file()
+    except OSError:
+        return False
+
+
+def _resolved(p: Path) -> Path:
+    try:
+        return p.resolve()
+    except (OSError, RuntimeError):  # a symlink loop: kept as given, reported as a failed input
+        return p.absolute()
 
 
 def parse_shard(text: str | None) -> tuple[int, int]:

@@ -19,6 +19,10 @@ DTYPES = {"F64": "<f8", "F32": "<f4", "F16": "<f2", "I64": "<i8", "I32": "<i4", 
 MAX_HEADER = 100 * 2 ** 20
 
 
+def _count(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and v >= 0
+
+
 def load_safetensors(path) -> tuple[dict[str, np.ndarray], dict]:
     """({name: array}, metadata) from a .safetensors file; PanoLightError naming the file on any damage."""
     p = Path(path)
@@ -35,15 +39,25 @@ def load_safetensors(path) -> tuple[dict[str, np.ndarray], dict]:
         header = json.loads(data[8:8 + n])
     except (UnicodeDecodeError, json.JSONDecodeError):
         raise PanoLightError(f"{p}: not a safetensors file (unreadable header)") from None
+    if not isinstance(header, dict):
+        raise PanoLightError(f"{p}: not a safetensors file (the header is not a JSON object)")
     meta = header.pop("__metadata__", {}) or {}
+    if not isinstance(meta, dict) or not all(isinstance(v, str) for v in meta.values()):
+        raise PanoLightError(f"{p}: not a safetensors file (__metadata__ must map names to strings)")
     body = memoryview(data)[8 + n:]
     tensors = {}
     for name, info in header.items():
-        dtype = DTYPES.get(info.get("dtype"))
+        if not isinstance(info, dict):
+            raise PanoLightError(f"{p}: tensor {name!r} has no description (dtype, shape, data_offsets)")
+        dtype = DTYPES.get(info.get("dtype")) if isinstance(info.get("dtype"), str) else None
         if dtype is None:
             raise PanoLightError(f"{p}: tensor {name!r} has unsupported dtype {info.get('dtype')!r}")
-        begin, end = info["data_offsets"]
-        shape = tuple(int(s) for s in info["shape"])
+        offsets, shape = info.get("data_offsets"), info.get("shape")
+        if not (isinstance(offsets, list) and len(offsets) == 2 and all(_count(v) for v in offsets)) or \
+                not (isinstance(shape, list) and all(_count(v) for v in shape)):
+            raise PanoLightError(f"{p}: tensor {name!r} needs integer 'shape' and two integer 'data_offsets'")
+        begin, end = offsets
+        shape = tuple(shape)
         count = int(np.prod(shape)) if shape else 1
         if not 0 <= begin <= end <= len(body) or end - begin != count * np.dtype(dtype).itemsize:
             raise PanoLightError(f"{p}: tensor {name!r} is truncated or its offsets are inconsistent")

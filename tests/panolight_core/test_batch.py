@@ -82,3 +82,24 @@ def test_batch_with_dot_names_writes_only_inside_its_folder(tmp_path):
     assert (tmp_path / "lighting.json").read_text() == "mine"
     folders = [p for p in out.iterdir() if p.is_dir()]
     assert len(folders) == 2 and all((f / "lighting.json").is_file() for f in folders)
+
+
+def test_list_with_a_symlink_loop_or_binary_data_gets_one_line(tmp_path, capsys):
+    import os
+
+    import numpy as np
+
+    good = write_image(tmp_path / "good.exr", np.full((16, 32, 3), 0.5, np.float32))
+    os.symlink(tmp_path / "loop_b.exr", tmp_path / "loop_a.exr")
+    os.symlink(tmp_path / "loop_a.exr", tmp_path / "loop_b.exr")
+    lst = tmp_path / "list.txt"
+    lst.write_text(f"{good}\n{tmp_path / 'loop_a.exr'}\n")
+    out = tmp_path / "out"
+    assert main(["batch", "--list", str(lst), "-o", str(out), "-q"]) == 1  # one input failed, the batch ran
+    report = json.loads((out / "batch_report.json").read_text())
+    status = {r["input"].rsplit("/", 1)[-1]: r["status"] for r in report["results"]}
+    assert status["good.exr"] == "ok" and status["loop_a.exr"] == "failed"
+    binary = tmp_path / "binary.txt"
+    binary.write_bytes(b"\x89PNG\x00\x01\xff\xfe")
+    assert main(["batch", "--list", str(binary), "-o", str(out), "-q"]) == 1
+    assert "binary.txt: not a text list" in capsys.readouterr().err

@@ -72,3 +72,19 @@ def test_safetensors_reader_matches_the_library_and_refuses_damage(tmp_path, rng
         load_safetensors(tmp_path / "junk.safetensors")
     with pytest.raises(PanoLightError, match="cannot read weights"):
         load_safetensors(tmp_path / "absent.safetensors")
+
+
+@pytest.mark.parametrize("header", [b"[1, 2]", b'{"w": 3}', b'{"w": {"dtype": "F32"}}',
+                                    b'{"w": {"dtype": "F32", "shape": "2", "data_offsets": [0, 8]}}',
+                                    b'{"w": {"dtype": 5, "shape": [2], "data_offsets": [0, 8]}}',
+                                    b'{"__metadata__": {"a": 1}}'])
+def test_malformed_safetensors_headers_get_one_line(tmp_path, header):
+    import struct
+
+    from panolight_core.errors import PanoLightError
+    from panolight_core.nn.safetensors_np import load_safetensors
+
+    path = tmp_path / "bad.safetensors"
+    path.write_bytes(struct.pack("<Q", len(header)) + header + b"\0" * 8)
+    with pytest.raises(PanoLightError, match="bad.safetensors: "):
+        load_safetensors(path)
