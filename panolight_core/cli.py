@@ -108,7 +108,7 @@ def _estimate_kwargs(args) -> dict:
     return {"lmax": args.lmax, "estimator": args.estimator, "model": args.model, "exposure_ev": args.exposure,
             "window": args.window,
             "window_width": args.window_width, "tolerance": args.tolerance, "resolution": args.resolution,
-            "repair_nonfinite": args.repair_nonfinite}
+            "repair_nonfinite": args.repair_nonfinite, "max_megapixels": args.max_megapixels}
 
 
 def run_estimate(args) -> int:
@@ -302,6 +302,12 @@ def _add_estimate_options(p, default_estimator="auto"):
     p.add_argument("--resolution", type=_resolution, default=(512, 256),
                    help="size of radiance.exr / irradiance.exr, WxH (default 512x256)")
     p.add_argument("--repair-nonfinite", action="store_true", help="replace NaN/Inf pixels instead of refusing")
+    from .io.images import DEFAULT_MAX_MEGAPIXELS, MAX_PIXELS
+
+    p.add_argument("--max-megapixels", type=_number("--max-megapixels", 0.001, MAX_PIXELS / 1e6),
+                   default=DEFAULT_MAX_MEGAPIXELS, metavar="MP",
+                   help=f"decode budget: refuse larger images before decoding them (default "
+                        f"{DEFAULT_MAX_MEGAPIXELS:g}, which fits 16384 x 8192)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
 
 

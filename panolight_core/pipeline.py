@@ -45,7 +45,7 @@ def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model:
 def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str = "auto",
                  exposure_ev: float = 0.0, window: str = "none", window_width: float | None = None,
                  tolerance: float = DEFAULT_TOLERANCE, resolution=(512, 256), repair_nonfinite: bool = False,
-                 log=None) -> dict:
+                 max_megapixels: float | None = None, log=None) -> dict:
     """Estimate the lighting of panorama ``src`` and write OUTPUT_FILES into ``out_dir`` (created).
 
     model: "auto" (explicit lights for compact sources + the SH order the scene needs, deringed only if
@@ -64,7 +64,8 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
                                  f"choose another output folder (-o)")
     t0 = time.perf_counter()
     log(f"reading {src}")
-    pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error")
+    budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
+    pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error", **budget)
     t_read = time.perf_counter() - t0
     log(f"estimating ({estimator}, model {model}, lmax {lmax or 'default'}) on {pixels.shape[1]}x{pixels.shape[0]}")
     t1 = time.perf_counter()

@@ -16,7 +16,8 @@ from ..errors import ImageError, PanoLightWarning
 from ..sh.grid import MAX_SIDE  # larger images are refused as absurd
 from . import hdr as _hdr
 
-MAX_PIXELS = 1 << 29  # 32768 x 16384
+MAX_PIXELS = 1 << 29  # 32768 x 16384: no size above this is read at all
+DEFAULT_MAX_MEGAPIXELS = 140.0  # the decode budget: 16384 x 8192 (134 MP, the largest common HDRI) fits
 HDR_FORMATS = ("exr", "hdr")
 LDR_FORMATS = ("png", "jpeg")
 _EXTENSIONS = {".exr": "exr", ".hdr": "hdr", ".pic": "hdr", ".rgbe": "hdr", ".png": "png", ".jpg": "jpeg",
@@ -50,9 +51,12 @@ def is_hdr(path) -> bool:
     return sniff_format(path) in HDR_FORMATS
 
 
-def _check_size(path, h: int, w: int, equirect: bool):
+def _check_size(path, h: int, w: int, equirect: bool, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS):
     if h <= 0 or w <= 0:
         raise ImageError(path, f"image has zero size ({w} x {h})")
+    if h * w > max_megapixels * 1e6 and h * w <= MAX_PIXELS:
+        raise ImageError(path, f"image is {w} x {h} = {h * w / 1e6:.0f} megapixels, above the decode budget of "
+                               f"{max_megapixels:g} (raise it with --max-megapixels if the file is real)")
     if h > MAX_SIDE or w > MAX_SIDE or h * w > MAX_PIXELS:
         raise ImageError(path, f"image size {w} x {h} is larger than supported ({MAX_SIDE} per side, "
                                f"{MAX_PIXELS} pixels)")
@@ -155,8 +159,14 @@ def _read_pil(path, as_uint8=False):
     turned upright by their EXIF orientation."""
     from PIL import Image, ImageOps
 
-    with Image.open(path) as im:
-        orientation = im.getexif().get(0x0112, 1)
+    limit = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = MAX_PIXELS  # our own budget (_check_size) decides; Pillow's check only warns
+    try:
+        opened = Image.open(path)
+    finally:
+        Image.MAX_IMAGE_PIXELS = limit
+    with opened as im:
+        orientation = _orientation(im)
         yield (im.width, im.height) if orientation in (5, 6, 7, 8) else (im.height, im.width)
         if im.format == "PNG" and (im.mode in ("I;16", "I;16B", "I") or _png_bit_depth(path) == 16):
             yield _read_png16(path, as_uint8)
@@ -164,6 +174,21 @@ def _read_pil(path, as_uint8=False):
         im.load()
         rgb = np.asarray(ImageOps.exif_transpose(im).convert("RGB"))
     yield rgb if as_uint8 else SRGB8_TO_LINEAR[rgb]
+
+
+def _orientation(im) -> int:
+    """EXIF orientation (1 = upright) read from the header alone: a PNG's eXIf chunk only when it comes
+    before the pixel data (reading further would decode a possibly huge, possibly truncated image)."""
+    from PIL import Image
+
+    if im.format == "PNG":
+        raw = im.info.get("exif")
+        if not raw:
+            return 1
+        exif = Image.Exif()
+        exif.load(raw)
+        return int(exif.get(0x0112, 1))
+    return int(im.getexif().get(0x0112, 1))
 
 
 def _png_bit_depth(path) -> int:
@@ -192,7 +217,7 @@ _READERS = {"exr": _read_exr, "hdr": _read_hdr, "png": _read_pil, "jpeg": _read_
 
 
 def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negative: str = "clamp",
-               ldr_as_uint8: bool = False) -> np.ndarray:
+               ldr_as_uint8: bool = False, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS) -> np.ndarray:
     """Read a panorama as (H, W, 3) float32 linear RGB.
 
     ldr_as_uint8: return PNG/JPEG files as their (H, W, 3) uint8 sRGB values instead (no linearisation;
@@ -201,7 +226,8 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     equirect: require a 2:1 image. nonfinite: "error" (default) refuses NaN/Inf pixels, "repair"
     sets NaN and -Inf to 0 and +Inf to the largest finite value, with a PanoLightWarning.
     negative: "clamp" (default) sets negative radiance to 0 with a PanoLightWarning, "error" refuses it.
-    The size is checked from the header before pixels are decoded.
+    The size is checked from the header before pixels are decoded: at most ``max_megapixels`` (the
+    documented decode budget, DEFAULT_MAX_MEGAPIXELS) and never above MAX_PIXELS.
     """
     if nonfinite not in ("error", "repair") or negative not in ("clamp", "error"):
         raise ValueError("nonfinite must be 'error' or 'repair'; negative must be 'clamp' or 'error'")
@@ -214,7 +240,7 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
         raise
     except Exception as exc:  # decoder libraries raise many types for bad headers
         raise ImageError(p, f"cannot read {fmt.upper()} header (corrupt or truncated file): {exc}") from None
-    _check_size(p, h, w, equirect)
+    _check_size(p, h, w, equirect, max_megapixels)
     try:
         img = next(reader)
     except Exception as exc:

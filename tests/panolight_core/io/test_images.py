@@ -236,3 +236,21 @@ def test_exif_orientation_is_applied(tmp_path, orientation):
     exif[0x0112] = orientation
     im.save(tmp_path / "o.png", exif=exif)
     np.testing.assert_array_equal(read_image(tmp_path / "o.png", ldr_as_uint8=True), upright)
+
+
+def test_a_header_claiming_a_huge_image_is_refused_before_decoding(tmp_path):
+    import struct
+    import zlib
+
+    # a 100-byte PNG whose header claims 16000 x 8000 (a decompression bomb): refused from the header
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    ihdr = struct.pack(">IIBBBBB", 16000, 8000, 8, 2, 0, 0, 0)
+    path = tmp_path / "bomb.png"
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 10))
+                     + chunk(b"IEND", b""))
+    with pytest.raises(ImageError, match="bomb.png: image is 16000 x 8000 = 128 megapixels, above the decode budget"):
+        read_image(path, max_megapixels=100)
+    with pytest.raises(ImageError, match="bomb.png: "):  # within the budget, the truncated data is refused
+        read_image(path)
