@@ -82,7 +82,7 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         world["panolight_panorama"] = image.name
         if "panolight_lighting" in world:
             del world["panolight_lighting"]  # a new panorama needs a new estimate
-        if bpy.data.collections.get(W.LIGHTS_COLLECTION) is not None:
+        if W.ours(bpy.data.collections, W.LIGHTS_COLLECTION) is not None:
             W.set_lights([], context.scene)  # the previous panorama's suns no longer apply
         context.scene.world = world
         self.report({"INFO"}, f"PanoLight: {image.name} ({w} x {h}) is the world background")
@@ -114,7 +114,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     def _store(self, context, world, result):
         doc, hdri = result
         world["panolight_lighting"] = json.dumps(doc)
-        world["panolight_hdri"] = W.radiance_image(hdri, W.HDRI_IMAGE_NAME).name
+        W.radiance_image(hdri, W.HDRI_IMAGE_NAME)
         n = len(doc.get("lights", []))
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
@@ -213,7 +213,7 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
             return {"CANCELLED"}
         s = _settings(context)
         if s.lighting_source == "HDRI":
-            image = bpy.data.images.get(world.get("panolight_hdri") or "")
+            image = W.own_image(W.HDRI_IMAGE_NAME)
             if image is None:
                 self.report({"ERROR"}, "PanoLight: no reconstructed HDRI: use Estimate lighting first")
                 return {"CANCELLED"}
@@ -256,7 +256,7 @@ class PANOLIGHT_OT_export_lighting(bpy.types.Operator):
                 raise RuntimeError(f"{path.parent}: folder does not exist")
             core.lighting.write_lighting(path, doc)
             exr = path.with_name(path.stem + "_radiance.exr")
-            image = bpy.data.images.get(W.SH_IMAGE_NAME)
+            image = W.own_image(W.SH_IMAGE_NAME)
             if image is not None:
                 _save_exr(context.scene, image, exr)
         except (RuntimeError, ValueError, OSError) as exc:

@@ -38,26 +38,46 @@ def image_pixels(image) -> np.ndarray:
 HDR_FORMATS = ("OPEN_EXR", "OPEN_EXR_MULTILAYER", "HDR")
 
 
+def ours(collection, name: str):
+    """PanoLight's own datablock of a kind: the one carrying its tag (renamed or not), preferring ``name``.
+    A user's datablock that merely has the name is never returned."""
+    tagged = [d for d in collection if d.get(TAG)]
+    return next((d for d in tagged if d.name == name), tagged[0] if tagged else None)
+
+
 def load_panorama(filepath: str):
-    """Load (or reuse) an image with the right colour space: Linear Rec.709 for HDR files (EXR, Radiance),
-    sRGB for the rest (8-bit and 16-bit PNG/JPEG: Blender keeps 16-bit PNGs in float buffers, but they
-    are sRGB-encoded)."""
-    image = bpy.data.images.load(filepath, check_existing=True)
+    """PanoLight's own image of ``filepath``, with the right colour space: Linear Rec.709 for HDR files
+    (EXR, Radiance), sRGB for the rest (8-bit and 16-bit PNG/JPEG: Blender keeps 16-bit PNGs in float
+    buffers, but they are sRGB-encoded). An image of the same file the user already has is left as it
+    is (its colour space is theirs): PanoLight loads its own copy, tagged, and reuses it next time."""
+    target = bpy.path.abspath(filepath)
+    for image in bpy.data.images:
+        if image.get(TAG) == "panorama" and bpy.path.abspath(image.filepath) == target:
+            image.reload()
+            break
+    else:
+        image = bpy.data.images.load(filepath, check_existing=False)
+        image[TAG] = "panorama"
     image.colorspace_settings.name = "Linear Rec.709" if image.file_format in HDR_FORMATS else "sRGB"
     return image
+
+
+def own_image(name: str):
+    """PanoLight's float image made under ``name`` (SH_IMAGE_NAME or HDRI_IMAGE_NAME), even if renamed."""
+    return next((im for im in bpy.data.images if im.get(TAG) == name), None)
 
 
 def radiance_image(radiance: np.ndarray, name: str = SH_IMAGE_NAME):
     """Create or update a packed float image (the SH radiance map, or the reconstructed HDRI with
     ``name=HDRI_IMAGE_NAME``) from (H, W, 3) linear pixels, top row first."""
     h, w = radiance.shape[:2]
-    image = bpy.data.images.get(name)
+    image = own_image(name)
     if image is not None and tuple(image.size) != (w, h):
         bpy.data.images.remove(image)
         image = None
-    if image is None:
+    if image is None:  # a user's image that has the name keeps it; ours becomes "name.001"
         image = bpy.data.images.new(name, w, h, alpha=False, float_buffer=True)
-        image[TAG] = True
+        image[TAG] = name
     image.colorspace_settings.name = "Linear Rec.709"
     rgba = np.ones((h, w, 4), dtype=np.float32)
     rgba[..., :3] = radiance[::-1]
@@ -68,10 +88,13 @@ def radiance_image(radiance: np.ndarray, name: str = SH_IMAGE_NAME):
 
 def panolight_world():
     """The PanoLight world (created once; the user's worlds are never modified)."""
-    world = bpy.data.worlds.get(WORLD_NAME)
-    if world is None:
+    world = ours(bpy.data.worlds, WORLD_NAME)
+    if world is None:  # a user's world named "PanoLight" keeps its name and nodes
         world = bpy.data.worlds.new(WORLD_NAME)
         world[TAG] = True
+        if bpy.app.version < (5, 0, 0):
+            world.use_nodes = True
+        world.node_tree.nodes.clear()  # Blender's default nodes of a world PanoLight just made
     if bpy.app.version < (5, 0, 0):
         world.use_nodes = True
     return world
@@ -89,22 +112,31 @@ def build_world(panorama, sh_image=None, *, background_strength=1.0, lighting_st
     """(Re)build the PanoLight node graph; returns the world. Without ``sh_image`` the panorama lights too."""
     world = panolight_world()
     nt = world.node_tree
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputWorld")
+    for node in list(nt.nodes):  # only PanoLight's nodes: a node the user added stays
+        if node.get(TAG):
+            nt.nodes.remove(node)
+    _new = nt.nodes.new
+
+    def new_node(kind):
+        node = _new(kind)
+        node[TAG] = True
+        return node
+    out = new_node("ShaderNodeOutputWorld")
+    out.is_active_output = True
     out.location = (900, 0)
-    coord = nt.nodes.new("ShaderNodeTexCoord")
+    coord = new_node("ShaderNodeTexCoord")
     coord.location = (-900, 0)
 
     def branch(image, rotation, strength, y, label):
-        mapping = nt.nodes.new("ShaderNodeMapping")
+        mapping = new_node("ShaderNodeMapping")
         mapping.location = (-700, y)
         mapping.label = f"{label} rotation"
         mapping.inputs["Rotation"].default_value = (0.0, 0.0, rotation)
-        tex = nt.nodes.new("ShaderNodeTexEnvironment")
+        tex = new_node("ShaderNodeTexEnvironment")
         tex.location = (-450, y)
         tex.label = label
         tex.image = image
-        bg = nt.nodes.new("ShaderNodeBackground")
+        bg = new_node("ShaderNodeBackground")
         bg.location = (-150, y)
         bg.label = f"{label} strength"
         bg.inputs["Strength"].default_value = strength
@@ -115,13 +147,13 @@ def build_world(panorama, sh_image=None, *, background_strength=1.0, lighting_st
 
     bg_panorama = branch(panorama, background_rotation, background_strength, 250, "Panorama")
     bg_light = branch(sh_image or panorama, lighting_rotation, lighting_strength, -250, "Lighting")
-    path = nt.nodes.new("ShaderNodeLightPath")
+    path = new_node("ShaderNodeLightPath")
     path.location = (-150, 600)
-    mix = nt.nodes.new("ShaderNodeMixShader")
+    mix = new_node("ShaderNodeMixShader")
     mix.location = (500, 0)
     fac = _socket(mix.inputs, "Fac")
     if glossy_panorama:
-        both = nt.nodes.new("ShaderNodeMath")
+        both = new_node("ShaderNodeMath")
         both.operation = "MAXIMUM"
         both.location = (200, 500)
         nt.links.new(path.outputs["Is Camera Ray"], both.inputs[0])
@@ -139,12 +171,18 @@ def build_world(panorama, sh_image=None, *, background_strength=1.0, lighting_st
 def set_lights(lights, scene, lighting_strength=1.0, lighting_rotation=0.0):
     """Sun lamps for explicit lights (direction = where light comes from, Blender world frame), rotated
     about Z by ``lighting_rotation`` with the lighting; replaces PanoLight's previous lamps only."""
-    coll = bpy.data.collections.get(LIGHTS_COLLECTION)
-    if coll is None:
+    coll = ours(bpy.data.collections, LIGHTS_COLLECTION)
+    if coll is None:  # a user's collection of that name is not ours
         coll = bpy.data.collections.new(LIGHTS_COLLECTION)
+        coll[TAG] = True
     if coll.name not in scene.collection.children:
         scene.collection.children.link(coll)
     for obj in list(coll.objects):
+        if not obj.get(TAG):  # a user's object linked here: unlinked from ours, never deleted
+            coll.objects.unlink(obj)
+            if not obj.users_collection:
+                scene.collection.objects.link(obj)
+            continue
         data = obj.data
         bpy.data.objects.remove(obj, do_unlink=True)
         if data is not None and data.users == 0:

@@ -295,3 +295,37 @@ def test_build_from_the_reconstructed_hdri(tmp_path):
     want = hdr_panorama(ldr, fit_pixels(ldr)[1])
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)  # the core's hdr.exr, top row first
     assert want.max() > 1.5  # the clipped sky and sun came back above white
+
+
+def test_name_clashes_never_touch_the_users_data(tmp_path):
+    path = _small_city(tmp_path)
+    for kind in (bpy.data.worlds, bpy.data.collections, bpy.data.images):  # free the names for the user
+        for block in list(kind):
+            if block.get("panolight"):
+                block.name = f"earlier {block.name}"
+    # the user's own datablocks that happen to carry PanoLight's names
+    theirs = bpy.data.worlds.new("PanoLight")
+    keep = theirs.node_tree.nodes.new("ShaderNodeRGB")
+    keep.name = "their node"
+    their_coll = bpy.data.collections.new("PanoLight Lights")
+    their_obj = bpy.data.objects.new("their empty", None)
+    their_coll.objects.link(their_obj)
+    their_img = bpy.data.images.new("PanoLight SH Radiance", 4, 2)
+    their_pano = bpy.data.images.load(str(path))
+    their_pano.colorspace_settings.name = "Non-Color"
+    _estimate_and_build(path)
+    world = bpy.context.scene.world
+    assert world != theirs and world.get("panolight") and "their node" in theirs.node_tree.nodes
+    assert theirs.name == "PanoLight" and bpy.data.objects.get("their empty") is their_obj
+    assert their_obj.name in their_coll.objects and tuple(their_img.size) == (4, 2)
+    assert their_pano.colorspace_settings.name == "Non-Color"  # their image of the same file is theirs
+    sh_images = {n.image for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeTexEnvironment"}
+    assert their_img not in sh_images and their_pano not in sh_images
+    # a node the user adds to PanoLight's world survives a rebuild; a renamed PanoLight world stays in use
+    mine = world.node_tree.nodes.new("ShaderNodeRGB")
+    mine.name = "user added"
+    world.name = "Renamed by the user"
+    assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+    assert bpy.context.scene.world == world and "user added" in world.node_tree.nodes
+    outputs = [n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
+    assert len(outputs) == 1 and outputs[0].is_active_output
