@@ -14,6 +14,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 from bpy.props import EnumProperty, FloatProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper
 
 from . import world as W
 from .core import core
@@ -233,27 +234,21 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class PANOLIGHT_OT_export_lighting(bpy.types.Operator):
+class PANOLIGHT_OT_export_lighting(bpy.types.Operator, ExportHelper):
     """Write the estimated lighting (lighting.json) and its SH radiance map (EXR) to files"""
 
     bl_idname = "panolight.export_lighting"
     bl_label = "Export lighting"
     bl_options = {"REGISTER"}
 
-    filepath: StringProperty(subtype="FILE_PATH", default="lighting.json")
-
-    def invoke(self, context, event):
-        context.window_manager.fileselect_add(self)
-        return {"RUNNING_MODAL"}
+    # ExportHelper: the file browser adds .json and shows Blender's overwrite warning (check_existing)
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 
     def execute(self, context):
         try:
             doc = _lighting(context.scene.world)
-            path = Path(bpy.path.abspath(self.filepath))
-            if path.suffix.lower() != ".json":
-                path = path.with_suffix(".json")
-            if not path.parent.is_dir():
-                raise RuntimeError(f"{path.parent}: folder does not exist")
+            path = _export_path(self.filepath, self.filename_ext)
             core.lighting.write_lighting(path, doc)
             exr = path.with_name(path.stem + "_radiance.exr")
             image = W.own_image(W.SH_IMAGE_NAME)
@@ -264,6 +259,26 @@ class PANOLIGHT_OT_export_lighting(bpy.types.Operator):
             return {"CANCELLED"}
         self.report({"INFO"}, f"PanoLight: wrote {path}" + (f" and {exr.name}" if image else ""))
         return {"FINISHED"}
+
+
+def _export_path(filepath: str, ext: str) -> Path:
+    """Where an export goes, or RuntimeError: a '//' path needs a saved .blend (it is relative to it), a
+    folder is not a file name, and another extension is not silently replaced (a bare name gets ext)."""
+    if not filepath:
+        raise RuntimeError("no file name given")
+    if filepath.startswith("//") and not bpy.data.filepath:
+        raise RuntimeError(f"{filepath}: a '//' path is relative to the .blend file; save it first or choose "
+                           f"an absolute path")
+    path = Path(bpy.path.abspath(filepath))
+    if filepath.endswith(("/", "\\")) or path.is_dir():
+        raise RuntimeError(f"{path}: is a folder; choose a file name such as {path / ('lighting' + ext)}")
+    if path.suffix == "":
+        path = path.with_name(path.name + ext)
+    elif path.suffix.lower() != ext:
+        raise RuntimeError(f"{path}: the lighting file must end in {ext}")
+    if not path.parent.is_dir():
+        raise RuntimeError(f"{path.parent}: folder does not exist")
+    return path
 
 
 def _save_exr(scene, image, path):

@@ -329,3 +329,19 @@ def test_name_clashes_never_touch_the_users_data(tmp_path):
     assert bpy.context.scene.world == world and "user added" in world.node_tree.nodes
     outputs = [n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
     assert len(outputs) == 1 and outputs[0].is_active_output
+
+
+def test_export_follows_blenders_conventions(tmp_path, monkeypatch):
+    _estimate_and_build(_small_city(tmp_path))
+    props = bpy.ops.panolight.export_lighting.get_rna_type().properties
+    assert "check_existing" in props and props["check_existing"].default  # the browser's overwrite warning
+    assert bpy.ops.panolight.export_lighting(filepath=str(tmp_path / "mine")) == {"FINISHED"}
+    assert (tmp_path / "mine.json").is_file() and (tmp_path / "mine_radiance.exr").is_file()
+    monkeypatch.chdir(tmp_path / "..")
+    here = set(Path.cwd().iterdir())
+    for bad, message in (("//rel.json", "relative to the .blend"), (str(tmp_path) + "/", "is a folder"),
+                         (str(tmp_path / "notes.txt"), "must end in .json")):
+        with pytest.raises(RuntimeError, match=message):
+            bpy.ops.panolight.export_lighting(filepath=bad)
+    assert set(Path.cwd().iterdir()) == here and not (tmp_path / "notes.json").exists()
+    assert not Path(str(tmp_path) + ".json").exists()
