@@ -70,6 +70,11 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
             self.report({"ERROR"}, f"{path}: file not found")
             return {"CANCELLED"}
         try:
+            core.io.images.preflight(path)  # what Blender would read wrong or crash on
+        except core.errors.PanoLightError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        try:
             image = W.load_panorama(str(path))
             w, h = image.size
             if w == 0 or h == 0:
@@ -109,7 +114,10 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
 
     def _inputs(self, context):
         world = context.scene.world
-        pixels = W.image_pixels(_panorama(world))
+        image = _panorama(world)
+        pixels = W.image_pixels(image)
+        if pixels.dtype != np.uint8:  # the core's validation, as for files: NaN refused, negatives clamped
+            pixels = core.io.images.sanitise_pixels(image.name, pixels)
         return world, pixels
 
     def _store(self, context, world, result):

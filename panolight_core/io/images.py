@@ -252,6 +252,33 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     return _sanitise(p, np.ascontiguousarray(img, dtype=np.float32), nonfinite, negative)
 
 
+def sanitise_pixels(path, img: np.ndarray, nonfinite: str = "error", negative: str = "clamp") -> np.ndarray:
+    """The float-pixel validation every input goes through (files here, Blender's images in the add-on):
+    NaN/Inf refused ("error") or repaired ("repair"), negative radiance clamped ("clamp", a warning) or
+    refused ("error"); ``path`` names the source in messages. Returns float32 (H, W, 3)."""
+    return _sanitise(path, np.ascontiguousarray(img, dtype=np.float32), nonfinite, negative)
+
+
+def preflight(path) -> None:
+    """Checks that need no decoder library (they run inside a stock Blender before it opens a file):
+    ImageError for a JPEG without its end marker (truncated: Blender would show grey) and for a
+    multi-part EXR (Blender can crash on some; the CLI reads them part by part)."""
+    p = Path(path)
+    fmt = sniff_format(p)
+    if fmt == "jpeg":
+        with open(p, "rb") as f:
+            f.seek(max(0, p.stat().st_size - 4096))
+            tail = f.read()
+        if b"\xff\xd9" not in tail:
+            raise ImageError(p, "the JPEG is truncated (no end-of-image marker)")
+    elif fmt == "exr":
+        with open(p, "rb") as f:
+            head = f.read(8)
+        if len(head) == 8 and int.from_bytes(head[4:8], "little") & 0x1000:
+            raise ImageError(p, "a multi-part EXR: Blender cannot always read these; estimate it with "
+                                "'panolight estimate', or save its panorama part as a single-part EXR")
+
+
 def _sanitise(path, img: np.ndarray, nonfinite: str, negative: str) -> np.ndarray:
     finite = np.isfinite(img)
     if not finite.all():

@@ -345,3 +345,27 @@ def test_export_follows_blenders_conventions(tmp_path, monkeypatch):
             bpy.ops.panolight.export_lighting(filepath=bad)
     assert set(Path.cwd().iterdir()) == here and not (tmp_path / "notes.json").exists()
     assert not Path(str(tmp_path) + ".json").exists()
+
+
+def test_blender_inputs_go_through_the_cores_validation(tmp_path):
+    from PIL import Image
+
+    from panolight_core.io import write_image
+
+    # a truncated JPEG is refused before Blender shows it as grey
+    ok = tmp_path / "ok.jpg"
+    Image.fromarray(np.full((32, 64, 3), 120, np.uint8)).save(ok, quality=90)
+    cut = tmp_path / "cut.jpg"
+    cut.write_bytes(ok.read_bytes()[:-200])
+    with pytest.raises(RuntimeError, match="cut.jpg: the JPEG is truncated"):
+        bpy.ops.panolight.load_panorama(filepath=str(cut))
+    # negative EXR pixels are clamped as the CLI clamps them (L00 stays positive)
+    img = np.full((32, 64, 3), 0.5, np.float32)
+    img[:8] = -3.0
+    neg = write_image(tmp_path / "neg.exr", img)
+    assert bpy.ops.panolight.load_panorama(filepath=str(neg)) == {"FINISHED"}
+    assert bpy.ops.panolight.estimate_lighting(estimator="auto", lmax="2", model="sh") == {"FINISHED"}
+    import json
+
+    doc = json.loads(bpy.context.scene.world["panolight_lighting"])
+    assert doc["coefficients"][0][0] > 0

@@ -254,3 +254,23 @@ def test_a_header_claiming_a_huge_image_is_refused_before_decoding(tmp_path):
         read_image(path, max_megapixels=100)
     with pytest.raises(ImageError, match="bomb.png: "):  # within the budget, the truncated data is refused
         read_image(path)
+
+
+def test_preflight_needs_no_decoder_and_catches_what_blender_would_misread(tmp_path):
+    from PIL import Image
+
+    from panolight_core.io.images import preflight
+
+    ok = tmp_path / "ok.jpg"
+    Image.fromarray(np.full((8, 16, 3), 99, np.uint8)).save(ok)
+    preflight(ok)
+    (tmp_path / "cut.jpg").write_bytes(ok.read_bytes()[:-50])
+    with pytest.raises(ImageError, match="cut.jpg: the JPEG is truncated"):
+        preflight(tmp_path / "cut.jpg")
+    disp = ((0, 0), (15, 7))
+    multi = _exr_parts(tmp_path / "multi.exr", [
+        ("a", {"displayWindow": disp, "dataWindow": disp}, {"RGB": np.ones((8, 16, 3), np.float32)}),
+        ("b", {"displayWindow": disp, "dataWindow": disp}, {"RGB": np.ones((8, 16, 3), np.float32)})])
+    with pytest.raises(ImageError, match="multi.exr: a multi-part EXR"):
+        preflight(multi)
+    preflight(write_image(tmp_path / "single.exr", np.ones((8, 16, 3), np.float32)))
