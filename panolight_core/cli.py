@@ -108,7 +108,8 @@ def _estimate_kwargs(args) -> dict:
     return {"lmax": args.lmax, "estimator": args.estimator, "model": args.model, "exposure_ev": args.exposure,
             "window": args.window,
             "window_width": args.window_width, "tolerance": args.tolerance, "resolution": args.resolution,
-            "repair_nonfinite": args.repair_nonfinite, "max_megapixels": args.max_megapixels}
+            "repair_nonfinite": args.repair_nonfinite, "max_megapixels": args.max_megapixels,
+            "overwrite": args.overwrite}
 
 
 def run_estimate(args) -> int:
@@ -308,6 +309,9 @@ def _add_estimate_options(p, default_estimator="auto"):
                    default=DEFAULT_MAX_MEGAPIXELS, metavar="MP",
                    help=f"decode budget: refuse larger images before decoding them (default "
                         f"{DEFAULT_MAX_MEGAPIXELS:g}, which fits 16384 x 8192)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace output-named files in the output folder that PanoLight did not write "
+                        "(an earlier run's outputs are always replaced)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
 
 

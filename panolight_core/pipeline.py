@@ -45,7 +45,7 @@ def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model:
 def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str = "auto",
                  exposure_ev: float = 0.0, window: str = "none", window_width: float | None = None,
                  tolerance: float = DEFAULT_TOLERANCE, resolution=(512, 256), repair_nonfinite: bool = False,
-                 max_megapixels: float | None = None, log=None) -> dict:
+                 max_megapixels: float | None = None, overwrite: bool = False, log=None) -> dict:
     """Estimate the lighting of panorama ``src`` and write OUTPUT_FILES into ``out_dir`` (created).
 
     model: "auto" (explicit lights for compact sources + the SH order the scene needs, deringed only if
@@ -62,6 +62,8 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
         if (out_dir / name).resolve() == src.resolve():
             raise PanoLightError(f"{src}: the output {name} in {out_dir} would overwrite the input; "
                                  f"choose another output folder (-o)")
+    if not overwrite:
+        _check_foreign_outputs(out_dir)
     t0 = time.perf_counter()
     log(f"reading {src}")
     budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
@@ -107,6 +109,13 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
                              f"2^{exposure_ev:g} overflows 32-bit floats); lower --exposure or rescale the input")
     out_dir.mkdir(parents=True, exist_ok=True)
     log(f"writing {out_dir}/")
+    with _folder_lock(out_dir):
+        return _write_outputs(out_dir, src, pixels, hdr, est, fitted, coeffs, lights, window_info, exposure_ev,
+                              radiance, irradiance, hdri, t_read, t_model)
+
+
+def _write_outputs(out_dir, src, pixels, hdr, est, fitted, coeffs, lights, window_info, exposure_ev,
+                   radiance, irradiance, hdri, t_read, t_model) -> dict:
     t2 = time.perf_counter()
     est_info = {k: v for k, v in est.info.items() if k not in ("clipped_regions", "estimate_s")}
     model_info = dict(fitted.info, window=window_info)
@@ -125,13 +134,87 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
 
     shown = ldr_to_linear(pixels) if not hdr else pixels
     preview = estimate_preview(shown, radiance, fitted, sh.lmax_from_count(coeffs.shape[0]))
-    write_image(out_dir / "hdr.exr", hdri)
-    write_image(out_dir / "radiance.exr", radiance)
-    write_image(out_dir / "irradiance.exr", irradiance)
-    _write_png(out_dir / "preview.png", preview)
-    doc["timings"]["write_s"] = round(time.perf_counter() - t2, 6)
-    write_lighting(out_dir / "lighting.json", doc)
+    import os
+    import shutil
+
+    # the whole set is written into a private folder and renamed into place, lighting.json last: an
+    # interrupted run leaves nothing half-done, and readers never see a mix of two runs
+    stage = out_dir / f".panolight-{os.getpid()}"
+    stage.mkdir(exist_ok=True)
+    try:
+        write_image(stage / "hdr.exr", hdri)
+        write_image(stage / "radiance.exr", radiance)
+        write_image(stage / "irradiance.exr", irradiance)
+        _write_png(stage / "preview.png", preview)
+        doc["timings"]["write_s"] = round(time.perf_counter() - t2, 6)
+        write_lighting(stage / "lighting.json", doc)
+        for name in OUTPUT_FILES[1:] + OUTPUT_FILES[:1]:  # lighting.json (first in the list) moves last
+            os.replace(stage / name, out_dir / name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
     return doc
+
+
+def _check_foreign_outputs(out_dir: Path) -> None:
+    """Refuse to replace files PanoLight did not write: output names that exist in a folder without a
+    valid lighting.json of an earlier run (``overwrite=True`` / --overwrite replaces them)."""
+    present = [n for n in OUTPUT_FILES if (out_dir / n).exists()]
+    if not present:
+        return
+    from .lighting import read_lighting
+
+    try:
+        read_lighting(out_dir / "lighting.json")
+        return  # an earlier PanoLight run: its outputs are ours to replace
+    except PanoLightError:
+        pass
+    raise PanoLightError(f"{out_dir}: {', '.join(present)} exist and were not written by PanoLight; "
+                         f"choose another folder (-o) or pass --overwrite to replace them")
+
+
+class _folder_lock:
+    """One writer per output folder: OUT/.panolight.lock holds the writer's pid (created exclusively). A
+    second writer is refused in one line; a lock left by a process that no longer runs is taken over."""
+
+    def __init__(self, folder: Path):
+        self.path = Path(folder) / ".panolight.lock"
+
+    def __enter__(self):
+        import os
+
+        for _ in range(2):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                try:
+                    pid = int(self.path.read_text().strip() or 0)
+                except (OSError, ValueError):
+                    pid = 0
+                if pid and _alive(pid):
+                    raise PanoLightError(f"{self.path.parent}: another PanoLight process (pid {pid}) is writing "
+                                         f"there; wait for it or choose another folder (-o)") from None
+                self.path.unlink(missing_ok=True)  # stale: its writer is gone
+                continue
+            with os.fdopen(fd, "w") as f:
+                f.write(str(os.getpid()))
+            return self
+        raise PanoLightError(f"{self.path.parent}: cannot take the output folder's lock {self.path.name}")
+
+    def __exit__(self, *exc):
+        self.path.unlink(missing_ok=True)
+        return False
+
+
+def _alive(pid: int) -> bool:
+    import os
+
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _write_png(path: Path, rgb8: np.ndarray):

@@ -178,5 +178,30 @@ def test_sigterm_mid_write_exits_143_and_leaves_no_temporary_files(tmp_path, cap
     out = tmp_path / "o"
     assert main(["estimate", str(src), "-o", str(out), "-q"]) == 143
     assert "terminated" in capsys.readouterr().err
-    assert not [p for p in out.iterdir() if ".tmp" in p.name]
+    assert list(out.iterdir()) == []  # nothing half-done: no outputs, no temporary files, no lock
     assert signal.getsignal(signal.SIGTERM) is not None  # the previous handler is back
+
+
+def test_outputs_never_replace_files_panolight_did_not_write(tmp_path, capsys):
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "preview.png").write_bytes(b"the user's own picture")
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
+    assert "were not written by PanoLight" in capsys.readouterr().err
+    assert (out / "preview.png").read_bytes() == b"the user's own picture"
+    assert main(["estimate", str(src), "-o", str(out), "-q", "--overwrite"]) == 0
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0  # an earlier run's outputs are ours
+
+
+def test_a_second_writer_is_refused_and_a_stale_lock_taken_over(tmp_path, capsys):
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    out = tmp_path / "o"
+    out.mkdir()
+    lock = out / ".panolight.lock"
+    lock.write_text(str(os.getppid()))  # a live process holds the folder
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
+    assert "another PanoLight process" in capsys.readouterr().err and not (out / "lighting.json").exists()
+    lock.write_text("999999999")  # its writer is gone
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0
+    assert (out / "lighting.json").is_file() and not lock.exists()
