@@ -130,38 +130,115 @@ class Progress:
         self.stream.flush()
 
 
-def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: bool = False) -> dict:
-    """Run ``job(src, dst_dir)`` for this shard's inputs, continuing past failures.
+SIDECAR = ".panolight-batch.json"  # per output folder: the input's SHA-256 and the settings it was made with
 
-    Writes out_dir/batch_report.json (or batch_report-I-of-N.json) and returns the report: per input its
-    status ("ok" or "failed"), output folder or error message, and seconds.
+
+def _sha256(path: Path) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _up_to_date(src: Path, dst: Path, settings) -> bool:
+    """True when dst holds a complete output set made from this very file with these settings."""
+    try:
+        side = json.loads((dst / SIDECAR).read_text(encoding="utf-8"))
+        return (dst / "lighting.json").is_file() and side.get("settings") == settings and \
+            side.get("sha256") == _sha256(src)
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _clean_stale(dst: Path) -> None:
+    """Remove what an interrupted earlier run left in dst: private staging folders and temporary files
+    of processes that no longer run."""
+    import re as _re
+    import shutil
+
+    from .pipeline import _alive
+
+    if not dst.is_dir():
+        return
+    for p in dst.iterdir():
+        m = _re.match(r"^\.(?:panolight-(\d+)$|.*\.tmp(\d+))", p.name)
+        pid = int(m.group(1) or m.group(2)) if m else 0
+        if pid and not _alive(pid):
+            shutil.rmtree(p, ignore_errors=True) if p.is_dir() else p.unlink(missing_ok=True)
+
+
+def _write_json(path: Path, doc) -> None:
+    import os
+
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: bool = False,
+              settings=None) -> dict:
+    """Run ``job(src, dst_dir)`` for this shard's inputs, continuing past failures; resumable.
+
+    An input whose folder already holds a complete output set made from the same file (SHA-256) with
+    the same ``settings`` (a JSON-able dict of the job's options) is skipped. What interrupted runs left
+    is cleaned first. The report out_dir/batch_report.json (or batch_report-I-of-N.json) is rewritten
+    after every input, so an interrupted run leaves an accurate record of this run alone ("interrupted":
+    true); per input: status ("ok", "skipped" or "failed"), output folder or error, seconds.
     """
     names = output_names(inputs)
     mine = shard(inputs, *shard_spec)
     out_dir.mkdir(parents=True, exist_ok=True)
     prog = Progress(len(mine), quiet)
     results = []
-    for src in mine:
-        t = time.perf_counter()
-        dst = out_dir / names[src]
-        try:
-            job(src, dst)
-            results.append({"input": str(src), "status": "ok", "output": str(dst),
-                            "seconds": round(time.perf_counter() - t, 4)})
-            prog.step(src.name, "ok")
-        except PanoLightError as exc:
-            results.append({"input": str(src), "status": "failed", "error": str(exc),
-                            "seconds": round(time.perf_counter() - t, 4)})
-            prog.step(src.name, "FAILED")
-        except Exception as exc:  # keep going past anything one file can cause; the report names it
-            results.append({"input": str(src), "status": "failed", "error": f"{type(exc).__name__}: {exc}",
-                            "seconds": round(time.perf_counter() - t, 4)})
-            prog.step(src.name, "FAILED")
     i, n = shard_spec
-    report = {"shard": f"{i}/{n}", "total_inputs": len(inputs), "this_shard": len(mine),
-              "ok": sum(r["status"] == "ok" for r in results),
-              "failed": sum(r["status"] != "ok" for r in results), "results": results}
-    name = "batch_report.json" if n == 1 else f"batch_report-{i}-of-{n}.json"
-    (out_dir / name).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
-    report["report_path"] = str(out_dir / name)
-    return report
+    report_path = out_dir / ("batch_report.json" if n == 1 else f"batch_report-{i}-of-{n}.json")
+
+    def report(interrupted=False):
+        doc = {"shard": f"{i}/{n}", "total_inputs": len(inputs), "this_shard": len(mine), "settings": settings,
+               "ok": sum(r["status"] == "ok" for r in results),
+               "skipped": sum(r["status"] == "skipped" for r in results),
+               "failed": sum(r["status"] == "failed" for r in results),
+               "interrupted": interrupted, "results": results}
+        _write_json(report_path, doc)
+        return doc
+
+    report()
+    try:
+        for src in mine:
+            t = time.perf_counter()
+            dst = out_dir / names[src]
+            _clean_stale(dst)
+            try:
+                if _up_to_date(src, dst, settings):
+                    results.append({"input": str(src), "status": "skipped", "output": str(dst),
+                                    "why": "up to date (same input and settings)"})
+                    prog.step(src.name, "skip")
+                else:
+                    (dst / SIDECAR).unlink(missing_ok=True)
+                    job(src, dst)
+                    _write_json(dst / SIDECAR, {"sha256": _sha256(src), "settings": settings})
+                    results.append({"input": str(src), "status": "ok", "output": str(dst),
+                                    "seconds": round(time.perf_counter() - t, 4)})
+                    prog.step(src.name, "ok")
+            except PanoLightError as exc:
+                results.append({"input": str(src), "status": "failed", "error": str(exc),
+                                "seconds": round(time.perf_counter() - t, 4)})
+                prog.step(src.name, "FAILED")
+            except Exception as exc:  # keep going past anything one file can cause; the report names it
+                results.append({"input": str(src), "status": "failed", "error": f"{type(exc).__name__}: {exc}",
+                                "seconds": round(time.perf_counter() - t, 4)})
+                prog.step(src.name, "FAILED")
+            report()
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the report says how far this run got, then unwind
+        report(interrupted=True)
+        raise
+    doc = report()
+    doc["report_path"] = str(report_path)
+    return doc

@@ -141,12 +141,15 @@ def run_batch(args) -> int:
     kwargs = _estimate_kwargs(args)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PanoLightWarning)
-        report = batch(inputs, Path(args.output), lambda src, dst: job(src, dst, **kwargs), shard_spec, args.quiet)
-    print(f"batch: {report['ok']} ok, {report['failed']} failed of {report['this_shard']} "
+        settings = {k: (list(v) if isinstance(v, tuple) else v) for k, v in kwargs.items()}
+        report = batch(inputs, Path(args.output), lambda src, dst: job(src, dst, **kwargs), shard_spec, args.quiet,
+                       settings=settings)
+    print(f"batch: {report['ok']} ok, {report['skipped']} up to date, {report['failed']} failed of "
+          f"{report['this_shard']} "
           f"(shard {report['shard']} of {report['total_inputs']} inputs); report: {report['report_path']}",
           file=sys.stderr)
     for r in report["results"]:
-        if r["status"] != "ok":
+        if r["status"] == "failed":
             print(f"  failed: {r['error']}", file=sys.stderr)
     return 1 if report["failed"] else 0
 

@@ -103,3 +103,49 @@ def test_list_with_a_symlink_loop_or_binary_data_gets_one_line(tmp_path, capsys)
     binary.write_bytes(b"\x89PNG\x00\x01\xff\xfe")
     assert main(["batch", "--list", str(binary), "-o", str(out), "-q"]) == 1
     assert "binary.txt: not a text list" in capsys.readouterr().err
+
+
+def test_batch_resumes_skips_what_is_done_and_cleans_what_interrupted_runs_left(tmp_path, capsys):
+    import numpy as np
+
+    src = tmp_path / "in"
+    src.mkdir()
+    for k, name in enumerate(("a.exr", "b.exr")):
+        write_image(src / name, np.full((16, 32, 3), 0.3 + 0.1 * k, np.float32))
+    out = tmp_path / "out"
+    assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "2"]) == 0
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["ok", "ok"] and report["settings"]["lmax"] == "2"
+    (out / "a" / ".panolight-999999999").mkdir()  # left by a run that died
+    (out / "a" / ".hdr.exr.tmp999999999.exr").write_bytes(b"x")
+    assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "2"]) == 0
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["skipped", "skipped"]
+    assert not [p for p in (out / "a").iterdir() if "999999999" in p.name]
+    write_image(src / "b.exr", np.full((16, 32, 3), 0.9, np.float32))  # the input changed
+    assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "2"]) == 0
+    assert [r["status"] for r in json.loads((out / "batch_report.json").read_text())["results"]] == ["skipped", "ok"]
+    assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "3"]) == 0  # other settings: redone
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["ok", "ok"] and report["settings"]["lmax"] == "3"
+
+
+def test_an_interrupted_batch_reports_how_far_it_got(tmp_path):
+    from panolight_core.batch import run_batch
+
+    inputs = [tmp_path / "a.exr", tmp_path / "b.exr"]
+    for p in inputs:
+        p.write_bytes(b"x")
+    calls = []
+
+    def job(src, dst):
+        calls.append(src)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        dst.mkdir(parents=True, exist_ok=True)
+        (dst / "lighting.json").write_text("{}")
+
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(inputs, tmp_path / "out", job, quiet=True, settings={"lmax": "2"})
+    report = json.loads((tmp_path / "out" / "batch_report.json").read_text())
+    assert report["interrupted"] and [r["status"] for r in report["results"]] == ["ok"]
