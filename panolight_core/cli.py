@@ -530,6 +530,11 @@ def _run(args) -> int:
             where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
             print(f"panolight: error: {where}{exc.strerror or exc}", file=sys.stderr)
             return 1
+        except MemoryError:
+            print("panolight: error: out of memory (the image is too large for this machine's memory limit; "
+                  "lower --max-megapixels to refuse such files up front, or downsample the panorama)",
+                  file=sys.stderr)
+            return 1
         except _Terminated:
             print("panolight: terminated (SIGTERM)", file=sys.stderr)
             return 143

@@ -205,3 +205,17 @@ def test_a_second_writer_is_refused_and_a_stale_lock_taken_over(tmp_path, capsys
     lock.write_text("999999999")  # its writer is gone
     assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0
     assert (out / "lighting.json").is_file() and not lock.exists()
+
+
+def test_out_of_memory_is_one_line(tmp_path, capsys, monkeypatch):
+    from panolight_core import pipeline
+
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+
+    def no_memory(*a, **k):
+        raise MemoryError
+
+    monkeypatch.setattr(pipeline, "read_image", no_memory)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "out of memory" in err and "Traceback" not in err
