@@ -100,10 +100,16 @@ def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str
     with np.errstate(over="ignore", invalid="ignore"):
         radiance = sh.reconstruct(coeffs, h, w).astype(np.float32)
         irradiance = fitted.irradiance_map(h, w).astype(np.float32)
-        hdri = hdr_panorama(pixels, est) * np.float32(scale)
+        hdri = hdr_panorama(pixels, est)
+        if scale != 1.0:  # scaled in place by row blocks: a 16K HDRI is 1.6 GB, one copy is enough
+            if hdri is pixels:
+                hdri = hdri.copy()
+            for r in range(0, hdri.shape[0], 256):
+                hdri[r:r + 256] *= np.float32(scale)
     outputs = {"the SH coefficients": coeffs, "radiance.exr": radiance, "irradiance.exr": irradiance,
                "hdr.exr": hdri, "the lights": np.array([light["intensity"] for light in lights], dtype=np.float64)}
-    bad = [name for name, a in outputs.items() if not np.all(np.isfinite(a))]
+    bad = [name for name, a in outputs.items()
+           if not all(np.isfinite(a[r:r + 256]).all() for r in range(0, max(len(a), 1), 256))]
     if bad:  # refuse before writing anything: an all-Inf EXR is a silent wrong answer
         raise PanoLightError(f"{src}: {', '.join(bad)} would not be finite (the input's radiance times "
                              f"2^{exposure_ev:g} overflows 32-bit floats); lower --exposure or rescale the input")

@@ -122,7 +122,15 @@ def _read_exr(path) -> np.ndarray:
     channels = OpenEXR.File(str(path)).parts[i].channels
     if layout == "RGB":
         key = "RGB" if "RGB" in channels else "RGBA"
-        yield channels[key].pixels[..., :3]
+        src = channels[key].pixels
+        if src.dtype == np.float32 and src.shape[-1] == 3:
+            yield src
+            return
+        out = np.empty(src.shape[:2] + (3,), np.float32)  # half (or RGBA) -> float32 RGB by row blocks,
+        for r in range(0, out.shape[0], _BLOCK_ROWS):      # without a second full-size temporary
+            out[r:r + _BLOCK_ROWS] = src[r:r + _BLOCK_ROWS, :, :3]
+        del src, channels  # the decoded half data goes before the caller holds the float copy
+        yield out
     elif layout == "YC":
         yield _luminance_chroma_to_rgb(channels, y1 - y0 + 1, x1 - x0 + 1)
     else:
@@ -255,8 +263,9 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
 def sanitise_pixels(path, img: np.ndarray, nonfinite: str = "error", negative: str = "clamp") -> np.ndarray:
     """The float-pixel validation every input goes through (files here, Blender's images in the add-on):
     NaN/Inf refused ("error") or repaired ("repair"), negative radiance clamped ("clamp", a warning) or
-    refused ("error"); ``path`` names the source in messages. Returns float32 (H, W, 3)."""
-    return _sanitise(path, np.ascontiguousarray(img, dtype=np.float32), nonfinite, negative)
+    refused ("error"); ``path`` names the source in messages. Returns float32 (H, W, 3), repaired in a
+    copy (the caller's array is not changed)."""
+    return _sanitise(path, np.array(img, dtype=np.float32, copy=True), nonfinite, negative)
 
 
 def preflight(path) -> None:
@@ -279,23 +288,38 @@ def preflight(path) -> None:
                                 "'panolight estimate', or save its panorama part as a single-part EXR")
 
 
+_BLOCK_ROWS = 256  # row blocks for full-resolution passes: temporaries stay a few MB at any width
+
+
 def _sanitise(path, img: np.ndarray, nonfinite: str, negative: str) -> np.ndarray:
-    finite = np.isfinite(img)
-    if not finite.all():
-        n_bad = int((~finite).any(axis=-1).sum())
+    """Row block by row block, in place (img is this reader's own array): no full-size temporary."""
+    n_bad = n_neg = 0
+    top, low = -np.inf, 0.0
+    for r in range(0, img.shape[0], _BLOCK_ROWS):
+        b = img[r:r + _BLOCK_ROWS]
+        finite = np.isfinite(b)
+        if not finite.all():
+            n_bad += int((~finite).any(axis=-1).sum())
+        if finite.any():
+            top = max(top, float(b[finite].max()))
+        neg = (b < 0) & finite  # -Inf is a non-finite pixel (repaired to 0), not a negative one
+        if neg.any():
+            n_neg += int(neg.any(axis=-1).sum())
+            low = min(low, float(b[neg].min()))
+    if n_bad:
         if nonfinite == "error":
             raise ImageError(path, f"{n_bad} pixel(s) contain NaN or Inf (pass nonfinite='repair' / "
                                    f"--repair-nonfinite to replace them)")
-        top = float(img[finite].max()) if finite.any() else 0.0
-        img = np.nan_to_num(img, nan=0.0, posinf=top, neginf=0.0)
+        top = top if np.isfinite(top) else 0.0
+        for r in range(0, img.shape[0], _BLOCK_ROWS):
+            np.nan_to_num(img[r:r + _BLOCK_ROWS], copy=False, nan=0.0, posinf=top, neginf=0.0)
         warnings.warn(f"{path}: replaced NaN/Inf in {n_bad} pixel(s) (NaN, -Inf -> 0; +Inf -> {top:g})",
                       PanoLightWarning, stacklevel=3)
-    neg = img < 0
-    if neg.any():
-        n_neg, low = int(neg.any(axis=-1).sum()), float(img.min())
+    if n_neg:
         if negative == "error":
             raise ImageError(path, f"{n_neg} pixel(s) have negative radiance (minimum {low:g})")
-        img = np.maximum(img, 0.0)
+        for r in range(0, img.shape[0], _BLOCK_ROWS):
+            np.maximum(img[r:r + _BLOCK_ROWS], 0.0, out=img[r:r + _BLOCK_ROWS])
         warnings.warn(f"{path}: clamped negative radiance to 0 in {n_neg} pixel(s) (minimum was {low:g})",
                       PanoLightWarning, stacklevel=3)
     return img
