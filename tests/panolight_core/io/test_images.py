@@ -274,3 +274,13 @@ def test_preflight_needs_no_decoder_and_catches_what_blender_would_misread(tmp_p
     with pytest.raises(ImageError, match="multi.exr: a multi-part EXR"):
         preflight(multi)
     preflight(write_image(tmp_path / "single.exr", np.ones((8, 16, 3), np.float32)))
+
+
+@pytest.mark.parametrize("size,message", [((16384, 32768), "above the decode budget"),
+                                          ((8192, 16384), "cannot decode HDR pixels")])
+def test_a_small_hdr_claiming_a_huge_size_is_refused(tmp_path, size, message):
+    h, w = size
+    path = tmp_path / "claim.hdr"
+    path.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + f"-Y {h} +X {w}\n".encode() + b"\x02\x02\x40\x00" * 4)
+    with pytest.raises(ImageError, match=f"claim.hdr: .*{message}"):
+        read_image(path)
