@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from .errors import PanoLightError
+from .io.atomic import atomic_path, pid_alive
 
 EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
 
@@ -133,22 +134,26 @@ class Progress:
 SIDECAR = ".panolight-batch.json"  # per output folder: the input's SHA-256 and the settings it was made with
 
 
-def _sha256(path: Path) -> str:
-    import hashlib
-
+def _sha256(path: Path) -> str | None:
+    """The file's SHA-256, or None when it cannot be read (the job then reports why)."""
     h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    except OSError:
+        return None
     return h.hexdigest()
 
 
-def _up_to_date(src: Path, dst: Path, settings) -> bool:
-    """True when dst holds a complete output set made from this very file with these settings."""
+def _up_to_date(digest: str | None, dst: Path, settings) -> bool:
+    """True when dst holds a complete output set made from the file of this digest with these settings."""
+    if digest is None:
+        return False
     try:
         side = json.loads((dst / SIDECAR).read_text(encoding="utf-8"))
         return (dst / "lighting.json").is_file() and side.get("settings") == settings and \
-            side.get("sha256") == _sha256(src)
+            side.get("sha256") == digest
     except (OSError, ValueError, AttributeError):
         return False
 
@@ -156,30 +161,20 @@ def _up_to_date(src: Path, dst: Path, settings) -> bool:
 def _clean_stale(dst: Path) -> None:
     """Remove what an interrupted earlier run left in dst: private staging folders and temporary files
     of processes that no longer run."""
-    import re as _re
     import shutil
-
-    from .pipeline import _alive
 
     if not dst.is_dir():
         return
     for p in dst.iterdir():
-        m = _re.match(r"^\.(?:panolight-(\d+)$|.*\.tmp(\d+))", p.name)
+        m = re.match(r"^\.(?:panolight-(\d+)$|.*\.tmp(\d+))", p.name)
         pid = int(m.group(1) or m.group(2)) if m else 0
-        if pid and not _alive(pid):
+        if pid and not pid_alive(pid):
             shutil.rmtree(p, ignore_errors=True) if p.is_dir() else p.unlink(missing_ok=True)
 
 
 def _write_json(path: Path, doc) -> None:
-    import os
-
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
+    with atomic_path(path) as tmp:
         tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: bool = False,
@@ -216,14 +211,15 @@ def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: 
             dst = out_dir / names[src]
             _clean_stale(dst)
             try:
-                if _up_to_date(src, dst, settings):
+                digest = _sha256(src)
+                if _up_to_date(digest, dst, settings):
                     results.append({"input": str(src), "status": "skipped", "output": str(dst),
                                     "why": "up to date (same input and settings)"})
                     prog.step(src.name, "skip")
                 else:
                     (dst / SIDECAR).unlink(missing_ok=True)
                     job(src, dst)
-                    _write_json(dst / SIDECAR, {"sha256": _sha256(src), "settings": settings})
+                    _write_json(dst / SIDECAR, {"sha256": digest, "settings": settings})
                     results.append({"input": str(src), "status": "ok", "output": str(dst),
                                     "seconds": round(time.perf_counter() - t, 4)})
                     prog.step(src.name, "ok")

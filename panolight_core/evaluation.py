@@ -29,6 +29,7 @@ from .data import STUDIO_HDRIS, studio_hdri
 from .errors import PanoLightWarning
 from .estimators import available, estimate
 from .io import read_image
+from .pipeline import fit_radiance
 
 SUN_SCENES = ("city", "courtyard", "forest", "sunrise", "sunset")
 BASELINES = ("ambient", "naive")
@@ -65,12 +66,6 @@ def model_sun_share(model, direction) -> float | None:
     return sun / total if total > 0 else None
 
 
-def scored_model(est, hdr_input: bool):
-    """The whole model ``panolight estimate`` writes for an estimate (lights + auto-order SH)."""
-    from .adaptive import fit_model
-    from .highlights import CLIP_LEVEL
-
-    return fit_model(est.radiance, light_threshold=None if hdr_input else CLIP_LEVEL)
 
 
 def estimated_direction(coeffs: np.ndarray):
@@ -103,8 +98,8 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                 for _ in range(max(1, repeats)):
                     t = time.perf_counter()
                     est = estimate(ldr, lmax, name)
-                    if name not in BASELINES:
-                        model = scored_model(est, False)
+                    if name not in BASELINES:  # what panolight estimate writes by default
+                        model = fit_radiance(est.radiance, hdr_input=False)
                     times.append(time.perf_counter() - t)
                 if name in BASELINES:
                     coeffs, share, d = est.coeffs, None, estimated_direction(est.coeffs)

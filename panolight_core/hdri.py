@@ -31,8 +31,11 @@ def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
         return fill_full_resolution(linear, clipped, excess, rec.regions.centre, rec.regions.shape_exponents(),
                                     rec.regions.labels)
     work = est.radiance
-    if work is None or work.shape[0] >= pixels.shape[0]:
-        return np.maximum(linear, np.asarray(work, dtype=np.float32)) if work is not None and \
-            work.shape == linear.shape else linear
+    if work is None:
+        return linear
+    if work.shape == linear.shape:  # a small input: the estimator worked at its full resolution
+        return np.maximum(linear, np.asarray(work, dtype=np.float32))
+    if work.shape[0] >= pixels.shape[0]:  # upsampled for a network: no cell of it maps to whole pixels
+        return linear
     base = area_downsample(linear, work.shape[0], work.shape[1])
     return fill_full_resolution(linear, clipped_mask(pixels), np.maximum(work - base, 0.0))

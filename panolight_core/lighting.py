@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from .errors import LightingFileError
+from .io.atomic import atomic_path
 
 FRAME = "blender-world-z-up"
 BASIS = "real-orthonormal-no-condon-shortley"
@@ -133,11 +133,6 @@ def write_lighting(path, doc: dict) -> Path:
     """Validate and write a lighting document atomically (temporary file + rename)."""
     p = Path(path)
     validate(doc, p)
-    tmp = p.with_name(f".{p.name}.tmp{os.getpid()}")
-    try:
+    with atomic_path(p) as tmp:
         tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-        os.replace(tmp, p)
-    finally:  # interrupted (Ctrl-C, SIGTERM) or failed: no temporary file left behind
-        if tmp.exists():
-            tmp.unlink()
     return p

@@ -13,6 +13,7 @@ from .camera import ldr_to_linear
 from .estimators import estimate, resolve
 from .highlights import CLIP_LEVEL
 from .io import read_image, write_image
+from .io.atomic import pid_alive
 from .lighting import make_lighting, write_lighting
 from .adaptive import LightingModel, fit_model
 from .errors import PanoLightError
@@ -33,13 +34,21 @@ def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model:
     if model not in ("auto", "sh"):
         raise PanoLightError(f"model must be 'auto' or 'sh', got {model!r}")
     lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
+    est = estimate(pixels, DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax), estimator)
+    return fit_radiance(est.radiance, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
+                        tolerance=tolerance, deringing=deringing), est
+
+
+def fit_radiance(radiance: np.ndarray, *, hdr_input: bool, lmax="auto", model: str = "auto",
+                 tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None) -> LightingModel:
+    """The lighting model of an estimator's linear radiance map (the second half of ``fit_pixels``; the
+    evaluation scores estimates with it). hdr_input: the map is an HDR file's (lights above the median,
+    not above the LDR clip level). lmax: "auto" or an int (as a string or int)."""
+    lmax = str(lmax)
     order = DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax)
-    est = estimate(pixels, order, estimator)
-    hdr = pixels.dtype != np.uint8
-    fitted = fit_model(est.radiance, lights=model == "auto", lmax=lmax, tolerance=tolerance, max_order=order,
-                       deringing=deringing or ("auto" if model == "auto" else "none"),
-                       light_threshold=None if hdr else CLIP_LEVEL)
-    return fitted, est
+    return fit_model(radiance, lights=model == "auto", lmax=lmax, tolerance=tolerance, max_order=order,
+                     deringing=deringing or ("auto" if model == "auto" else "none"),
+                     light_threshold=None if hdr_input else CLIP_LEVEL)
 
 
 def run_estimate(src, out_dir, *, lmax=None, estimator: str = "auto", model: str = "auto",
@@ -196,7 +205,7 @@ class _folder_lock:
                     pid = int(self.path.read_text().strip() or 0)
                 except (OSError, ValueError):
                     pid = 0
-                if pid and _alive(pid):
+                if pid and pid_alive(pid):
                     raise PanoLightError(f"{self.path.parent}: another PanoLight process (pid {pid}) is writing "
                                          f"there; wait for it or choose another folder (-o)") from None
                 self.path.unlink(missing_ok=True)  # stale: its writer is gone
@@ -211,28 +220,8 @@ class _folder_lock:
         return False
 
 
-def _alive(pid: int) -> bool:
-    import os
-
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def _write_png(path: Path, rgb8: np.ndarray):
-    """8-bit RGB PNG, written to a temporary name and renamed (never half-written)."""
-    import os
-
+    """8-bit RGB PNG (into the private staging folder, which is what makes the output set atomic)."""
     from PIL import Image
 
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}.png")
-    try:
-        Image.fromarray(rgb8, "RGB").save(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    Image.fromarray(rgb8, "RGB").save(path)

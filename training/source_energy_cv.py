@@ -8,16 +8,11 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core import metrics, sh, sources
-from panolight_core.adaptive import fit_model
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
-from panolight_core.highlights import CLIP_LEVEL, recover_highlights
+from panolight_core.highlights import recover_highlights
+from panolight_core.pipeline import fit_radiance
 
 EVS = (-2.0, 0.0, 2.0)
-
-
-def whole_model_coeffs(radiance: np.ndarray, lmax: int = 2) -> np.ndarray:
-    """The default model of a recovered map (lights + auto-order SH), projected to ``lmax``."""
-    return fit_model(radiance, light_threshold=CLIP_LEVEL).project(lmax)
 
 
 def score_scene(hdr: np.ndarray, variants: dict, evs=EVS, jpeg: int = 90) -> list[dict]:
@@ -31,7 +26,7 @@ def score_scene(hdr: np.ndarray, variants: dict, evs=EVS, jpeg: int = 90) -> lis
             if name == "naive":
                 q = sh.project(ldr_to_linear(ldr), 2)
             else:
-                q = whole_model_coeffs(fn(ldr))
+                q = fit_radiance(fn(ldr), hdr_input=False).project(2)  # what panolight estimate writes
             rows.append({"ev": ev, "estimator": name, "m_rmse": metrics.m_rmse(gt, q),
                          "irr_rmse": metrics.irr_rmse(gt, q)})
     return rows

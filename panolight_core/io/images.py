@@ -5,7 +5,6 @@ taken as linear Rec.709. Every failure raises ImageError naming the file and the
 """
 from __future__ import annotations
 
-import os
 import warnings
 from pathlib import Path
 
@@ -15,6 +14,7 @@ from ..color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR, linear_to_srgb, srgb_to_
 from ..errors import ImageError, PanoLightWarning
 from ..sh.grid import MAX_SIDE  # larger images are refused as absurd
 from . import hdr as _hdr
+from .atomic import atomic_path
 
 MAX_PIXELS = 1 << 29  # 32768 x 16384: no size above this is read at all
 DEFAULT_MAX_MEGAPIXELS = 140.0  # the decode budget: 16384 x 8192 (134 MP, the largest common HDRI) fits
@@ -341,8 +341,7 @@ def write_image(path, image, *, bit_depth: int = 8, half: bool = False, quality:
     img = img[..., :3]
     if not p.parent.is_dir():
         raise ImageError(p, f"output folder {p.parent} does not exist")
-    tmp = p.with_name(f".{p.name}.tmp{os.getpid()}{p.suffix}")
-    try:
+    with atomic_path(p, p.suffix) as tmp:
         if fmt == "exr":
             import OpenEXR
 
@@ -368,8 +367,4 @@ def write_image(path, image, *, bit_depth: int = 8, half: bool = False, quality:
                 Image.fromarray(q, "RGB").save(tmp, format="JPEG" if fmt == "jpeg" else "PNG", **kw)
             else:
                 raise ImageError(p, f"bit_depth {bit_depth} is not supported for {fmt.upper()} (8, or 16 for PNG)")
-        os.replace(tmp, p)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return p
