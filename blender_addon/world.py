@@ -89,14 +89,14 @@ def radiance_image(radiance: np.ndarray, name: str = SH_IMAGE_NAME):
 def panolight_world():
     """The PanoLight world (created once; the user's worlds are never modified)."""
     world = ours(bpy.data.worlds, WORLD_NAME)
-    if world is None:  # a user's world named "PanoLight" keeps its name and nodes
+    made = world is None
+    if made:  # a user's world named "PanoLight" keeps its name and nodes
         world = bpy.data.worlds.new(WORLD_NAME)
         world[TAG] = True
-        if bpy.app.version < (5, 0, 0):
-            world.use_nodes = True
-        world.node_tree.nodes.clear()  # Blender's default nodes of a world PanoLight just made
     if bpy.app.version < (5, 0, 0):
         world.use_nodes = True
+    if made:
+        world.node_tree.nodes.clear()  # Blender's default nodes of a world PanoLight just made
     return world
 
 
@@ -115,12 +115,12 @@ def build_world(panorama, sh_image=None, *, background_strength=1.0, lighting_st
     for node in list(nt.nodes):  # only PanoLight's nodes: a node the user added stays
         if node.get(TAG):
             nt.nodes.remove(node)
-    _new = nt.nodes.new
 
     def new_node(kind):
-        node = _new(kind)
+        node = nt.nodes.new(kind)
         node[TAG] = True
         return node
+
     out = new_node("ShaderNodeOutputWorld")
     out.is_active_output = True
     out.location = (900, 0)
