@@ -38,15 +38,18 @@ def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None
     factor instead of the automatic one (training code that needs k itself)."""
     k = auto_exposure(hdr, ev, robust) if scale is None else float(scale)
     ldr = np.round(linear_to_srgb(np.clip(k * np.asarray(hdr, dtype=np.float64), 0.0, 1.0)) * 255.0).astype(np.uint8)
-    if jpeg_quality is not None:
-        from PIL import Image
+    return ldr if jpeg_quality is None else jpeg_roundtrip(ldr, jpeg_quality)
 
-        buf = _io.BytesIO()
-        Image.fromarray(ldr, "RGB").save(buf, format="JPEG", quality=int(jpeg_quality))
-        buf.seek(0)
-        with Image.open(buf) as im:
-            ldr = np.asarray(im.convert("RGB"))
-    return ldr
+
+def jpeg_roundtrip(ldr: np.ndarray, quality: int) -> np.ndarray:
+    """(H, W, 3) uint8 -> the same picture saved as a JPEG of that quality and decoded again."""
+    from PIL import Image
+
+    buf = _io.BytesIO()
+    Image.fromarray(ldr, "RGB").save(buf, format="JPEG", quality=int(quality))
+    buf.seek(0)
+    with Image.open(buf) as im:
+        return np.asarray(im.convert("RGB"))
 
 
 def ldr_to_linear(ldr: np.ndarray) -> np.ndarray:

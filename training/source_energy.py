@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core import sh, sources
-from panolight_core.camera import auto_exposure
+from panolight_core.camera import auto_exposure, jpeg_roundtrip
 from panolight_core.color import LUMINANCE_WEIGHTS, linear_to_srgb
 from panolight_core.errors import PanoLightError
 from panolight_core.io import read_image
@@ -93,20 +93,8 @@ def camera(hdr: np.ndarray, rng: np.random.Generator):
     ldr = np.round(enc * 255.0).astype(np.uint8)
     q = rng.choice([0, 75, 85, 90, 95])
     if q:
-        ldr = _jpeg(ldr, int(q))
+        ldr = jpeg_roundtrip(ldr, int(q))
     return ldr, k * p
-
-
-def _jpeg(ldr: np.ndarray, q: int) -> np.ndarray:
-    import io
-
-    from PIL import Image
-
-    buf = io.BytesIO()
-    Image.fromarray(ldr, "RGB").save(buf, format="JPEG", quality=q)
-    buf.seek(0)
-    with Image.open(buf) as im:
-        return np.asarray(im.convert("RGB"))
 
 
 def region_rows(ldr: np.ndarray, truth: np.ndarray):
