@@ -90,46 +90,14 @@ def cross_validate(files, X, y, w, g, args):
         rmse = float(np.sqrt(np.average((pred - y[~train]) ** 2, weights=w[~train])))
         print(f"fold {k + 1}/{len(folds)}: {len(test)} scenes, held-out log-ratio RMSE {rmse:.3f} "
               f"({time.perf_counter() - t0:.0f} s)")
-    summary = summarise(rows)
-    print(markdown(summary))
+    from training.accuracy_report import table
+
+    print("\n".join(table(rows, list(dict.fromkeys(r["estimator"] for r in rows)), EVS)))
     out = Path(args.out or "docs/source_energy_cv.json")
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"rows": rows, "summary": summary, "shipped": DECIDED,
+    out.write_text(json.dumps({"rows": rows, "shipped": DECIDED,
                                "augment": args.augment, "seed": args.seed,
                                "folds": [[files[i].stem for i in f] for f in folds]}, indent=1) + "\n",
                    encoding="utf-8")
     print(f"wrote {out}")
-    return rows, summary
-
-
-def summarise(rows) -> list[dict]:
-    """Per (estimator, ev): mean and median m-RMSE and irr-RMSE, ratios to naive, wins against naive."""
-    out = []
-    names = list(dict.fromkeys(r["estimator"] for r in rows))
-    evs = sorted(set(r["ev"] for r in rows))
-    for ev in evs:
-        naive = {r["scene"]: r for r in rows if r["ev"] == ev and r["estimator"] == "naive"}
-        nm = [r["m_rmse"] for r in naive.values()]
-        ni = [r["irr_rmse"] for r in naive.values()]
-        for name in names:
-            sel = [r for r in rows if r["ev"] == ev and r["estimator"] == name]
-            m = [r["m_rmse"] for r in sel]
-            i = [r["irr_rmse"] for r in sel]
-            out.append({"estimator": name, "ev": ev, "scenes": len(sel),
-                        "mean_m": float(np.mean(m)), "median_m": float(np.median(m)), "mean_irr": float(np.mean(i)),
-                        "median_irr": float(np.median(i)),
-                        "mean_m_x_naive": float(np.mean(m) / np.mean(nm)),
-                        "median_m_x_naive": float(np.median(m) / np.median(nm)),
-                        "mean_irr_x_naive": float(np.mean(i) / np.mean(ni)),
-                        "wins": sum(r["m_rmse"] < naive[r["scene"]]["m_rmse"] for r in sel)})
-    return out
-
-
-def markdown(summary) -> str:
-    lines = ["| estimator | ev | mean m-RMSE | median m-RMSE | mean irr-RMSE | mean / naive | median / naive | "
-             "irr mean / naive | wins vs naive |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    for s in summary:
-        lines.append(f"| {s['estimator']} | {s['ev']:+g} | {s['mean_m']:.3f} | {s['median_m']:.3f} | {s['mean_irr']:.3f} | "
-                     f"{s['mean_m_x_naive']:.2f}x | {s['median_m_x_naive']:.2f}x | {s['mean_irr_x_naive']:.2f}x | "
-                     f"{s['wins']}/{s['scenes']} |")
-    return "\n".join(lines)
+    return rows
