@@ -45,3 +45,21 @@ def test_random_camera_rows_have_honest_targets(rng):
         assert np.all(y >= 0) and np.all((share >= 0) & (share <= 1 + 1e-9))
         if y.size:
             assert np.exp(y.max()) > 10  # the sun's region holds far more than its clipped pixels show
+
+
+def test_cross_validation_scores_a_scene_by_the_protocol():
+    from panolight_core import metrics, sh
+    from panolight_core.camera import hdr_to_ldr, ldr_to_linear
+    from training.source_energy_cv import DECIDED, EVS, fold_variants, score_scene
+
+    h = 64
+    hdr = np.full((h, 2 * h, 3), 0.2)
+    hdr[10:12, 30:32] = 3000.0  # a sun
+    variants = fold_variants(sources.load_source_model())
+    rows = score_scene(hdr, variants)
+    assert len(rows) == len(EVS) * len(variants) and DECIDED in variants
+    naive = next(r for r in rows if r["estimator"] == "naive" and r["ev"] == 0.0)
+    q = sh.project(ldr_to_linear(hdr_to_ldr(hdr, 0.0, 90, robust=True)), 2)
+    assert naive["m_rmse"] == pytest.approx(metrics.m_rmse(sh.project(hdr, 2), q))
+    learned = next(r for r in rows if r["estimator"] == DECIDED and r["ev"] == 0.0)
+    assert learned["m_rmse"] < naive["m_rmse"]  # the sun's energy comes back
