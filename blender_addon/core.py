@@ -1,17 +1,17 @@
 """Access to the bpy-free core: bundled inside the extension zip, or importable in a checkout.
 
 Only numpy is needed at import time (image files are read by Blender itself, not by the core's I/O).
+The bundled copy wins whenever it is there; an installed panolight_core is used only where the add-on
+carries none (a development checkout), so an error inside the bundled core is never hidden by
+quietly loading another copy.
 """
-try:  # the extension zip carries panolight_core inside the add-on package
+import importlib
+import importlib.util
+
+if importlib.util.find_spec(f"{__package__}.panolight_core") is not None:
     from . import panolight_core as core
-    from .panolight_core import errors, estimators, hdri, lighting, pipeline, sh  # noqa: F401  (load the submodules)
-    from .panolight_core.io import images  # noqa: F401  (core.io.images)
-except ImportError:  # a development checkout or a pip install
+else:  # a development checkout or a pip install: no bundled copy beside this file
     import panolight_core as core
-    import panolight_core.errors  # noqa: F401
-    import panolight_core.estimators  # noqa: F401
-    import panolight_core.hdri  # noqa: F401
-    import panolight_core.io.images  # noqa: F401
-    import panolight_core.lighting  # noqa: F401
-    import panolight_core.pipeline  # noqa: F401
-    import panolight_core.sh  # noqa: F401
+
+for _name in ("errors", "estimators", "io.images", "io.lighting", "pipeline", "pipeline.hdri", "sh"):
+    importlib.import_module(f"{core.__name__}.{_name}")  # core.io.lighting, core.pipeline.hdri, ...

@@ -42,12 +42,12 @@ def _fit(pixels, estimator, lmax, model, tolerance):
     """Runs in a worker thread: numpy only, never bpy. Returns (lighting document, HDRI (H, W, 3))."""
     fitted, est = core.pipeline.fit_pixels(pixels, lmax=None if lmax == "auto" and model == "auto" else lmax,
                                            estimator=estimator, model=model, tolerance=tolerance)
-    doc = core.lighting.make_lighting(fitted.coeffs, lights=fitted.lights,
+    doc = core.io.lighting.make_lighting(fitted.coeffs, lights=fitted.lights,
                                       units="input radiance units" if pixels.dtype != np.uint8 else
                                       "relative: 1 = the LDR camera's clip level (white)",
                                       estimator={k: v for k, v in est.info.items() if k != "clipped_regions"},
                                       model=fitted.info)
-    return doc, core.hdri.hdr_panorama(pixels, est)
+    return doc, core.pipeline.hdri.hdr_panorama(pixels, est)
 
 
 class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
@@ -201,7 +201,7 @@ def _lighting(world):
     if not raw:
         raise RuntimeError("no lighting estimated yet: use Estimate lighting first")
     doc = json.loads(raw)
-    core.lighting.validate(doc, "the estimated lighting")
+    core.io.lighting.validate(doc, "the estimated lighting")
     return doc
 
 
@@ -257,7 +257,7 @@ class PANOLIGHT_OT_export_lighting(bpy.types.Operator, ExportHelper):
         try:
             doc = _lighting(context.scene.world)
             path = _export_path(self.filepath, self.filename_ext)
-            core.lighting.write_lighting(path, doc)
+            core.io.lighting.write_lighting(path, doc)
             exr = path.with_name(path.stem + "_radiance.exr")
             image = W.own_image(W.SH_IMAGE_NAME)
             if image is not None:

@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from . import sh
-from .color import luminance
+from .camera.color import luminance
 
 GRID_H, GRID_W = 128, 256
 

@@ -48,7 +48,7 @@ def run(ae, out, *, data=None, cache=None, epochs: int = 4, procedural: int = 40
 
 def score_public(rows: list[dict], log=print) -> dict:
     """Add public-set means (ev 0) to each row; returns the evaluation result (rows for every variant)."""
-    from panolight_core import evaluation
+    from panolight_core.apps import evaluation
     from panolight_core.estimators import register_model
 
     labels = [register_model(r["variant"], r["weights"]) for r in rows]

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from panolight_core.preview import exposure_for, tonemap
+from panolight_core.pipeline.preview import exposure_for, tonemap
 
 
 def contact_sheet(dataset, output, count: int = 6, seed: int = 0, height: int = 96) -> Path:

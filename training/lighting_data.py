@@ -3,7 +3,7 @@ every ablation variant).
 
 Three kinds of example, all turned into the camera's 8-bit LDR by the EVALUATION.md model (exposure
 ev ~ N(0, 1) clipped to +-2.5, JPEG q90 half of the time) and reduced to the network input
-(panolight_core.nn.inputs):
+(panolight_core.estimators.nn.inputs):
 - ``procedural``: a procedural environment (training/synth/environments.py: CIE skies with a sun,
   rooms with lamps and windows) rendered at 256 rows; its lighting is its own SH (coupled data).
 - ``synthetic``: a Mitsuba panorama from ``panolight synth`` seen as it is; lighting = its own SH.
@@ -29,8 +29,8 @@ import numpy as np
 
 from panolight_core import sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr
-from panolight_core.nn.inputs import network_input
-from panolight_core.resample import area_downsample
+from panolight_core.estimators.nn.inputs import network_input
+from panolight_core.camera.resample import area_downsample
 
 KINDS = ("procedural", "synthetic", "relit", "hdr")
 PROCEDURAL_HEIGHT = 256

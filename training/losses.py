@@ -16,13 +16,13 @@ import torch
 import torch.nn.functional as F
 
 from panolight_core import sh
-from panolight_core.relight import relight
+from panolight_core.lighting.relight import relight
 
 WEIGHTS = {"sh": 0.01, "rc": 0.3, "rl": 0.7}
 
 
 def equirect_pad(x: torch.Tensor, p: int) -> torch.Tensor:
-    """Pad (N, C, H, W): circular in width, replicated in height (panolight_core.nn.ops.pad "equirect")."""
+    """Pad (N, C, H, W): circular in width, replicated in height (panolight_core.estimators.nn.ops.pad "equirect")."""
     if p == 0:
         return x
     x = F.pad(x, (p, p, 0, 0), mode="circular")

@@ -358,12 +358,12 @@ def load_input(path, lmax="auto", from_ldr=None):
     exists). from_ldr: an ev; an HDR input is first turned into the JPEG an auto-exposing camera takes
     (EVALUATION.md, q90), which is estimated and shown, and ``truth`` is the HDR in that JPEG's units
     (k x HDR), for the ground-truth row; the figure then estimates from a photograph, as the paper's."""
-    from panolight_core.adaptive import fit_model
+    from panolight_core.lighting.adaptive import fit_model
     from panolight_core.estimators import estimate
-    from panolight_core.highlights import CLIP_LEVEL
+    from panolight_core.estimators.highlights import CLIP_LEVEL
     from panolight_core.io import read_image
     from panolight_core.camera import ldr_to_linear
-    from panolight_core.lighting import read_lighting
+    from panolight_core.io.lighting import read_lighting
 
     p = Path(path)
     if p.suffix.lower() == ".json":
@@ -402,7 +402,7 @@ def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320,
     EXR per render and figure.png (rows: inputs, columns: materials). from_ldr: estimate HDR inputs
     from their camera JPEG at that ev (see load_input). Returns the paths and timings."""
     from panolight_core.io import read_image, write_image
-    from panolight_core.preview import exposure_for, tonemap
+    from panolight_core.pipeline.preview import exposure_for, tonemap
 
     mi = mitsuba()
     out = Path(out_dir)

@@ -2,7 +2,7 @@
 
 Autoencoder (HDR-CNN in spirit): a strided-convolution encoder and a nearest-upsampling decoder with
 skip connections predict y, a log correction of the clipped excess radiance b that the physical
-highlight model guesses (panolight_core.nn.inputs: colour x, clipped fraction a, log b per cell), and
+highlight model guesses (panolight_core.estimators.nn.inputs: colour x, clipped fraction a, log b per cell), and
 hdr = linear(x) + a * b * exp(y): unclipped cells pass through unchanged, clipped ones get back the
 energy the camera cut off. Its last layer starts at zero, so training starts from the physical model.
 Lighting encoder: 7 convolutions (3 x 3, ELU) and 2 fully connected layers (ELU, then a linear head)
@@ -10,7 +10,7 @@ regressing (lmax + 1)^2 x 3 SH coefficients from log(1 + hdr); the spectral prio
 Config "head": "encoder" (the paper: the coefficients are the encoder's) or "residual" (the encoder's
 output is added to the exact SH projection of the autoencoder's HDR map, so it learns a correction).
 All convolutions pad equirect-style (circular in width, replicated in height). Parameter names are
-the contract with the numpy inference in panolight_core.nn.model.
+the contract with the numpy inference in panolight_core.estimators.nn.model.
 """
 from __future__ import annotations
 
@@ -22,9 +22,9 @@ import torch.nn as nn
 import torch.nn.functional as F
 
 from panolight_core import sh
-from panolight_core.color import srgb_to_linear
-from panolight_core.nn.inputs import CHANNELS
-from panolight_core.nn.prior import spectral_prior
+from panolight_core.camera.color import srgb_to_linear
+from panolight_core.estimators.nn.inputs import CHANNELS
+from panolight_core.estimators.nn.prior import spectral_prior
 from training.losses import equirect_pad
 
 CONFIGS = Path(__file__).resolve().parent / "configs"
@@ -110,7 +110,7 @@ class LightingEncoder(nn.Module):
 
 
 class LightingNet(nn.Module):
-    """Network input (N, 7, H, 2H) (panolight_core.nn.inputs) -> (N, K, 3) SH coefficients and the
+    """Network input (N, 7, H, 2H) (panolight_core.estimators.nn.inputs) -> (N, K, 3) SH coefficients and the
     (N, 3, H, 2H) HDR estimate, both in the units of the LDR's linear values (1 = the camera's clip level)."""
 
     def __init__(self, config: dict):

@@ -19,7 +19,7 @@ import numpy as np
 from panolight_core import sh
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
 from panolight_core.errors import PanoLightError
-from panolight_core.relight import LDR_SCALE, relight, training_lighting
+from panolight_core.lighting.relight import LDR_SCALE, relight, training_lighting
 
 COLOR_TOKENS = ("rgb_rawlight", "_color", "color", "rgb")
 
@@ -75,7 +75,7 @@ def _decode_normals(path: Path) -> np.ndarray:
     raw = read_image(path, ldr_as_uint8=True)
     if raw.dtype == np.uint8:
         return raw.astype(np.float32) / 255.0 * 2.0 - 1.0
-    from panolight_core.color import linear_to_srgb  # a 16-bit PNG came back sRGB-linearised: undo it
+    from panolight_core.camera.color import linear_to_srgb  # a 16-bit PNG came back sRGB-linearised: undo it
 
     return linear_to_srgb(raw).astype(np.float32) * 2.0 - 1.0
 

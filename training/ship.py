@@ -27,7 +27,7 @@ def card(run: Path, name: str, *, evaluation=None, train_command: str = "", data
     seconds = sum(float(r["seconds"]) for r in rows)
     out = [f"# PanoLight learned estimator: `{name}`", "",
            "The paper's two networks (Gkitsas et al. 2020): an LDR-to-HDR autoencoder, then a lighting encoder "
-           "regressing SH lighting (lmax {lmax}), trained here on CPU. Loaded by `panolight_core.nn.estimator` with "
+           "regressing SH lighting (lmax {lmax}), trained here on CPU. Loaded by `panolight_core.estimators.nn.estimator` with "
            "numpy only (no torch, no pickle).".format(lmax=cfg["lmax"]), "",
            f"- file: `{name}.safetensors`, {weights.stat().st_size / 2 ** 20:.1f} MiB, sha256 `{sha[:16]}...`",
            f"- config: `{json.dumps(cfg)}`",
@@ -37,7 +37,7 @@ def card(run: Path, name: str, *, evaluation=None, train_command: str = "", data
            "rendered synthetic panoramas and their relit versions (paper Eq. 5), all made by this repository; "
            "never Blender's studio HDRIs (the public evaluation set)." + (f" {data_note}" if data_note else ""),
            "- input: any 2:1 8-bit panorama, reduced to the network's {h} x {w} (colour, clipped fraction and "
-           "the physical highlight model's guess, panolight_core/nn/inputs.py); "
+           "the physical highlight model's guess, panolight_core/estimators/nn/inputs.py); "
            "output: SH radiance in the LDR's linear units (1 = clip level), Blender world frame.".format(
                h=cfg["input_height"], w=2 * cfg["input_height"]), "",
            "## Training curve (held-out synthetic validation)", ""] + ([baseline, ""] if baseline else []) + [

@@ -1,4 +1,4 @@
-"""Training and cross-validating the per-source energy model (panolight_core/sources.py).
+"""Training and cross-validating the per-source energy model (panolight_core/estimators/sources.py).
 
 Data: real HDR panoramas (default ``../shared/data/hdri``, 50 Poly Haven scenes; Blender's eight studio
 HDRIs, the public set, are refused). Each scene is seen through many cameras: yaw rotation, mirroring,
@@ -33,12 +33,13 @@ from pathlib import Path
 
 import numpy as np
 
-from panolight_core import sh, sources
+from panolight_core import sh
+from panolight_core.estimators import sources
 from panolight_core.camera import auto_exposure, jpeg_roundtrip
-from panolight_core.color import LUMINANCE_WEIGHTS, linear_to_srgb
+from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
 from panolight_core.errors import PanoLightError
 from panolight_core.io import read_image
-from panolight_core.resample import area_downsample
+from panolight_core.camera.resample import area_downsample
 
 DEFAULT_HDRI = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hdri"
 GBT = dict(n_estimators=250, max_depth=3, learning_rate=0.05, subsample=0.8, min_samples_leaf=15)

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from panolight_core import metrics, sh, sources
+from panolight_core import metrics, sh
+from panolight_core.estimators import sources
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
-from panolight_core.highlights import recover_highlights
+from panolight_core.estimators.highlights import recover_highlights
 from panolight_core.pipeline import fit_radiance
 
 EVS = (-2.0, 0.0, 2.0)

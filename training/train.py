@@ -244,7 +244,7 @@ def main(argv=None):
     """``python -m training.train ...`` (what torchrun launches): the arguments of ``panolight train``."""
     import sys
 
-    from panolight_core.cli import main as cli_main
+    from panolight_core.apps.cli import main as cli_main
 
     return cli_main(["train", *(sys.argv[1:] if argv is None else argv)])
 

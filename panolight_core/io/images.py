@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR, linear_to_srgb, srgb_to_linear
+from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR, linear_to_srgb, srgb_to_linear
 from ..errors import ImageError, PanoLightWarning
 from ..sh.grid import MAX_SIDE  # larger images are refused as absurd
 from . import hdr as _hdr

@@ -15,7 +15,7 @@ import blender_addon  # noqa: E402
 from panolight_core import metrics, sh  # noqa: E402
 from panolight_core.data import studio_hdri  # noqa: E402
 from panolight_core.io import read_image, write_image  # noqa: E402
-from panolight_core.lights import light_irradiance  # noqa: E402
+from panolight_core.lighting.lights import light_irradiance  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -33,7 +33,7 @@ def _small_city(tmp_path, height=64):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         img = read_image(studio_hdri("city"))
-    from panolight_core.resample import area_downsample
+    from panolight_core.camera.resample import area_downsample
 
     path = tmp_path / "city_small.exr"
     write_image(path, area_downsample(img, height).astype(np.float32))
@@ -241,7 +241,7 @@ assert bundled, 'the bundled core was not used'
 assert bpy.ops.panolight.load_panorama(filepath={str(ldr)!r}) == {{'FINISHED'}}
 assert bpy.ops.panolight.estimate_lighting(estimator='neural') == {{'FINISHED'}}
 assert bpy.ops.panolight.build_environment() == {{'FINISHED'}}
-nn = [m for n, m in sys.modules.items() if n.endswith('panolight.panolight_core.nn.estimator')]
+nn = [m for n, m in sys.modules.items() if n.endswith('panolight.panolight_core.estimators.nn.estimator')]
 assert nn and nn[0].DEFAULT_WEIGHTS.is_file(), 'the bundled weights were not used'
 assert 'torch' not in sys.modules, 'the learned estimator must not need torch'
 print('ok', bundled[0])
@@ -267,7 +267,7 @@ def test_batch_script_end_to_end_and_clear_failure(tmp_path):
 
 def test_build_from_the_reconstructed_hdri(tmp_path):
     from panolight_core.camera import hdr_to_ldr
-    from panolight_core.hdri import hdr_panorama
+    from panolight_core.pipeline.hdri import hdr_panorama
     from panolight_core.pipeline import fit_pixels
     from PIL import Image
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from panolight_core import sh
-from panolight_core.relight import relight
+from panolight_core.lighting.relight import relight
 from training import lighting_data as L
 from training.relight_data import procedural_pool
 from training.synth import store

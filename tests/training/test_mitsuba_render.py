@@ -96,7 +96,7 @@ def test_white_diffuse_sphere_matches_the_analytic_irradiance():
              **mr.scene_emitters(c, [sun], 256)}
     scene["sensor"]["to_world"] = mi.ScalarTransform4f().look_at(origin=cam.tolist(), target=[0, 0, 0], up=[0, 0, 1])
     img = np.array(mi.render(mi.load_dict(scene), spp=256))
-    from panolight_core.lights import light_irradiance
+    from panolight_core.lighting.lights import light_irradiance
 
     normals = _visible_normals(20, seed=11)
     got, expect = [], []
@@ -162,7 +162,7 @@ def test_figure_from_the_camera_jpeg_has_truth_in_the_jpeg_units(tmp_path):
     np.testing.assert_allclose(truth, hdr * auto_exposure(hdr, 0.0, robust=True))
     assert pano.max() <= 1.0 + 1e-6 and "JPEG ev +0" in label  # the background is the photograph
     from panolight_core import sh
-    from panolight_core.adaptive import LightingModel
+    from panolight_core.lighting.adaptive import LightingModel
 
     naive, true = sh.project(pano, 2)[0, 1], sh.project(truth, 2)[0, 1]
     got = LightingModel(lights, coeffs).project(2)[0, 1]
@@ -176,8 +176,8 @@ def test_figure_from_the_camera_jpeg_has_truth_in_the_jpeg_units(tmp_path):
 
 
 def test_render_refuses_zero_spp_and_absurd_orders(tmp_path, capsys):
-    from panolight_core.cli import main
-    from panolight_core.lighting import make_lighting, write_lighting
+    from panolight_core.apps.cli import main
+    from panolight_core.io.lighting import make_lighting, write_lighting
 
     doc = make_lighting(np.zeros(((mr.MAX_RENDER_ORDER + 2) ** 2, 3)))
     path = tmp_path / "lighting.json"
@@ -195,7 +195,7 @@ def test_a_lighting_file_cannot_point_the_renderer_at_any_file(tmp_path):
 
     from panolight_core.errors import PanoLightWarning
     from panolight_core.io import write_image
-    from panolight_core.lighting import make_lighting, write_lighting
+    from panolight_core.io.lighting import make_lighting, write_lighting
 
     pano = write_image(tmp_path / "pano.exr", np.full((8, 16, 3), 0.25, np.float32))
     secret = tmp_path / "secret.exr"

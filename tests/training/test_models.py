@@ -4,8 +4,8 @@ import pytest
 import torch
 from safetensors.torch import save_file
 
-from panolight_core.nn.model import forward
-from panolight_core.nn.safetensors_np import load_safetensors
+from panolight_core.estimators.nn.model import forward
+from panolight_core.estimators.nn.safetensors_np import load_safetensors
 from panolight_core import sh
 from training.models import LightingNet, load_config
 

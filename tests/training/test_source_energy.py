@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from panolight_core import sources
+from panolight_core.estimators import sources
 from panolight_core.errors import PanoLightError
 from training import source_energy as se
 

@@ -5,7 +5,7 @@ import torch
 
 from panolight_core import metrics, sh
 from panolight_core.errors import PanoLightError
-from panolight_core.relight import relight
+from panolight_core.lighting.relight import relight
 from training import mitsuba_render as mr
 from training.relight_data import folder_pool, paired_sources, relight_dataset, synthetic_sources
 from training.synth import scenes, store
@@ -120,7 +120,7 @@ def test_lighting_pool_refuses_the_public_set(tmp_path):
 
 
 def test_contact_sheet_and_synth_cli(tmp_path):
-    from panolight_core.cli import main
+    from panolight_core.apps.cli import main
 
     assert main(["synth", "--count", "2", "--out", str(tmp_path / "ds"), "--resolution", "32x16", "--spp", "1",
                  "-q"]) == 0

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import torch
 
-from panolight_core.nn.model import forward
-from panolight_core.nn.safetensors_np import load_safetensors
+from panolight_core.estimators.nn.model import forward
+from panolight_core.estimators.nn.safetensors_np import load_safetensors
 from training import train as T
 
 

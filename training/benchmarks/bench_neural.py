@@ -14,8 +14,8 @@ import time
 import numpy as np
 import torch
 
-from panolight_core.nn.inputs import CHANNELS
-from panolight_core.nn.model import forward
+from panolight_core.estimators.nn.inputs import CHANNELS
+from panolight_core.estimators.nn.model import forward
 from training.models import LightingNet, load_config
 
 

@@ -192,7 +192,7 @@ def test_luminance_chroma_exr_keeps_its_colour(tmp_path):
     import OpenEXR
     import numpy as np
 
-    from panolight_core.color import LUMINANCE_WEIGHTS
+    from panolight_core.camera.color import LUMINANCE_WEIGHTS
     from panolight_core.io import read_image
 
     rgb = (np.random.default_rng(2).random((8, 16, 3)) + 0.1).astype(np.float32)

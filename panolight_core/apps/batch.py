@@ -1,0 +1,240 @@
+"""Many panoramas: input collection, deterministic sharding, a progress line and a report."""
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import sys
+import time
+from pathlib import Path
+
+from ..errors import PanoLightError
+from ..io.atomic import atomic_path, pid_alive
+
+EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
+
+
+def collect_inputs(paths, list_file=None, recursive: bool = False) -> list[Path]:
+    """Files named directly, panoramas found in named folders (by extension), and lines of ``list_file``
+    (blank lines and '#' comments skipped). Sorted and de-duplicated, so every copy of a sharded job
+    sees the same order. Missing entries are kept: they are reported as failures, not dropped."""
+    found = []
+    entries = [Path(p) for p in paths]
+    if list_file is not None:
+        lf = Path(list_file)
+        if not lf.is_file():
+            raise PanoLightError(f"{lf}: input list not found")
+        base = lf.parent
+        try:
+            text = lf.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            raise PanoLightError(f"{lf}: not a text list of panorama paths (binary data)") from None
+        if "\x00" in text:
+            raise PanoLightError(f"{lf}: not a text list of panorama paths (binary data)")
+        for line in text.splitlines():
+            line = line.strip()
+            if line and not line.startswith("#"):
+                p = Path(line)
+                entries.append(p if p.is_absolute() else base / p)
+    for p in entries:
+        if _is_dir(p):
+            pattern = "**/*" if recursive else "*"
+            found += [f for f in p.glob(pattern) if f.suffix.lower() in EXTENSIONS and _is_file(f)]
+        else:
+            found.append(p)
+    return sorted({_resolved(f) for f in found}, key=str)
+
+
+def _is_dir(p: Path) -> bool:
+    try:
+        return p.is_dir()
+    except OSError:  # a symlink loop, a name too long: it fails later, as one input, with its reason
+        return False
+
+
+def _is_file(p: Path) -> bool:
+    try:
+        return p.is_file()
+    except OSError:
+        return False
+
+
+def _resolved(p: Path) -> Path:
+    try:
+        return p.resolve()
+    except (OSError, RuntimeError):  # a symlink loop: kept as given, reported as a failed input
+        return p.absolute()
+
+
+def parse_shard(text: str | None) -> tuple[int, int]:
+    """'I/N' with 1 <= I <= N -> (I, N); None -> (1, 1)."""
+    if text is None:
+        return 1, 1
+    try:
+        i, n = (int(v) for v in text.split("/"))
+    except ValueError:
+        raise PanoLightError(f"--shard must look like I/N (e.g. 2/4), got {text!r}") from None
+    if not 1 <= i <= n:
+        raise PanoLightError(f"--shard I/N needs 1 <= I <= N, got {text!r}")
+    return i, n
+
+
+def shard(items: list, index: int, count: int) -> list:
+    """The items of shard ``index`` (1-based) of ``count``: every count-th item starting at index - 1."""
+    return items[index - 1::count]
+
+
+def _safe_name(stem: str) -> str:
+    """A folder name that stays inside the output folder: letters, digits, '-', '_' and inner dots only
+    (an input named '...png' has the stem '..', which must not become OUT/..)."""
+    name = re.sub(r"[^A-Za-z0-9._-]+", "_", stem).lstrip(".")
+    return name or "panorama"
+
+
+def output_names(inputs: list[Path]) -> dict[Path, str]:
+    """Folder name per input: its sanitised stem (``_safe_name``), plus a short hash of its full path
+    where names collide (compared without case, for case-insensitive file systems), so two inputs never
+    share a folder. Computed over the full (unsharded) list so all shards agree."""
+    safe = {p: _safe_name(p.stem) for p in inputs}
+    counts: dict[str, int] = {}
+    for name in safe.values():
+        counts[name.lower()] = counts.get(name.lower(), 0) + 1
+    return {p: name if counts[name.lower()] == 1 else f"{name}-{hashlib.sha1(str(p).encode()).hexdigest()[:8]}"
+            for p, name in safe.items()}
+
+
+class Progress:
+    """A one-line progress bar on stderr (a line per item when stderr is not a terminal)."""
+
+    def __init__(self, total: int, quiet: bool = False, stream=None):
+        self.total, self.done, self.quiet = total, 0, quiet
+        self.stream = stream or sys.stderr
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.start = time.perf_counter()
+
+    def step(self, name: str, status: str):
+        self.done += 1
+        if self.quiet:
+            return
+        elapsed = time.perf_counter() - self.start
+        eta = elapsed / self.done * (self.total - self.done)
+        width = 24
+        filled = int(width * self.done / max(1, self.total))
+        bar = "#" * filled + "-" * (width - filled)
+        line = f"[{bar}] {self.done}/{self.total} {status:<6} {name}  (eta {eta:.0f} s)"
+        if self.tty:
+            self.stream.write("\r" + line[:120].ljust(120))
+            if self.done == self.total:
+                self.stream.write("\n")
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+
+SIDECAR = ".panolight-batch.json"  # per output folder: the input's SHA-256 and the settings it was made with
+
+
+def _sha256(path: Path) -> str | None:
+    """The file's SHA-256, or None when it cannot be read (the job then reports why)."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    except OSError:
+        return None
+    return h.hexdigest()
+
+
+def _up_to_date(digest: str | None, dst: Path, settings) -> bool:
+    """True when dst holds a complete output set made from the file of this digest with these settings."""
+    if digest is None:
+        return False
+    try:
+        side = json.loads((dst / SIDECAR).read_text(encoding="utf-8"))
+        return (dst / "lighting.json").is_file() and side.get("settings") == settings and \
+            side.get("sha256") == digest
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _clean_stale(dst: Path) -> None:
+    """Remove what an interrupted earlier run left in dst: private staging folders and temporary files
+    of processes that no longer run."""
+    import shutil
+
+    if not dst.is_dir():
+        return
+    for p in dst.iterdir():
+        m = re.match(r"^\.(?:panolight-(\d+)$|.*\.tmp(\d+))", p.name)
+        pid = int(m.group(1) or m.group(2)) if m else 0
+        if pid and not pid_alive(pid):
+            shutil.rmtree(p, ignore_errors=True) if p.is_dir() else p.unlink(missing_ok=True)
+
+
+def _write_json(path: Path, doc) -> None:
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+
+
+def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: bool = False,
+              settings=None) -> dict:
+    """Run ``job(src, dst_dir)`` for this shard's inputs, continuing past failures; resumable.
+
+    An input whose folder already holds a complete output set made from the same file (SHA-256) with
+    the same ``settings`` (a JSON-able dict of the job's options) is skipped. What interrupted runs left
+    is cleaned first. The report out_dir/batch_report.json (or batch_report-I-of-N.json) is rewritten
+    after every input, so an interrupted run leaves an accurate record of this run alone ("interrupted":
+    true); per input: status ("ok", "skipped" or "failed"), output folder or error, seconds.
+    """
+    names = output_names(inputs)
+    mine = shard(inputs, *shard_spec)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    prog = Progress(len(mine), quiet)
+    results = []
+    i, n = shard_spec
+    report_path = out_dir / ("batch_report.json" if n == 1 else f"batch_report-{i}-of-{n}.json")
+
+    def report(interrupted=False):
+        doc = {"shard": f"{i}/{n}", "total_inputs": len(inputs), "this_shard": len(mine), "settings": settings,
+               "ok": sum(r["status"] == "ok" for r in results),
+               "skipped": sum(r["status"] == "skipped" for r in results),
+               "failed": sum(r["status"] == "failed" for r in results),
+               "interrupted": interrupted, "results": results}
+        _write_json(report_path, doc)
+        return doc
+
+    report()
+    try:
+        for src in mine:
+            t = time.perf_counter()
+            dst = out_dir / names[src]
+            _clean_stale(dst)
+            try:
+                digest = _sha256(src)
+                if _up_to_date(digest, dst, settings):
+                    results.append({"input": str(src), "status": "skipped", "output": str(dst),
+                                    "why": "up to date (same input and settings)"})
+                    prog.step(src.name, "skip")
+                else:
+                    (dst / SIDECAR).unlink(missing_ok=True)
+                    job(src, dst)
+                    _write_json(dst / SIDECAR, {"sha256": digest, "settings": settings})
+                    results.append({"input": str(src), "status": "ok", "output": str(dst),
+                                    "seconds": round(time.perf_counter() - t, 4)})
+                    prog.step(src.name, "ok")
+            except PanoLightError as exc:
+                results.append({"input": str(src), "status": "failed", "error": str(exc),
+                                "seconds": round(time.perf_counter() - t, 4)})
+                prog.step(src.name, "FAILED")
+            except Exception as exc:  # keep going past anything one file can cause; the report names it
+                results.append({"input": str(src), "status": "failed", "error": f"{type(exc).__name__}: {exc}",
+                                "seconds": round(time.perf_counter() - t, 4)})
+                prog.step(src.name, "FAILED")
+            report()
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the report says how far this run got, then unwind
+        report(interrupted=True)
+        raise
+    doc = report()
+    doc["report_path"] = str(report_path)
+    return doc

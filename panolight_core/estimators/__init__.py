@@ -1,0 +1,168 @@
+"""Lighting estimators: panorama pixels -> SH radiance coefficients (K, 3), Blender world frame.
+
+Inputs are the pixels ``read_image(..., ldr_as_uint8=True)`` returns: uint8 sRGB for 8-bit LDR files,
+float32 linear radiance for HDR (and 16-bit) files.
+
+- ambient:  L_00 of the naive projection only (a constant environment).
+- naive:    sRGB -> linear, then the exact projection (no highlight recovery).
+- analytic: HDR -> the exact projection; LDR -> sRGB -> linear, clipped highlights re-inflated by the
+            physical power-law model of ``highlights``, projection of the recovered map.
+- sources:  per-source energy (``sources``): every clipped region gets the energy a model learned from
+            real HDR panoramas predicts for it (the expected-error optimum of its predicted ratio).
+- neural:   the paper's learned estimator (LDR -> HDR autoencoder -> lighting encoder) with the shipped
+            weights (panolight_core/models), numpy only; HDR inputs are projected exactly.
+- auto:     the best estimator available (see ``resolve``).
+LDR results are in units of the camera's clip level (1 = white); HDR results in the file's units.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import __version__, sh
+from ..camera import ldr_to_linear
+from ..errors import PanoLightError
+from .highlights import recover_highlights
+
+WORK_HEIGHT = 64  # rows of the highlight work map; 64 and 128 score alike on synthetic scenes (training/eval_synthetic.py)
+
+
+@dataclass
+class Estimate:
+    """An estimate: coefficients (K, 3) float64 radiance SH, the estimator and what it found.
+
+    radiance: the linear equirect map the coefficients are the projection of (the input itself for HDR,
+    the recovered work map for the analytic LDR path); the adaptive model fits lights to it.
+    """
+
+    coeffs: np.ndarray
+    estimator: str
+    info: dict = field(default_factory=dict)
+    radiance: np.ndarray | None = None
+    recovery: object | None = None  # sources.Recovery for the per-source estimator (hdr.exr is made from it)
+
+    @property
+    def lmax(self) -> int:
+        return sh.lmax_from_count(self.coeffs.shape[0])
+
+
+def _linear(pixels: np.ndarray) -> np.ndarray:
+    return ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
+
+
+def ambient(pixels: np.ndarray, lmax: int) -> Estimate:
+    lin = _linear(pixels)
+    c = sh.project(lin, lmax).astype(np.float64)
+    c[1:] = 0.0
+    flat = np.broadcast_to(c[0] / np.sqrt(4.0 * np.pi), lin.shape)
+    return Estimate(c, "ambient", radiance=flat)
+
+
+def naive(pixels: np.ndarray, lmax: int) -> Estimate:
+    lin = _linear(pixels)
+    return Estimate(sh.project(lin, lmax).astype(np.float64), "naive", radiance=lin)
+
+
+def _exact_hdr(pixels: np.ndarray, lmax: int, name: str) -> Estimate:
+    """HDR input needs no recovery: its exact projection."""
+    return Estimate(sh.project(pixels, lmax).astype(np.float64), name, {"input": "hdr"}, pixels)
+
+
+def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
+    if pixels.dtype != np.uint8:
+        return _exact_hdr(pixels, lmax, "analytic")
+    work = max(WORK_HEIGHT, 4 * (lmax + 1))
+    recovered, blobs = recover_highlights(pixels, work)
+    return Estimate(sh.project(recovered, lmax), "analytic",
+                    {"input": "ldr", "work_height": work, "clipped_regions": blobs}, recovered)
+
+
+def per_source(pixels: np.ndarray, lmax: int) -> Estimate:
+    if pixels.dtype != np.uint8:
+        return _exact_hdr(pixels, lmax, "sources")
+    from . import sources
+
+    model = sources.load_source_model()
+    rec = sources.recover(pixels, model)
+    return Estimate(sh.project(rec.work, lmax), "sources",
+                    {"input": "ldr", "work_height": rec.frac.shape[0], "model": model.path.name,
+                     "decision": rec.decision, "clipped_regions": rec.region_info()}, rec.work, rec)
+
+
+def neural_estimator(weights=None, label: str = "neural"):
+    """An estimator function running the learned model in ``weights`` (default: the shipped file)."""
+
+    def run(pixels: np.ndarray, lmax: int) -> Estimate:
+        from .nn import estimator as nn_estimator
+
+        if pixels.dtype != np.uint8:
+            return _exact_hdr(pixels, lmax, label)
+        model = nn_estimator.load_model(weights or nn_estimator.DEFAULT_WEIGHTS)
+        coeffs, hdr = nn_estimator.predict(model, pixels, lmax)
+        return Estimate(coeffs, label, {"input": "ldr", "weights": model.path.name,
+                                        "model": model.config.get("name", "?")}, hdr)
+
+    return run
+
+
+def register_model(label: str, weights) -> str:
+    """Make a learned model file usable as estimator ``label`` (evaluation of trained variants)."""
+    from .nn.estimator import load_model
+
+    if label in BUILTIN + ("auto",) or not label.replace("-", "").replace("_", "").isalnum():
+        raise PanoLightError(f"{label!r} cannot name a trained model: use letters, digits, '-' or '_', and not "
+                             f"a built-in estimator's name")
+
+    load_model(weights)  # fail now, naming the file, not in the middle of an evaluation
+    _REGISTRY[label] = neural_estimator(weights, label)
+    return label
+
+
+def _neural_shipped() -> bool:
+    from .nn import estimator as nn_estimator
+
+    return nn_estimator.DEFAULT_WEIGHTS.is_file()
+
+
+_REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic, "sources": per_source,
+             "neural": neural_estimator()}
+DESCRIPTIONS = {  # name -> (label, one line), for CLI help and Blender menus
+    "sources": ("Per-source energy", "Each clipped sun, lamp or window gets the energy a model learned from real "
+                "HDR panoramas predicts; exact for HDR"),
+    "analytic": ("Analytic", "sRGB to linear with power-law highlight recovery; exact for HDR"),
+    "naive": ("Naive", "sRGB to linear only"),
+    "ambient": ("Ambient", "A constant environment (the naive L00)"),
+    "neural": ("Neural", "The paper's network (numpy; no torch needed)"),
+}
+BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these
+AUTO = "sources"  # what ``auto`` means: the best on the cross-validation over the 50 real HDRs (docs/accuracy.md)
+
+
+def available() -> tuple[str, ...]:
+    """Estimator names usable here."""
+    return tuple(n for n in _REGISTRY if n != "neural" or _neural_shipped())
+
+
+def resolve(name: str) -> str:
+    """Map ``auto`` to a concrete estimator; raise PanoLightError for unknown or unavailable names."""
+    if name == "auto":
+        return AUTO
+    if name == "neural" and not _neural_shipped():
+        raise PanoLightError("the neural estimator's weights are missing from this installation "
+                             "(panolight_core/models/small.safetensors); use --estimator analytic (or auto)")
+    if name not in _REGISTRY:
+        raise PanoLightError(f"unknown estimator {name!r}; choose from {', '.join(available() + ('auto',))}")
+    return name
+
+
+def estimate(pixels: np.ndarray, lmax: int = 2, estimator: str = "auto") -> Estimate:
+    """Run an estimator on panorama pixels (uint8 sRGB LDR or float linear HDR); records its time."""
+    name = resolve(estimator)
+    if pixels.ndim != 3 or pixels.shape[-1] != 3:
+        raise PanoLightError(f"panorama pixels must be (H, W, 3), got {pixels.shape}")
+    t0 = time.perf_counter()
+    est = _REGISTRY[name](pixels, lmax)
+    est.info.update({"name": name, "version": __version__, "estimate_s": time.perf_counter() - t0})
+    return est

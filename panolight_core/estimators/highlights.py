@@ -1,0 +1,255 @@
+"""Recovering the energy an LDR panorama clipped (sun, lamps, bright windows).
+
+An 8-bit panorama stores nothing above its clip level, so the lost energy has to come from a model.
+PanoLight's is physical and has no fitted constants, so users can judge it:
+
+Around a compact bright source radiance falls off as a power law of the angle to its centre,
+L(t) ~ t^-p (a sun's aureole, a lamp's glare). A clipped blob of solid angle O has an equivalent radius
+t_c = sqrt(O / pi), where the true radiance crosses the clip level 1. The unclipped ring
+t_c < t < 3 t_c around it gives p (weighted least squares of log L on log t, clamped to 0..4) and the
+source colour. Integrating the law inside the blob, down to a core of 0.27 degrees (the sun's angular
+radius) where it is held flat, gives the blob's energy and so its mean radiance G >= 1, which fills
+the blob in the ring's colour. Flat surroundings (p ~ 0: a hard-edged window) give back about the clip
+level; steep glare (p ~ 2-3) gives back a bright source; a larger clipped area (a brighter exposure)
+extrapolates further.
+
+Known limits: a source with no glare around it (a lamp behind a diffuser, a sun in a clamped HDRI)
+is under- or over-estimated, since the ring is all the model sees; training/eval_synthetic.py
+reports its behaviour on synthetic skies and rooms. Everything runs on an area-averaged map of
+``work_height`` rows (128 by default), so a 16k panorama costs no more than a 1k one beyond decoding.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from .. import sh
+from ..camera.resample import area_downsample
+from ..camera import clipped_mask
+from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
+
+CLIP_LEVEL = 0.99  # linear value of sRGB 254/255 is 0.991: at or above counts as clipped
+CORE_RADIUS = math.radians(0.2666)  # the sun's angular radius
+MAX_EXPONENT = 4.0
+RING_FACTOR = 3.0
+RING_GAP = 1.0  # work cells skipped between a blob's edge and its ring: edge cells are partly clipped and JPEG rings within a block of a clipped edge
+MAX_FITTED_BLOBS = 64  # ring fits for the largest clipped regions; smaller speckles keep the clip level
+
+
+def label_blobs(mask: np.ndarray) -> tuple[np.ndarray, int]:
+    """Connected components of a boolean equirect mask: 4-neighbours, wrapping around the seam u = 0
+    and joining the first (last) row across the pole. Returns (labels, -1 outside; count).
+
+    Union-find over horizontal runs, so the cost is the number of runs, not the blob diameter.
+    """
+    h, w = mask.shape
+    parent: list[int] = []
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    def union(a, b):
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+
+    run_id = np.full((h, w), -1, dtype=np.int64)
+    for y in range(h):
+        row = mask[y]
+        if not row.any():
+            continue
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], row.astype(np.int8), [0]])))
+        for x0, x1 in zip(edges[::2], edges[1::2]):
+            rid = len(parent)
+            parent.append(rid)
+            run_id[y, x0:x1] = rid
+        if row[0] and row[-1]:  # wraps around the seam
+            union(run_id[y, 0], run_id[y, -1])
+        if y > 0:
+            both = (run_id[y] >= 0) & (run_id[y - 1] >= 0)
+            for a, b in set(zip(run_id[y][both].tolist(), run_id[y - 1][both].tolist())):
+                union(a, b)
+    for y in (0, h - 1):  # across the poles: column x meets column x + w/2
+        opposite = np.roll(run_id[y], w // 2)
+        both = (run_id[y] >= 0) & (opposite >= 0)
+        for a, b in set(zip(run_id[y][both].tolist(), opposite[both].tolist())):
+            union(a, b)
+    if not parent:
+        return run_id, 0
+    roots = np.array([find(i) for i in range(len(parent))])
+    ids, compact = np.unique(roots, return_inverse=True)
+    labels = np.where(run_id >= 0, compact[np.maximum(run_id, 0)], -1)
+    return labels, int(ids.size)
+
+
+def _ring_fit(ang, lum, wts):
+    """Weighted least-squares slope of log(lum) on log(ang): returns -slope (the exponent p)."""
+    x, y = np.log(ang), np.log(lum)
+    sw = wts.sum()
+    mx, my = (wts * x).sum() / sw, (wts * y).sum() / sw
+    var = (wts * (x - mx) ** 2).sum()
+    return 0.0 if var <= 0 else float(-(wts * (x - mx) * (y - my)).sum() / var)
+
+
+def blob_features(small: np.ndarray, frac: np.ndarray):
+    """Clipped blobs of a work-resolution map.
+
+    small: (h, w, 3) area-averaged linear radiance; frac: (h, w) clipped fraction per cell.
+    Returns (labels, blobs): labels (h, w) with -1 outside blobs; blobs[i] has direction, solid_angle
+    (sr), exponent p and color (unit luminance) of label i (None for a degenerate blob).
+    """
+    h, w = frac.shape
+    mask = frac >= 0.5
+    labels, count = label_blobs(mask)
+    if count == 0:
+        return labels, []
+    dirs = sh.pixel_directions(h, w)
+    omega = sh.pixel_solid_angles(h, w)
+    lum = small @ LUMINANCE_WEIGHTS
+    clear = ~mask
+    ys, xs = np.nonzero(mask)
+    lab = labels[ys, xs]
+    wts = (omega * frac)[ys, xs]
+    area = np.bincount(lab, wts, count)
+    centres = np.stack([np.bincount(lab, wts * dirs[ys, xs, i], count) for i in range(3)], -1)
+    row_lo = np.full(count, h)
+    row_hi = np.zeros(count, dtype=int)
+    np.minimum.at(row_lo, lab, ys)
+    np.maximum.at(row_hi, lab, ys)
+    d_theta, d_phi = math.pi / h, 2 * math.pi / w
+    fitted = set(np.argsort(-area)[:MAX_FITTED_BLOBS].tolist())
+    blobs = []
+    for b in range(count):
+        norm = float(np.linalg.norm(centres[b]))
+        if area[b] <= 0 or norm < 1e-9 * area[b] or b not in fitted:
+            blobs.append(None)
+            continue
+        centre = centres[b] / norm
+        t_c = min(math.sqrt(area[b] / math.pi), math.pi / 2)
+        reach = RING_FACTOR * t_c + d_phi
+        pad_gap = RING_GAP * d_theta
+        pad = int(math.ceil((reach + pad_gap) / d_theta)) + 1
+        rows = np.arange(max(0, row_lo[b] - pad), min(h, row_hi[b] + pad + 1))
+        sin_min = max(math.sin(math.pi * (rows[0]) / h), math.sin(math.pi * (rows[-1] + 1) / h), 1e-9) \
+            if rows[0] > 0 and rows[-1] < h - 1 else 0.0
+        x_c = int((0.5 - math.atan2(centre[1], centre[0]) / (2 * math.pi)) % 1.0 * w)
+        half = w if sin_min <= 0 else int(math.ceil((reach + pad_gap) / (sin_min * d_phi))) + 2
+        cols = np.arange(w) if 2 * half + 1 >= w else (x_c + np.arange(-half, half + 1)) % w
+        win = np.ix_(rows, cols)
+        ang = np.arccos(np.clip(dirs[win] @ centre, -1.0, 1.0))
+        ring = clear[win] & (ang > t_c + RING_GAP * d_theta) & (ang < reach + RING_GAP * d_theta) & (lum[win] > 0)
+        if ring.sum() >= 3:
+            om = omega[win][ring]
+            p = float(np.clip(_ring_fit(ang[ring], lum[win][ring], om), 0.0, MAX_EXPONENT))
+            color = (small[win][ring] * om[:, None]).sum(0)
+            color = color / max(float(color @ LUMINANCE_WEIGHTS), 1e-12)
+        else:
+            p, color = 0.0, np.ones(3)
+        blobs.append({"direction": centre, "solid_angle": float(area[b]), "exponent": p, "color": color})
+    return labels, blobs
+
+
+def power_law_gain(solid_angle: float, exponent: float, core_radius: float = CORE_RADIUS) -> float:
+    """Mean radiance G (clip level = 1) inside a clipped blob under the power-law model.
+
+    L(t) = (t_c / t)^p for core_radius < t < t_c (t_c = sqrt(solid_angle / pi), L(t_c) = 1), flat at its
+    core value inside core_radius; G = energy / solid_angle, at least 1.
+    """
+    t_c = min(math.sqrt(max(solid_angle, 0.0) / math.pi), math.pi / 2)
+    if t_c <= 0:
+        return 1.0
+    t0 = min(core_radius, t_c)
+    p = exponent
+    if abs(p - 2.0) < 1e-9:
+        integral = math.log(t_c / t0)
+    else:
+        integral = (t_c ** (2.0 - p) - t0 ** (2.0 - p)) / (2.0 - p)
+    energy = 2.0 * math.pi * t_c ** p * integral + math.pi * t0 * t0 * (t_c / t0) ** p
+    return max(1.0, energy / (math.pi * t_c * t_c))
+
+
+_POOL = None
+
+
+def _pool():
+    global _POOL
+    if _POOL is None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        _POOL = ThreadPoolExecutor(max_workers=max(1, min(4, os.cpu_count() or 1)),
+                                   thread_name_prefix="panolight")
+    return _POOL
+
+
+def _ldr_chunk(a: np.ndarray, rows: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    clip = clipped_mask(a)
+    rad = area_downsample(SRGB8_TO_LINEAR[a], rows, width)
+    frac = area_downsample(clip[..., None].astype(np.float32), rows, width)[..., 0]
+    return rad, frac
+
+
+def ldr_work_maps(ldr: np.ndarray, work_height: int) -> tuple[np.ndarray, np.ndarray]:
+    """uint8 sRGB pixels -> (linear radiance (h, 2h, 3), clipped fraction (h, 2h)) at h = work_height.
+
+    A pixel is clipped when its brightest channel is 254 or 255. Large images are split into row
+    bands (aligned to the averaging blocks) processed on a small thread pool: numpy releases the GIL
+    for the lookup and the sums, so two cores halve the time.
+    """
+    a = np.asarray(ldr)
+    h, w = a.shape[:2]
+    width = 2 * work_height
+    bands = max(1, min(4, os.cpu_count() or 1))
+    if h <= work_height or h % work_height or w % width or h * w < (1 << 20) or bands == 1 \
+            or work_height % bands:
+        return _ldr_chunk(a, min(work_height, h), width if h > work_height else w)
+    step = h // bands
+    out_rows = work_height // bands
+    parts = [_pool().submit(_ldr_chunk, a[i * step:(i + 1) * step], out_rows, width) for i in range(bands)]
+    results = [f.result() for f in parts]
+    return np.concatenate([r[0] for r in results]), np.concatenate([r[1] for r in results])
+
+
+def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: float = CORE_RADIUS):
+    """Re-inflate clipped regions of an LDR panorama.
+
+    linear: (H, W, 3) uint8 sRGB pixels (preferred: clipping is then exact and the path is fused), or
+    float sRGB-linearised values in [0, 1] (pixels >= CLIP_LEVEL count as clipped).
+    Returns (map, blobs): map is (work_height, 2 work_height, 3) float64 radiance in the input's
+    exposure units (clip level = 1); blobs lists each clipped region's direction, solid angle (sr), ring
+    exponent p, colour and recovered mean radiance G, which fills the blob in the ring's colour.
+    """
+    img = np.asarray(linear)
+    if img.dtype == np.uint8:
+        rad, frac = ldr_work_maps(img, work_height)
+    else:
+        sat = np.maximum(np.maximum(img[..., 0], img[..., 1]), img[..., 2]) >= CLIP_LEVEL
+        rad = area_downsample(img, work_height)
+        frac = area_downsample(sat[..., None].astype(np.float32), work_height)[..., 0]
+    return recover_work_maps(rad, frac, core_radius)
+
+
+def recover_work_maps(rad: np.ndarray, frac: np.ndarray, core_radius: float = CORE_RADIUS):
+    """``recover_highlights`` on work maps already made (``ldr_work_maps``): rad (h, 2h, 3) linear
+    radiance, updated in place and returned, frac (h, 2h) clipped fraction. Returns (map, blobs)."""
+    labels, feats = blob_features(rad, frac)
+    if not feats:
+        return rad, []
+    gain_color = np.zeros((len(feats), 3))
+    blobs = []
+    for i, f in enumerate(feats):
+        if f is None:
+            continue
+        g = power_law_gain(f["solid_angle"], f["exponent"], core_radius)
+        gain_color[i] = g * f["color"]
+        blobs.append({"direction": f["direction"].tolist(), "solid_angle": f["solid_angle"],
+                      "exponent": f["exponent"], "color": f["color"].tolist(), "mean_radiance": g})
+    m = labels >= 0
+    fr = frac[m][:, None]
+    rad[m] = np.maximum(rad[m], gain_color[labels[m]] * fr + rad[m] * (1.0 - fr))
+    return rad, blobs

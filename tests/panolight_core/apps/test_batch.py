@@ -1,0 +1,151 @@
+import json
+
+import pytest
+
+from panolight_core.apps.batch import collect_inputs, output_names, parse_shard, shard
+from panolight_core.apps.cli import main
+from panolight_core.errors import PanoLightError
+from panolight_core.io import write_image
+
+
+def test_collect_sort_dedupe_and_list(tmp_path):
+    (tmp_path / "a").mkdir()
+    for name in ("b.jpg", "a.exr", "notes.txt"):
+        (tmp_path / "a" / name).write_bytes(b"x")
+    lst = tmp_path / "todo.txt"
+    lst.write_text("# comment\n\na/a.exr\nmissing.png\n")
+    found = collect_inputs([tmp_path / "a"], lst)
+    assert [p.name for p in found] == ["a.exr", "b.jpg", "missing.png"]
+    with pytest.raises(PanoLightError, match="input list not found"):
+        collect_inputs([], tmp_path / "nope.txt")
+
+
+def test_shards_cover_everything_once():
+    items = list(range(23))
+    parts = [shard(items, i, 4) for i in range(1, 5)]
+    assert sorted(x for p in parts for x in p) == items
+    assert parse_shard("2/4") == (2, 4) and parse_shard(None) == (1, 1)
+    for bad in ("0/4", "5/4", "x", "1-2"):
+        with pytest.raises(PanoLightError, match="shard"):
+            parse_shard(bad)
+
+
+def test_output_names_disambiguate_same_stems(tmp_path):
+    a, b, c = tmp_path / "x" / "pano.jpg", tmp_path / "y" / "pano.jpg", tmp_path / "z.jpg"
+    names = output_names([a, b, c])
+    assert names[c] == "z" and names[a] != names[b] and names[a].startswith("pano-")
+
+
+def test_batch_keeps_going_and_reports(tmp_path, rng):
+    src = tmp_path / "in"
+    src.mkdir()
+    for i in range(3):
+        write_image(src / f"p{i}.png", rng.random((16, 32, 3)))
+    (src / "broken.jpg").write_bytes(b"\xff\xd8\xff\xe0 this is not a jpeg")
+    out = tmp_path / "out"
+    rc = main(["batch", str(src), "-o", str(out), "-q", "--resolution", "32x16"])
+    assert rc == 1
+    report = json.loads((out / "batch_report.json").read_text())
+    assert report["ok"] == 3 and report["failed"] == 1
+    bad = next(r for r in report["results"] if r["status"] == "failed")
+    assert "broken.jpg" in bad["error"]
+    assert sorted(p.name for p in out.iterdir()) == ["batch_report.json", "p0", "p1", "p2"]
+    # two shards together do the same inputs, with their own reports
+    out2 = tmp_path / "out2"
+    assert main(["batch", str(src / "p0.png"), str(src / "p1.png"), "-o", str(out2), "-q", "--shard", "1/2"]) == 0
+    assert main(["batch", str(src / "p0.png"), str(src / "p1.png"), "-o", str(out2), "-q", "--shard", "2/2"]) == 0
+    assert sorted(p.name for p in out2.iterdir()) == ["batch_report-1-of-2.json", "batch_report-2-of-2.json", "p0", "p1"]
+
+
+def test_output_names_stay_inside_and_never_collide(tmp_path):
+    names = ["...png", "..jpg", ".hidden.jpg", "a b.jpg", "A.jpg", "a.jpg", "x/../y.jpg", "sub/a.jpg"]
+    inputs = [tmp_path / n for n in names]
+    out = output_names(inputs)
+    assert len(set(v.lower() for v in out.values())) == len(inputs)  # unique, even without case
+    root = (tmp_path / "OUT").resolve()
+    for name in out.values():
+        assert not name.startswith(".") and "/" not in name and "\\\\" not in name
+        assert (root / name).resolve().parent == root
+
+
+def test_batch_with_dot_names_writes_only_inside_its_folder(tmp_path):
+    import numpy as np
+
+    src = tmp_path / "in"
+    src.mkdir()
+    img = np.full((16, 32, 3), 0.5, np.float32)
+    write_image(src / "...exr", img)
+    write_image(src / "..exr", img)
+    (tmp_path / "lighting.json").write_text("mine")
+    out = tmp_path / "out"
+    assert main(["batch", str(src / "...exr"), str(src / "..exr"), "-o", str(out), "-q"]) == 0
+    assert (tmp_path / "lighting.json").read_text() == "mine"
+    folders = [p for p in out.iterdir() if p.is_dir()]
+    assert len(folders) == 2 and all((f / "lighting.json").is_file() for f in folders)
+
+
+def test_list_with_a_symlink_loop_or_binary_data_gets_one_line(tmp_path, capsys):
+    import os
+
+    import numpy as np
+
+    good = write_image(tmp_path / "good.exr", np.full((16, 32, 3), 0.5, np.float32))
+    os.symlink(tmp_path / "loop_b.exr", tmp_path / "loop_a.exr")
+    os.symlink(tmp_path / "loop_a.exr", tmp_path / "loop_b.exr")
+    lst = tmp_path / "list.txt"
+    lst.write_text(f"{good}\n{tmp_path / 'loop_a.exr'}\n")
+    out = tmp_path / "out"
+    assert main(["batch", "--list", str(lst), "-o", str(out), "-q"]) == 1  # one input failed, the batch ran
+    report = json.loads((out / "batch_report.json").read_text())
+    status = {r["input"].rsplit("/", 1)[-1]: r["status"] for r in report["results"]}
+    assert status["good.exr"] == "ok" and status["loop_a.exr"] == "failed"
+    binary = tmp_path / "binary.txt"
+    binary.write_bytes(b"\x89PNG\x00\x01\xff\xfe")
+    assert main(["batch", "--list", str(binary), "-o", str(out), "-q"]) == 1
+    assert "binary.txt: not a text list" in capsys.readouterr().err
+
+
+def test_batch_resumes_skips_what_is_done_and_cleans_what_interrupted_runs_left(tmp_path, capsys):
+    import numpy as np
+
+    src = tmp_path / "in"
+    src.mkdir()
+    for k, name in enumerate(("a.exr", "b.exr")):
+        write_image(src / name, np.full((16, 32, 3), 0.3 + 0.1 * k, np.float32))
+    out = tmp_path / "out"
+    assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "2"]) == 0
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["ok", "ok"] and report["settings"]["lmax"] == "2"
+    (out / "a" / ".panolight-999999999").mkdir()  # left by a run that died
+    (out / "a" / ".hdr.exr.tmp999999999.exr").write_bytes(b"x")
+    assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "2"]) == 0
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["skipped", "skipped"]
+    assert not [p for p in (out / "a").iterdir() if "999999999" in p.name]
+    write_image(src / "b.exr", np.full((16, 32, 3), 0.9, np.float32))  # the input changed
+    assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "2"]) == 0
+    assert [r["status"] for r in json.loads((out / "batch_report.json").read_text())["results"]] == ["skipped", "ok"]
+    assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "3"]) == 0  # other settings: redone
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["ok", "ok"] and report["settings"]["lmax"] == "3"
+
+
+def test_an_interrupted_batch_reports_how_far_it_got(tmp_path):
+    from panolight_core.apps.batch import run_batch
+
+    inputs = [tmp_path / "a.exr", tmp_path / "b.exr"]
+    for p in inputs:
+        p.write_bytes(b"x")
+    calls = []
+
+    def job(src, dst):
+        calls.append(src)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        dst.mkdir(parents=True, exist_ok=True)
+        (dst / "lighting.json").write_text("{}")
+
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(inputs, tmp_path / "out", job, quiet=True, settings={"lmax": "2"})
+    report = json.loads((tmp_path / "out" / "batch_report.json").read_text())
+    assert report["interrupted"] and [r["status"] for r in report["results"]] == ["ok"]

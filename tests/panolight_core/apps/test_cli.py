@@ -1,0 +1,221 @@
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from panolight_core import sh
+from panolight_core.apps.cli import main
+from panolight_core.io import read_image, write_image
+from panolight_core.io.lighting import read_lighting
+
+
+def test_estimate_hdr_writes_its_outputs_and_they_are_right(tmp_path, rng):
+    img = (rng.random((32, 64, 3)) * 3).astype(np.float32)
+    src = write_image(tmp_path / "in.exr", img)
+    out = tmp_path / "out"
+    assert main(["estimate", str(src), "-o", str(out), "--lmax", "3", "--resolution", "64x32", "-q"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["hdr.exr", "irradiance.exr", "lighting.json", "preview.png",
+                                                     "radiance.exr"]
+    coeffs, doc = read_lighting(out / "lighting.json")
+    np.testing.assert_allclose(coeffs, sh.project(img.astype(np.float64), 3), rtol=1e-5, atol=1e-6)
+    np.testing.assert_array_equal(read_image(out / "hdr.exr"), img)  # an HDR input is its own HDRI
+    assert doc["source"]["sha256"] and doc["estimator"]["name"] == "sources" and doc["order"]["mode"] == "fixed"
+    assert set(doc["timings"]) == {"read_s", "estimate_s", "model_s", "write_s"}
+    np.testing.assert_allclose(read_image(out / "radiance.exr"), sh.reconstruct(coeffs, 32, 64), rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(read_image(out / "irradiance.exr", negative="error"),
+                               sh.irradiance_map(coeffs, 32, 64), rtol=1e-5, atol=1e-5)
+    preview = read_image(out / "preview.png", equirect=False)
+    assert preview.shape[0] == 256 and preview.shape[1] == 2 * 512 + 256 + 8  # input | radiance | sphere
+
+
+def test_default_model_writes_lights_and_sh_model_does_not(tmp_path):
+    import jsonschema
+
+    from panolight_core.io.lighting import schema
+
+    img = np.full((64, 128, 3), 0.05, np.float32)
+    img[20, 90] = 5e4  # a sun
+    src = write_image(tmp_path / "sun.exr", img)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "auto"), "-q"]) == 0
+    coeffs, doc = read_lighting(tmp_path / "auto" / "lighting.json")
+    jsonschema.validate(doc, schema())
+    assert len(doc["lights"]) == 1 and doc["lights"][0]["type"] == "sun"
+    assert doc["model"]["mode"] == "lights+sh" and doc["model"]["order"]["mode"] == "auto"
+    assert doc["model"]["parameters"] == coeffs.size + 8
+    # irradiance.exr holds the whole model: lights + SH
+    from panolight_core.lighting.lights import light_irradiance
+
+    expected = light_irradiance(doc["lights"], sh.pixel_directions(256, 512)) + sh.irradiance_map(coeffs, 256, 512)
+    np.testing.assert_allclose(read_image(tmp_path / "auto" / "irradiance.exr", negative="error"), expected,
+                               rtol=1e-4, atol=1e-6)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "sh"), "--model", "sh", "-q"]) == 0
+    coeffs_sh, doc_sh = read_lighting(tmp_path / "sh" / "lighting.json")
+    assert doc_sh["lights"] == [] and doc_sh["lmax"] == 2 and doc_sh["model"]["mode"] == "sh"
+
+
+def test_estimate_ldr_auto_order_exposure_and_window(tmp_path):
+    hdr = np.full((64, 128, 3), 0.2, np.float32)
+    hdr[10:14, 30:34] = 400.0
+    from panolight_core.camera import hdr_to_ldr
+    from PIL import Image
+
+    src = tmp_path / "sun.png"
+    Image.fromarray(hdr_to_ldr(hdr, 0)).save(src)
+    out = tmp_path / "o"
+    assert main(["estimate", str(src), "-o", str(out), "--lmax", "auto", "--tolerance", "0.02",
+                 "--exposure", "1", "--window", "auto", "-q"]) == 0
+    coeffs, doc = read_lighting(out / "lighting.json")
+    assert doc["order"]["mode"] == "auto" and doc["lmax"] == doc["order"]["lmax"] <= 8
+    errs = doc["order"]["irradiance_error_per_order"]
+    assert errs[doc["lmax"]] <= 0.02 and (doc["lmax"] == 0 or errs[doc["lmax"] - 1] > 0.02)
+    assert doc["exposure_ev"] == 1 and doc["source"]["dynamic_range"] == "ldr-8bit-srgb"
+    assert doc["clipped_regions"] and doc["window"]["mode"] == "auto"
+    assert sh.min_over_grid(coeffs).min() >= -1e-6 * coeffs[0].max() * 1.01
+
+
+def test_bad_input_exit_status_message_and_nothing_written(tmp_path, capsys, monkeypatch):
+    before = set(os.listdir(tmp_path))
+    assert main(["estimate", str(tmp_path / "missing.jpg"), "-o", str(tmp_path / "o"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "missing.jpg: file not found" in err and "Traceback" not in err
+    assert set(os.listdir(tmp_path)) == before
+    bad = tmp_path / "square.png"
+    write_image(bad, np.zeros((8, 8, 3)))
+    assert main(["estimate", str(bad), "-o", str(tmp_path / "o2"), "-q"]) == 1
+    assert "2:1" in capsys.readouterr().err
+    from panolight_core.estimators.nn import estimator as nn_estimator
+
+    monkeypatch.setattr(nn_estimator, "DEFAULT_WEIGHTS", tmp_path / "gone.safetensors")
+    assert main(["estimate", str(bad), "--estimator", "neural", "-q"]) == 1
+    assert "weights are missing" in capsys.readouterr().err
+    for argv in (["estimate", "x.exr", "--resolution", "300x100"], ["estimate", "x.exr", "--lmax", "-1"],
+                 ["estimate", "x.exr", "--window", "gauss"]):
+        with pytest.raises(SystemExit):
+            main(argv)
+
+
+def test_unwritable_output_is_reported_not_raised(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    assert main(["build-extension", "-o", str(blocker / "sub")]) == 1
+    err = capsys.readouterr().err
+    assert "panolight: error:" in err and "Traceback" not in err and str(blocker) in err
+
+
+def test_project_is_the_naive_estimator(tmp_path, rng):
+    src = write_image(tmp_path / "in.png", rng.random((16, 32, 3)))
+    assert main(["project", str(src), "-o", str(tmp_path / "p"), "-q"]) == 0
+    _, doc = read_lighting(tmp_path / "p" / "lighting.json")
+    assert doc["estimator"]["name"] == "naive"
+
+
+def test_help_teaches_and_module_entry_works():
+    for cmd in ("estimate", "batch", "eval", "demo"):
+        r = subprocess.run([sys.executable, "-m", "panolight_core", cmd, "--help"], capture_output=True, text=True)
+        assert r.returncode == 0 and ("examples:" in r.stdout or "outputs" in r.stdout or "protocol" in r.stdout), cmd
+    r = subprocess.run([sys.executable, "-m", "panolight_core"], capture_output=True, text=True)
+    assert r.returncode == 2 and "panolight demo" in r.stdout
+
+
+def test_demo_estimates_a_made_jpeg_against_the_truth(tmp_path, capsys):
+    out = tmp_path / "d"
+    assert main(["demo", "--scene", "city", "-o", str(out), "-q", "--resolution", "64x32"]) == 0
+    assert (out / "input.jpg").is_file() and (out / "preview.png").is_file()
+    said = capsys.readouterr().out
+    ours = float(said.split("irr-RMSE ")[1].split(" ")[0])
+    naive = float(said.split("(naive lmax 2: ")[1].split(")")[0])
+    assert ours < naive  # city: the clipped sun is worth recovering
+
+
+def test_estimate_never_overwrites_its_input(tmp_path, capsys):
+    img = np.full((32, 64, 3), 0.5, np.float32)
+    src = write_image(tmp_path / "hdr.exr", img)
+    before = src.read_bytes()
+    assert main(["estimate", str(src), "-o", str(tmp_path), "-q"]) == 1
+    assert "would overwrite the input" in capsys.readouterr().err
+    assert src.read_bytes() == before
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--tolerance", "-1"], "--tolerance must be between"), (["--tolerance", "nan"], "--tolerance must be between"),
+    (["--window-width", "-3"], "--window-width must be between"), (["--exposure", "2000"], "--exposure must be"),
+    (["--exposure", "inf"], "--exposure must be")])
+def test_bad_numbers_get_one_line(tmp_path, capsys, args, message):
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    with pytest.raises(SystemExit) as exc:
+        main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q", *args])
+    assert exc.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_overflowing_outputs_are_refused_before_writing(tmp_path, capsys):
+    img = np.full((16, 32, 3), 3.0e38, np.float32)  # float-max pixels: their projection overflows
+    src = write_image(tmp_path / "huge.exr", img)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q"]) == 1
+    assert "would not be finite" in capsys.readouterr().err and not (tmp_path / "o").exists()
+    src2 = write_image(tmp_path / "bright.exr", np.full((16, 32, 3), 1e30, np.float32))
+    assert main(["estimate", str(src2), "-o", str(tmp_path / "o2"), "--exposure", "59", "-q"]) == 1
+    assert "would not be finite" in capsys.readouterr().err and not (tmp_path / "o2").exists()
+
+
+def test_sigterm_mid_write_exits_143_and_leaves_no_temporary_files(tmp_path, capsys, monkeypatch):
+    import signal
+
+    from panolight_core import pipeline
+
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    real = pipeline.write_image
+
+    def write_then_terminate(path, image, **kw):
+        if Path(path).name == "radiance.exr":  # the farm cancels the job while outputs are written
+            os.kill(os.getpid(), signal.SIGTERM)
+        return real(path, image, **kw)
+
+    monkeypatch.setattr(pipeline, "write_image", write_then_terminate)
+    out = tmp_path / "o"
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 143
+    assert "terminated" in capsys.readouterr().err
+    assert list(out.iterdir()) == []  # nothing half-done: no outputs, no temporary files, no lock
+    assert signal.getsignal(signal.SIGTERM) is not None  # the previous handler is back
+
+
+def test_outputs_never_replace_files_panolight_did_not_write(tmp_path, capsys):
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "preview.png").write_bytes(b"the user's own picture")
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
+    assert "were not written by PanoLight" in capsys.readouterr().err
+    assert (out / "preview.png").read_bytes() == b"the user's own picture"
+    assert main(["estimate", str(src), "-o", str(out), "-q", "--overwrite"]) == 0
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0  # an earlier run's outputs are ours
+
+
+def test_a_second_writer_is_refused_and_a_stale_lock_taken_over(tmp_path, capsys):
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    out = tmp_path / "o"
+    out.mkdir()
+    lock = out / ".panolight.lock"
+    lock.write_text(str(os.getppid()))  # a live process holds the folder
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
+    assert "another PanoLight process" in capsys.readouterr().err and not (out / "lighting.json").exists()
+    lock.write_text("999999999")  # its writer is gone
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0
+    assert (out / "lighting.json").is_file() and not lock.exists()
+
+
+def test_out_of_memory_is_one_line(tmp_path, capsys, monkeypatch):
+    from panolight_core import pipeline
+
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+
+    def no_memory(*a, **k):
+        raise MemoryError
+
+    monkeypatch.setattr(pipeline, "read_image", no_memory)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "out of memory" in err and "Traceback" not in err

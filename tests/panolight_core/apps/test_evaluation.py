@@ -1,0 +1,54 @@
+import json
+
+from panolight_core.apps import evaluation
+from panolight_core.apps.cli import main
+
+
+def test_protocol_reproduces_baselines_and_writes_reports(tmp_path):
+    result = evaluation.run(scenes=("city", "sunset"), evs=(0.0,), repeats=1)
+    rows = {(r["scene"], r["estimator"]): r for r in result["rows"]}
+    assert round(rows[("city", "naive")]["m_rmse"], 2) == 0.61
+    assert round(rows[("sunset", "ambient")]["m_rmse"], 2) == 0.99
+    assert rows[("city", "ambient")]["light_angle_deg"] is None
+    assert rows[("city", "analytic")]["ms"] > 0
+    paths = evaluation.write(result, tmp_path)
+    md = (tmp_path / "eval.md").read_text()
+    assert "| city |" in md and "## Summary" in md
+    assert json.loads((tmp_path / "eval.json").read_text())["settings"]["evs"] == [0.0]
+    assert (tmp_path / "speed_accuracy.png").stat().st_size > 1000 and len(paths) == 3
+
+
+def test_eval_cli_subset(tmp_path, capsys):
+    assert main(["eval", "-o", str(tmp_path), "--evs", "0", "--estimators", "naive", "--repeats", "1", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "| naive | +0 | 1.123 |" in out  # mean of the eight EVALUATION.md naive numbers
+
+
+def test_eval_scores_trained_variants_by_label_and_names_bad_ones(tmp_path, capsys):
+    from panolight_core.estimators.nn.estimator import DEFAULT_WEIGHTS
+
+    assert main(["eval", "-o", str(tmp_path), "--evs", "0", "--estimators", "naive", "--repeats", "1", "-q",
+                 "--no-adaptive", "--weights", f"mine={DEFAULT_WEIGHTS}"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("| mine | +0 |") == 1 and "| naive | +0 | 1.123 |" in out
+    assert main(["eval", "-o", str(tmp_path), "--weights", f"naive={DEFAULT_WEIGHTS}"]) == 1
+    assert "built-in" in capsys.readouterr().err
+    assert main(["eval", "-o", str(tmp_path), "--weights", "nolabel"]) == 1
+    assert "LABEL=PATH" in capsys.readouterr().err
+    assert main(["eval", "-o", str(tmp_path), "--weights", f"x={tmp_path / 'gone.safetensors'}"]) == 1
+    assert "gone.safetensors: no model weights" in capsys.readouterr().err
+
+
+def test_summary_has_medians_wins_and_the_hdri_score():
+    result = evaluation.run(scenes=("city", "sunset", "interior"), evs=(0.0,), estimators=["naive", "sources"],
+                            repeats=1)
+    s = result["summary"]["sources@+0"]
+    rows = [r for r in result["rows"] if r["estimator"] == "sources"]
+    naive = {r["scene"]: r["m_rmse"] for r in result["rows"] if r["estimator"] == "naive"}
+    assert s["median_m_rmse"] == sorted(r["m_rmse"] for r in rows)[1]
+    assert s["wins_vs_naive"] == sum(r["m_rmse"] < naive[r["scene"]] for r in rows)
+    for r in rows:  # hdr.exr agrees with the whole model it was made with
+        assert abs(r["hdri_m_rmse"] - r["m_rmse"]) <= 0.02 * r["m_rmse"] + 0.01
+    city = next(r for r in rows if r["scene"] == "city")
+    assert 0.0 <= city["true_sun_share"] <= 1.0 and city["light_angle_deg"] is not None
+    assert "| sources | +0 |" in evaluation.markdown(result)

@@ -1,0 +1,83 @@
+"""The learned estimator at inference: shipped weights, numpy only, clear errors, torch parity."""
+import json
+
+import numpy as np
+import pytest
+
+from panolight_core import sh
+from panolight_core.errors import PanoLightError
+from panolight_core.estimators import estimate, register_model
+from panolight_core.estimators.nn import estimator as E
+
+
+def test_the_shipped_model_loads_without_torch_and_has_its_card():
+    model = E.load_model()
+    assert model.config["input_height"] >= 32 and model.config["lmax"] >= 2
+    assert E.DEFAULT_WEIGHTS.stat().st_size < 20 * 2 ** 20
+    card = E.DEFAULT_WEIGHTS.with_suffix(".md").read_text()
+    assert "studio HDRIs" in card and "m-RMSE" in card
+
+
+def test_neural_estimates_are_finite_any_order_and_hdr_is_projected_exactly(rng):
+    ldr = rng.integers(0, 200, size=(128, 256, 3), dtype=np.uint8)
+    ldr[20:26, 40:48] = 255
+    for lmax in (0, 2, 4):
+        est = estimate(ldr, lmax, "neural")
+        assert est.coeffs.shape == ((lmax + 1) ** 2, 3) and np.isfinite(est.coeffs).all()
+    assert np.isfinite(estimate(ldr[::8, ::8], 2, "neural").coeffs).all()  # 32 x 16: below the network's size
+    low, high = estimate(ldr, 2, "neural").coeffs, estimate(ldr, 4, "neural").coeffs
+    np.testing.assert_allclose(high[:9], low)  # the encoder's bands, the HDR map's projection above
+    hdr = (rng.random((32, 64, 3)) * 3).astype(np.float32)
+    np.testing.assert_allclose(estimate(hdr, 2, "neural").coeffs, sh.project(hdr, 2), rtol=1e-6)
+
+
+def test_numpy_inference_matches_torch(tmp_path, rng):
+    torch = pytest.importorskip("torch")  # the parity needs the training side; inference never does
+    from training.models import LightingNet, load_config
+    from training.train import export
+
+    cfg = {**load_config("small"), "input_height": 16}
+    torch.manual_seed(1)
+    net = LightingNet(cfg).eval()
+    for p in net.parameters():
+        torch.nn.init.normal_(p, std=0.05)
+    export(net, cfg, tmp_path)
+    ldr = rng.integers(0, 256, size=(64, 128, 3), dtype=np.uint8)
+    ldr[10:14, 20:30] = 255
+    from panolight_core.estimators.nn.inputs import network_input
+
+    with torch.no_grad():
+        ref, _ = net(torch.from_numpy(network_input(ldr, 16)[None]))
+    register_model("tmp-model", tmp_path / "model.safetensors")
+    got = estimate(ldr, 2, "tmp-model").coeffs
+    np.testing.assert_allclose(got, ref[0].double().numpy(), rtol=1e-4, atol=1e-4)
+
+
+def test_bad_weight_files_are_named(tmp_path):
+    with pytest.raises(PanoLightError, match="no model weights"):
+        E.load_model(tmp_path / "missing.safetensors")
+    junk = tmp_path / "junk.safetensors"
+    junk.write_bytes(b"\x10\x00\x00\x00\x00\x00\x00\x00{not json}......")
+    with pytest.raises(PanoLightError, match="junk.safetensors"):
+        E.load_model(junk)
+    from panolight_core.estimators.nn import safetensors_np  # a valid file that is not our network
+
+    header = json.dumps({"w": {"dtype": "F32", "shape": [1], "data_offsets": [0, 4]},
+                         "__metadata__": {"config": json.dumps({"input_height": 8})}}).encode()
+    other = tmp_path / "other.safetensors"
+    other.write_bytes(len(header).to_bytes(8, "little") + header + b"\x00" * 4)
+    assert safetensors_np.load_safetensors(other)[0]["w"].shape == (1,)
+    with pytest.raises(PanoLightError, match="lacks"):
+        E.load_model(other)
+
+
+def test_extreme_panoramas_give_finite_lighting():
+    """All black (log of zero), all clipped (every cell saturated), and one lone clipped pixel."""
+    black = np.zeros((64, 128, 3), np.uint8)
+    white = np.full((64, 128, 3), 255, np.uint8)
+    dot = black.copy()
+    dot[10, 20] = 255
+    for ldr in (black, white, dot):
+        c = estimate(ldr, 2, "neural").coeffs
+        assert np.isfinite(c).all()
+    assert abs(estimate(black, 2, "neural").coeffs).max() < 1.0  # nothing seen, nothing invented

@@ -1,0 +1,88 @@
+import math
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from panolight_core import metrics, sh
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
+from panolight_core.lighting.lights import extract_lights, light_irradiance
+
+
+def _map(h=128, bg=0.1):
+    return np.full((h, 2 * h, 3), bg)
+
+
+def test_single_1e6_pixel_becomes_one_sun_with_its_energy():
+    img = _map()
+    img[40, 77] = 1e6
+    lights, residual, info = extract_lights(img)
+    assert len(lights) == 1 and lights[0]["type"] == "sun"
+    assert metrics.angle_deg(lights[0]["direction"], sh.pixel_directions(128, 256)[40, 77]) < 0.01
+    pixel_energy = (1e6 - 0.1) * sh.pixel_solid_angles(128, 256)[40, 77]
+    assert lights[0]["intensity"] == pytest.approx(pixel_energy, rel=1e-9)
+    np.testing.assert_allclose(residual, 0.1, rtol=1e-12)
+    assert np.all(np.isfinite(residual)) and info["energy_fraction_in_lights"] > 0.99
+
+
+def test_energy_is_conserved(rng):
+    img = rng.random((128, 256, 3)) + _map()
+    img[30:33, 100:103] = [500.0, 400.0, 300.0]
+    lights, residual, _ = extract_lights(img)
+    omega = sh.pixel_solid_angles(128, 256)[..., None]
+    light_rgb = sum(np.array(l["color"]) * l["intensity"] for l in lights)
+    np.testing.assert_allclose((residual * omega).sum((0, 1)) + light_rgb, (img * omega).sum((0, 1)), rtol=1e-12)
+    assert abs(np.array(lights[0]["color"]) @ LUMINANCE_WEIGHTS - 1) < 1e-12
+
+
+def test_sun_at_the_zenith_and_on_the_seam():
+    zen = _map()
+    zen[0, :] = 2000.0  # the whole top row: a disk around +Z
+    lights, _, _ = extract_lights(zen)
+    assert len(lights) == 1 and metrics.angle_deg(lights[0]["direction"], [0, 0, 1]) < 0.1
+    seam = _map()
+    seam[60:68, -3:] = seam[60:68, :3] = 3000.0  # straddles u = 0 (the -X direction)
+    lights, _, _ = extract_lights(seam)
+    assert len(lights) == 1, "a sun across the seam must stay one light"
+    assert metrics.angle_deg(lights[0]["direction"], [-1, 0, 0]) < 1.0
+
+
+def test_two_suns_of_equal_power():
+    img = _map()
+    img[40, 60] = img[80, 190] = 5e4
+    lights, _, _ = extract_lights(img)
+    assert len(lights) == 2
+    assert lights[0]["intensity"] == pytest.approx(lights[1]["intensity"], rel=0.2)
+    dirs = sh.pixel_directions(128, 256)
+    found = sorted(min(metrics.angle_deg(l["direction"], dirs[p]) for p in ((40, 60), (80, 190))) for l in lights)
+    assert found[-1] < 0.5
+
+
+def test_black_and_flat_maps_have_no_light_and_say_why():
+    lights, residual, info = extract_lights(np.zeros((64, 128, 3)))
+    assert lights == [] and "black" in info["reason"] and np.all(residual == 0)
+    lights, _, info = extract_lights(np.ones((64, 128, 3)))
+    assert lights == [] and "brighter than 50" in info["reason"]
+    flat = _map(64)
+    flat[10:40, :] = 20.0  # a huge bright band: not a compact source
+    lights, _, info = extract_lights(flat)
+    assert lights == [] and "flat" in info["reason"]
+    with pytest.raises(ValueError, match="NaN"):
+        extract_lights(np.full((8, 16, 3), np.nan))
+
+
+def test_light_irradiance_is_the_clamped_cosine():
+    light = {"direction": [0, 0, 1.0], "color": [1.0, 0.5, 0.25], "intensity": 2.0}
+    n = np.array([[0, 0, 1.0], [1.0, 0, 0], [0, 0, -1.0], [0, math.sqrt(0.5), math.sqrt(0.5)]])
+    np.testing.assert_allclose(light_irradiance([light], n)[:, 0], [2.0, 0.0, 0.0, 2.0 * math.sqrt(0.5)])
+    np.testing.assert_allclose(light_irradiance([light], n)[0], [2.0, 1.0, 0.5])
+
+
+def test_large_panorama_is_processed_in_bounded_memory():
+    img = np.full((2048, 4096, 3), 0.2, np.float32)  # 100 MB
+    img[500:504, 1000:1004] = 1e5
+    tracemalloc.start()
+    lights, _, _ = extract_lights(img)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert len(lights) == 1 and peak < 40 * 2 ** 20, f"{peak / 2 ** 20:.0f} MB"

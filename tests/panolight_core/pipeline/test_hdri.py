@@ -1,0 +1,71 @@
+"""hdr.exr: the full-resolution HDR panorama agrees with the work map and the lighting model."""
+import warnings
+
+import numpy as np
+import pytest
+
+from panolight_core import sh
+from panolight_core.camera import hdr_to_ldr
+from panolight_core.data import studio_hdri
+from panolight_core.pipeline.hdri import hdr_panorama
+from panolight_core.io import read_image
+from panolight_core.pipeline import fit_pixels
+from panolight_core.camera.resample import area_downsample
+
+
+@pytest.fixture(scope="module")
+def city_ldr():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return hdr_to_ldr(read_image(studio_hdri("city")).astype(np.float64), 0.0, 90)
+
+
+def test_analytic_cell_means_equal_its_work_map(city_ldr):
+    _, est = fit_pixels(city_ldr, estimator="analytic")
+    hdr = hdr_panorama(city_ldr, est)
+    assert hdr.shape == city_ldr.shape and hdr.dtype == np.float32 and np.all(np.isfinite(hdr))
+    np.testing.assert_allclose(area_downsample(hdr, est.radiance.shape[0]), est.radiance, rtol=1e-5, atol=1e-6)
+
+
+def test_region_energy_is_exact_and_shaped_like_a_sun(city_ldr):
+    _, est = fit_pixels(city_ldr)
+    rec = est.recovery
+    hdr = hdr_panorama(city_ldr, est).astype(np.float64)
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    full_sr = sh.pixel_solid_angles(*hdr.shape[:2])
+    h, w = rec.frac.shape
+    labels_full = np.repeat(np.repeat(rec.regions.labels, hdr.shape[0] // h, 0), hdr.shape[1] // w, 1)
+    inside = labels_full == 0
+    got = float(((hdr @ lum) * full_sr)[inside].sum())
+    want = float(((rec.work @ lum) * sh.pixel_solid_angles(h, w))[rec.regions.labels == 0].sum())
+    assert got == pytest.approx(want, rel=1e-4)
+
+
+def test_a_compact_source_with_glare_is_filled_like_a_sun():
+    h = 256
+    d = np.array([0.5, -0.3, 0.81])
+    d /= np.linalg.norm(d)
+    t = np.degrees(np.arccos(np.clip(sh.pixel_directions(h, 2 * h) @ d, -1, 1)))
+    hdr = 0.05 + 2.0 * np.maximum(t, 0.3)[..., None] ** -2.5 * np.ones(3)  # a sun's aureole, clipped inside ~1.3 deg
+    ldr = hdr_to_ldr(hdr, scale=1.0)
+    _, est = fit_pixels(ldr)
+    assert est.recovery.regions.shape_exponents()[0] > 1.0
+    out = hdr_panorama(ldr, est)
+    lum = out @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    iy, ix = np.unravel_index(np.argmax(lum), lum.shape)
+    assert np.degrees(np.arccos(np.clip(sh.grid.directions_at(iy, ix, h, 2 * h) @ d, -1, 1))) < 1.5
+    clipped = (ldr >= 254).all(-1)
+    assert lum[clipped].max() > 2.0 * lum[clipped].mean()  # peaked at the centre, not an even fill
+
+
+def test_sh_of_hdri_equals_the_lighting_model_within_truncation(city_ldr):
+    fitted, est = fit_pixels(city_ldr)
+    p = sh.project(hdr_panorama(city_ldr, est), 2)
+    q = fitted.project(2)
+    assert np.abs(p - q).max() <= 2e-3 * np.abs(q).max()  # the lights are disks, the HDRI's sources are not
+
+
+def test_hdr_input_is_its_own_hdri():
+    px = np.random.default_rng(0).random((8, 16, 3)).astype(np.float32)
+    _, est = fit_pixels(px)
+    np.testing.assert_array_equal(hdr_panorama(px, est), px)
