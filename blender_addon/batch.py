@@ -1,9 +1,9 @@
 """Headless PanoLight: load a panorama, estimate its lighting, build the world, optionally render and save.
 
     blender -b [scene.blend] --python <extension>/batch.py -- --input PANO [--output-blend OUT.blend]
-            [--render OUT.png] [--estimator auto|sources|analytic|naive|ambient|neural] [--lmax auto|N]
-            [--samples 64]
-            [--resolution 640x360]
+            [--render OUT.png] [--samples 64] [--resolution 640x360] [--light-with sh|hdri]
+            [the estimate options of 'panolight estimate': --estimator --model --lmax --tolerance
+             --window --window-width --exposure]
 The same works with the bpy module: ``python batch.py -- --input PANO ...``. Exits non-zero with one
 line on stderr when something fails.
 """
@@ -15,38 +15,50 @@ import sys
 from pathlib import Path
 
 
-def _ensure_registered():
+def _addon():
+    """The registered add-on package (registered here from this file's folder if it is not yet)."""
     import bpy
 
-    if hasattr(bpy.types, "PANOLIGHT_OT_load_panorama"):
-        return
-    here = Path(__file__).resolve().parent
-    sys.path.insert(0, str(here.parent))
-    module = importlib.import_module(here.name)
-    module.register()
+    if not hasattr(bpy.types, "PANOLIGHT_OT_load_panorama"):
+        here = Path(__file__).resolve().parent
+        sys.path.insert(0, str(here.parent))
+        importlib.import_module(here.name).register()
+    package = bpy.types.PANOLIGHT_OT_load_panorama.__module__.rsplit(".", 1)[0]
+    return importlib.import_module(package)
 
 
-def parse(argv):
+def parse(argv, core):
     argv = argv[argv.index("--") + 1:] if "--" in argv else []
     ap = argparse.ArgumentParser(prog="batch.py", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--input", required=True, help="panorama (.jpg/.png/.exr/.hdr, 2:1)")
     ap.add_argument("--output-blend", help="save the .blend here")
     ap.add_argument("--render", help="render the scene's camera to this image (PNG or EXR)")
-    ap.add_argument("--estimator", default="auto",
-                    choices=["auto", "sources", "analytic", "naive", "ambient", "neural"])
-    ap.add_argument("--lmax", default="auto", help="SH order 0..8 or auto (default)")
     ap.add_argument("--samples", type=int, default=64, help="Cycles samples for --render (default 64)")
     ap.add_argument("--resolution", default=None, help="render size WxH (default: the scene's)")
+    ap.add_argument("--light-with", choices=("sh", "hdri"), default="sh",
+                    help="sh (default): the SH radiance map plus sun lamps; hdri: the reconstructed HDRI")
+    core.pipeline.settings.add_arguments(ap)
     return ap.parse_args(argv)
 
 
-def run(args) -> None:
+def configure(scene, args, core) -> None:
+    """Put the command line's settings on the panel (scene.panolight), as a user would."""
+    max_order = core.lighting.order.DEFAULT_MAX_ORDER
+    if args.lmax not in (None, "auto") and int(args.lmax) > max_order:
+        raise SystemExit(f"panolight batch: --lmax: Blender offers auto or 0..{max_order}, got {args.lmax}")
+    s = scene.panolight
+    s.estimator, s.model, s.lmax, s.tolerance = args.estimator, args.model, args.lmax or "auto", args.tolerance
+    s.window, s.window_width, s.exposure = args.window, args.window_width or 0.0, args.exposure
+    s.lighting_source = args.light_with.upper()
+
+
+def run(args, addon) -> None:
     import bpy
 
-    _ensure_registered()
+    configure(bpy.context.scene, args, addon.core.core)
     for op, kwargs in ((bpy.ops.panolight.load_panorama, {"filepath": str(Path(args.input).resolve())}),
-                       (bpy.ops.panolight.estimate_lighting, {"estimator": args.estimator, "lmax": args.lmax}),
+                       (bpy.ops.panolight.estimate_lighting, {}),
                        (bpy.ops.panolight.build_environment, {})):
         try:
             result = op(**kwargs)
@@ -77,10 +89,11 @@ def run(args) -> None:
 
 
 def main(argv=None):
-    args = parse(sys.argv if argv is None else argv)
+    addon = _addon()
+    args = parse(sys.argv if argv is None else argv, addon.core.core)
     if not Path(args.input).is_file():
         raise SystemExit(f"panolight batch: {args.input}: file not found")
-    run(args)
+    run(args, addon)
 
 
 if __name__ == "__main__":

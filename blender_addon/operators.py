@@ -1,53 +1,61 @@
 """Operators (idnames are public, for scripts): gather settings, call the core, hand results to world.py.
 
 panolight.load_panorama(filepath)        the panorama becomes the PanoLight world's background
-panolight.estimate_lighting(...)         estimate (worker thread + modal timer; synchronous in background
-                                          mode or when run from a script with execute)
+panolight.estimate_lighting()            estimate with the panel's settings (scene.panolight: estimator,
+                                          model, order, deringing, exposure); a worker thread + modal timer,
+                                          synchronous in background mode or from a script with execute
 panolight.build_environment()            SH radiance map + Light Path split + sun lamps
 panolight.export_lighting(filepath)      lighting.json and the radiance map as EXR beside it
 """
 
-import json
+import functools
 import threading
 from pathlib import Path
 
 import bpy
 import numpy as np
-from bpy.props import EnumProperty, FloatProperty, StringProperty
+from bpy.props import StringProperty
 from bpy_extras.io_utils import ExportHelper
 
 from . import world as W
 from .core import core
 
-ESTIMATORS = [("auto", "Auto", f"The best estimator measured ({core.estimators.AUTO})")] + \
-    [(name, label, text) for name, (label, text) in core.estimators.DESCRIPTIONS.items()]
-ORDERS = [("auto", "Auto", "The smallest SH order the scene needs")] + \
-    [(str(i), str(i), f"SH order {i}: {(i + 1) ** 2} coefficients") for i in range(9)]
-MODELS = [("auto", "Lights + SH", "Explicit lights for compact sources plus SH"), ("sh", "SH only", "SH only")]
+Error = core.errors.PanoLightError
+REPORTED = (Error, OSError, MemoryError)  # what an operator reports; anything else is a bug and raises
+
+
+def reports_errors(method):
+    """The add-on's one error policy: the core (and this layer) raise PanoLightError for bad input and
+    state; an operator reports it (or an OSError / MemoryError) in one line and cancels."""
+    def guarded(self, context, *event):
+        try:
+            return method(self, context, *event)
+        except REPORTED as exc:
+            self.report({"ERROR"}, f"PanoLight: {_message(exc)}")
+            return {"CANCELLED"}
+
+    # Blender checks a callback's argument count (execute: self, context; invoke/modal: + event)
+    if method.__code__.co_argcount == 2:
+        return functools.wraps(method)(lambda self, context: guarded(self, context))
+    return functools.wraps(method)(lambda self, context, event: guarded(self, context, event))
+
+
+def _message(exc) -> str:
+    if isinstance(exc, MemoryError):
+        return "out of memory (the panorama is too large for this machine)"
+    if isinstance(exc, OSError) and exc.filename:
+        return f"{exc.filename}: {exc.strerror or exc}"
+    return str(exc)
 
 
 def _settings(context):
     return context.scene.panolight
 
 
-def _panorama(world):
-    name = world.get("panolight_panorama") if world else None
-    image = bpy.data.images.get(name) if name else None
-    if image is None:
-        raise RuntimeError("no panorama loaded: use Load panorama first")
-    return image
-
-
-def _fit(pixels, estimator, lmax, model, tolerance):
+def _fit(pixels, settings):
     """Runs in a worker thread: numpy only, never bpy. Returns (lighting document, HDRI (H, W, 3))."""
-    fitted, est = core.pipeline.fit_pixels(pixels, lmax=None if lmax == "auto" and model == "auto" else lmax,
-                                           estimator=estimator, model=model, tolerance=tolerance)
-    doc = core.io.lighting.make_lighting(fitted.coeffs, lights=fitted.lights,
-                                      units="input radiance units" if pixels.dtype != np.uint8 else
-                                      "relative: 1 = the LDR camera's clip level (white)",
-                                      estimator={k: v for k, v in est.info.items() if k != "clipped_regions"},
-                                      model=fitted.info)
-    return doc, core.pipeline.hdri.hdr_panorama(pixels, est)
+    result = core.pipeline.estimate_lighting(pixels, settings)
+    return result.document, result.hdr_panorama(pixels)
 
 
 class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
@@ -64,30 +72,24 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         context.window_manager.fileselect_add(self)
         return {"RUNNING_MODAL"}
 
+    @reports_errors
     def execute(self, context):
         path = Path(bpy.path.abspath(self.filepath))
         if not path.is_file():
-            self.report({"ERROR"}, f"{path}: file not found")
-            return {"CANCELLED"}
-        try:
-            core.io.images.preflight(path)  # what Blender would read wrong or crash on
-        except core.errors.PanoLightError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+            raise Error(f"{path}: file not found")
+        core.io.images.preflight(path)  # what Blender would read wrong or crash on
         try:
             image = W.load_panorama(str(path))
-            w, h = image.size
-            if w == 0 or h == 0:
-                raise RuntimeError(f"{path}: Blender could not read this image")
-            if w != 2 * h:
-                raise RuntimeError(f"{path}: equirectangular panoramas must be 2:1, got {w} x {h}")
-        except RuntimeError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        except RuntimeError as exc:  # bpy's own "cannot read" error
+            raise Error(f"{path}: {str(exc).strip()}") from None
+        w, h = image.size
+        if w == 0 or h == 0:
+            raise Error(f"{path}: Blender could not read this image")
+        if w != 2 * h:
+            raise Error(f"{path}: equirectangular panoramas must be 2:1, got {w} x {h}")
         world = W.build_world(image, **_world_kwargs(context))
-        world["panolight_panorama"] = image.name
-        if "panolight_lighting" in world:
-            del world["panolight_lighting"]  # a new panorama needs a new estimate
+        world[W.PANORAMA_KEY] = image.name
+        W.store_lighting(world, None)  # a new panorama needs a new estimate
         if W.ours(bpy.data.collections, W.LIGHTS_COLLECTION) is not None:
             W.set_lights([], context.scene)  # the previous panorama's suns no longer apply
         context.scene.world = world
@@ -96,16 +98,12 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
 
 
 class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
-    """Estimate the lighting of the loaded panorama (runs in the background; Esc cancels)"""
+    """Estimate the lighting of the loaded panorama with the panel's settings (runs in the background; Esc
+    cancels)"""
 
     bl_idname = "panolight.estimate_lighting"
     bl_label = "Estimate lighting"
     bl_options = {"REGISTER", "UNDO"}
-
-    estimator: EnumProperty(items=ESTIMATORS, default="auto")
-    lmax: EnumProperty(name="SH order", items=ORDERS, default="auto")
-    model: EnumProperty(items=MODELS, default="auto")
-    tolerance: FloatProperty(default=0.01, min=0.0, max=1.0)
 
     _thread = None
     _timer = None
@@ -114,44 +112,37 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
 
     def _inputs(self, context):
         world = context.scene.world
-        image = _panorama(world)
+        settings = _settings(context).estimate_settings()  # invalid settings fail before any pixel is read
+        image = W.stored_panorama(world)
         pixels = W.image_pixels(image)
         if pixels.dtype != np.uint8:  # the core's validation, as for files: NaN refused, negatives clamped
             pixels = core.io.images.sanitise_pixels(image.name, pixels)
-        return world, pixels
+        return world, pixels, settings
 
     def _store(self, context, world, result):
         doc, hdri = result
-        world["panolight_lighting"] = json.dumps(doc)
+        W.store_lighting(world, doc)
         W.radiance_image(hdri, W.HDRI_IMAGE_NAME)
         n = len(doc.get("lights", []))
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
 
+    @reports_errors
     def execute(self, context):
-        try:
-            world, pixels = self._inputs(context)
-            result = _fit(pixels, self.estimator, self.lmax, self.model, self.tolerance)
-        except Exception as exc:  # reported in the UI, not as a traceback
-            self.report({"ERROR"}, f"PanoLight: {exc}")
-            return {"CANCELLED"}
-        self._store(context, world, result)
+        world, pixels, settings = self._inputs(context)
+        self._store(context, world, _fit(pixels, settings))
         return {"FINISHED"}
 
+    @reports_errors
     def invoke(self, context, event):
         if bpy.app.background:
             return self.execute(context)
-        try:
-            self._world, pixels = self._inputs(context)
-        except Exception as exc:
-            self.report({"ERROR"}, f"PanoLight: {exc}")
-            return {"CANCELLED"}
-        args = (pixels, self.estimator, self.lmax, self.model, self.tolerance)
+        self._world, pixels, settings = self._inputs(context)
 
         def work():
             try:
-                self._result = _fit(*args)
-            except Exception as exc:
+                self._result = _fit(pixels, settings)
+            except REPORTED as exc:
                 self._error = exc
 
         self._thread = threading.Thread(target=work, daemon=True)
@@ -170,6 +161,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
         wm.progress_end()
         context.workspace.status_text_set(None)
 
+    @reports_errors
     def modal(self, context, event):
         if event.type == "ESC":
             self._finish(context)
@@ -183,8 +175,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
             return {"RUNNING_MODAL"}
         self._finish(context)
         if self._error is not None:
-            self.report({"ERROR"}, f"PanoLight: {self._error}")
-            return {"CANCELLED"}
+            raise self._error
         self._store(context, self._world, self._result)
         return {"FINISHED"}
 
@@ -196,15 +187,6 @@ def _world_kwargs(context):
             "glossy_panorama": s.glossy_panorama}
 
 
-def _lighting(world):
-    raw = world.get("panolight_lighting") if world else None
-    if not raw:
-        raise RuntimeError("no lighting estimated yet: use Estimate lighting first")
-    doc = json.loads(raw)
-    core.io.lighting.validate(doc, "the estimated lighting")
-    return doc
-
-
 class PANOLIGHT_OT_build_environment(bpy.types.Operator):
     """Light the scene with the estimated SH radiance map (and sun lamps); cameras still see the panorama"""
 
@@ -212,20 +194,16 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
     bl_label = "Build environment"
     bl_options = {"REGISTER", "UNDO"}
 
+    @reports_errors
     def execute(self, context):
         world = context.scene.world
-        try:
-            doc = _lighting(world)
-            panorama = _panorama(world)
-        except (RuntimeError, ValueError) as exc:
-            self.report({"ERROR"}, f"PanoLight: {exc}")
-            return {"CANCELLED"}
+        doc = W.stored_lighting(world)
+        panorama = W.stored_panorama(world)
         s = _settings(context)
         if s.lighting_source == "HDRI":
             image = W.own_image(W.HDRI_IMAGE_NAME)
             if image is None:
-                self.report({"ERROR"}, "PanoLight: no reconstructed HDRI: use Estimate lighting first")
-                return {"CANCELLED"}
+                raise Error("no reconstructed HDRI: use Estimate lighting first")
             lights = []  # the sun and lamps are in the HDRI itself
         else:
             coeffs = np.asarray(doc["coefficients"], dtype=np.float64)
@@ -253,39 +231,36 @@ class PANOLIGHT_OT_export_lighting(bpy.types.Operator, ExportHelper):
     filename_ext = ".json"
     filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 
+    @reports_errors
     def execute(self, context):
-        try:
-            doc = _lighting(context.scene.world)
-            path = _export_path(self.filepath, self.filename_ext)
-            core.io.lighting.write_lighting(path, doc)
-            exr = path.with_name(path.stem + "_radiance.exr")
-            image = W.own_image(W.SH_IMAGE_NAME)
-            if image is not None:
-                _save_exr(context.scene, image, exr)
-        except (RuntimeError, ValueError, OSError) as exc:
-            self.report({"ERROR"}, f"PanoLight: {exc}")
-            return {"CANCELLED"}
+        doc = W.stored_lighting(context.scene.world)
+        path = _export_path(self.filepath, self.filename_ext)
+        core.io.lighting.write_lighting(path, doc)
+        exr = path.with_name(path.stem + "_radiance.exr")
+        image = W.own_image(W.SH_IMAGE_NAME)
+        if image is not None:
+            _save_exr(context.scene, image, exr)
         self.report({"INFO"}, f"PanoLight: wrote {path}" + (f" and {exr.name}" if image else ""))
         return {"FINISHED"}
 
 
 def _export_path(filepath: str, ext: str) -> Path:
-    """Where an export goes, or RuntimeError: a '//' path needs a saved .blend (it is relative to it), a
+    """Where an export goes, or PanoLightError: a '//' path needs a saved .blend (it is relative to it), a
     folder is not a file name, and another extension is not silently replaced (a bare name gets ext)."""
     if not filepath:
-        raise RuntimeError("no file name given")
+        raise Error("no file name given")
     if filepath.startswith("//") and not bpy.data.filepath:
-        raise RuntimeError(f"{filepath}: a '//' path is relative to the .blend file; save it first or choose "
+        raise Error(f"{filepath}: a '//' path is relative to the .blend file; save it first or choose "
                            f"an absolute path")
     path = Path(bpy.path.abspath(filepath))
     if filepath.endswith(("/", "\\")) or path.is_dir():
-        raise RuntimeError(f"{path}: is a folder; choose a file name such as {path / ('lighting' + ext)}")
+        raise Error(f"{path}: is a folder; choose a file name such as {path / ('lighting' + ext)}")
     if path.suffix == "":
         path = path.with_name(path.name + ext)
     elif path.suffix.lower() != ext:
-        raise RuntimeError(f"{path}: the lighting file must end in {ext}")
+        raise Error(f"{path}: the lighting file must end in {ext}")
     if not path.parent.is_dir():
-        raise RuntimeError(f"{path.parent}: folder does not exist")
+        raise Error(f"{path.parent}: folder does not exist")
     return path
 
 

@@ -1,10 +1,41 @@
-"""The PanoLight panel (World properties, and a PanoLight tab in the 3D viewport sidebar) and settings."""
+"""The PanoLight panel (World properties, and a PanoLight tab in the 3D viewport sidebar) and its settings.
+
+Every setting lives in the scene's PanoLightSettings and is shown on the panel; the operators read them
+from there. Menus are built from the core's tables (estimators, models, deringing windows), so they
+offer exactly what ``panolight estimate`` does.
+"""
 
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
+from . import world as W
+from .core import core
+
+_settings = core.pipeline.settings
+ESTIMATORS = [("auto", "Auto", f"The best estimator measured ({core.estimators.AUTO})")] + \
+    [(name, label, text) for name, (label, text) in core.estimators.DESCRIPTIONS.items()]
+MODELS = [(name, label, text) for name, (label, text) in _settings.MODELS.items()]
+ORDERS = [("auto", "Auto", "The smallest SH order the scene needs")] + \
+    [(str(i), str(i), f"SH order {i}: {(i + 1) ** 2} coefficients")
+     for i in range(core.lighting.order.DEFAULT_MAX_ORDER + 1)]
+WINDOWS = [(name, label, text) for name, (label, text) in _settings.WINDOWS.items()]
+_EV = _settings.MAX_EXPOSURE_EV
+
 
 class PanoLightSettings(bpy.types.PropertyGroup):
+    # estimation (pipeline.Settings)
+    estimator: EnumProperty(name="Estimator", items=ESTIMATORS, default="auto")
+    model: EnumProperty(name="Model", items=MODELS, default="auto")
+    lmax: EnumProperty(name="SH order", items=ORDERS, default="auto")
+    tolerance: FloatProperty(name="Tolerance", default=core.lighting.order.DEFAULT_TOLERANCE, min=0.0, max=1.0,
+                             precision=3, description="Auto order: allowed diffuse relighting error, relative to "
+                                                      "order 8")
+    window: EnumProperty(name="Deringing", items=WINDOWS, default="none")
+    window_width: FloatProperty(name="Window width", default=0.0, min=0.0, soft_max=40.0,
+                                description="Width of a fixed window (0: 2 (order + 1))")
+    exposure: FloatProperty(name="Exposure (EV)", default=0.0, min=-_EV, max=_EV, soft_min=-10.0, soft_max=10.0,
+                            description="Scale the estimated lighting by 2^EV")
+    # the world built from the estimate
     background_strength: FloatProperty(name="Background strength", default=1.0, min=0.0, soft_max=10.0)
     lighting_strength: FloatProperty(name="Lighting strength", default=1.0, min=0.0, soft_max=10.0)
     background_rotation: FloatProperty(name="Background rotation", subtype="ANGLE", default=0.0)
@@ -20,49 +51,45 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                ("HDRI", "Reconstructed HDRI", "Lighting and reflections from the full-resolution HDR panorama, "
                 "its clipped sun and lamps filled with their estimated energy")])
 
+    def estimate_settings(self):
+        """The core's pipeline.Settings of these properties (PanoLightError if invalid)."""
+        lmax = None if self.lmax == "auto" and self.model == "auto" else self.lmax
+        return _settings.Settings(estimator=self.estimator, model=self.model, lmax=lmax, tolerance=self.tolerance,
+                                  window=self.window, window_width=self.window_width or None,
+                                  exposure_ev=self.exposure)
+
 
 def draw_panel(layout, context):
     s = context.scene.panolight
     world = context.scene.world
     col = layout.column(align=True)
     col.operator("panolight.load_panorama", icon="IMAGE_DATA")
-    if world is not None and world.get("panolight_panorama"):
-        col.label(text=f"Panorama: {world['panolight_panorama']}")
+    if world is not None and world.get(W.PANORAMA_KEY):
+        col.label(text=f"Panorama: {world[W.PANORAMA_KEY]}")
     box = layout.box()
-    op = box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
-    box.label(text="Estimated" if world is not None and world.get("panolight_lighting") else "Not estimated yet")
+    for prop in ("estimator", "model", "lmax", "tolerance", "window"):
+        box.prop(s, prop)
+    if s.window not in ("none", "auto"):
+        box.prop(s, "window_width")
+    box.prop(s, "exposure")
+    box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
+    box.label(text="Estimated" if W.has_lighting(world) else "Not estimated yet")
     box = layout.box()
-    box.prop(s, "lighting_source")
-    box.prop(s, "background_strength")
-    box.prop(s, "lighting_strength")
-    box.prop(s, "background_rotation")
-    box.prop(s, "lighting_rotation")
-    box.prop(s, "glossy_panorama")
-    box.prop(s, "create_lights")
-    box.prop(s, "radiance_height")
+    for prop in ("lighting_source", "background_strength", "lighting_strength", "background_rotation",
+                 "lighting_rotation", "glossy_panorama", "create_lights", "radiance_height"):
+        box.prop(s, prop)
     box.operator("panolight.build_environment", icon="WORLD")
     layout.operator("panolight.export_lighting", icon="EXPORT")
-    return op
 
 
-class WORLD_PT_panolight(bpy.types.Panel):
-    bl_label = "PanoLight"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "world"
-
-    def draw(self, context):
-        draw_panel(self.layout, context)
+def _panel(space: str, region: str, **extra):
+    """A Panel class drawing the PanoLight panel in one editor (the same panel in several places)."""
+    attrs = {"bl_label": "PanoLight", "bl_space_type": space, "bl_region_type": region, **extra,
+             "draw": lambda self, context: draw_panel(self.layout, context)}
+    return type(f"{'WORLD' if space == 'PROPERTIES' else 'VIEW3D'}_PT_panolight", (bpy.types.Panel,), attrs)
 
 
-class VIEW3D_PT_panolight(bpy.types.Panel):
-    bl_label = "PanoLight"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "PanoLight"
-
-    def draw(self, context):
-        draw_panel(self.layout, context)
-
+WORLD_PT_panolight = _panel("PROPERTIES", "WINDOW", bl_context="world")
+VIEW3D_PT_panolight = _panel("VIEW_3D", "UI", bl_category="PanoLight")
 
 CLASSES = (PanoLightSettings, WORLD_PT_panolight, VIEW3D_PT_panolight)

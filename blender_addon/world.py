@@ -11,14 +11,54 @@ from __future__ import annotations
 
 import math
 
+import json
+
 import bpy
 import numpy as np
+
+from .core import core
 
 WORLD_NAME = "PanoLight"
 LIGHTS_COLLECTION = "PanoLight Lights"
 SH_IMAGE_NAME = "PanoLight SH Radiance"
 HDRI_IMAGE_NAME = "PanoLight HDRI"
 TAG = "panolight"
+PANORAMA_KEY = "panolight_panorama"  # world ID property: the name of the panorama image
+LIGHTING_KEY = "panolight_lighting"  # world ID property: the estimate, a lighting.json document as JSON
+
+
+def stored_panorama(world):
+    """The panorama image of a PanoLight world, or PanoLightError."""
+    name = world.get(PANORAMA_KEY) if world else None
+    image = bpy.data.images.get(name) if name else None
+    if image is None:
+        raise core.errors.PanoLightError("no panorama loaded: use Load panorama first")
+    return image
+
+
+def stored_lighting(world) -> dict:
+    """The estimate stored on ``world``: a validated lighting document (io.lighting), or PanoLightError."""
+    raw = world.get(LIGHTING_KEY) if world else None
+    if not raw:
+        raise core.errors.PanoLightError("no lighting estimated yet: use Estimate lighting first")
+    try:
+        doc = json.loads(raw)
+    except (TypeError, ValueError):
+        raise core.errors.PanoLightError("the stored estimate is not valid JSON: use Estimate lighting again") \
+            from None
+    return core.io.lighting.validate(doc, "the estimated lighting")
+
+
+def store_lighting(world, doc: dict | None) -> None:
+    """Store an estimate on ``world`` (None forgets it: a new panorama needs a new estimate)."""
+    if doc is None:
+        world.pop(LIGHTING_KEY, None)
+    else:
+        world[LIGHTING_KEY] = json.dumps(doc)
+
+
+def has_lighting(world) -> bool:
+    return bool(world is not None and world.get(LIGHTING_KEY))
 
 
 def image_pixels(image) -> np.ndarray:
@@ -26,7 +66,7 @@ def image_pixels(image) -> np.ndarray:
     for float images (Image.pixels is bottom-up RGBA; 8-bit images come back as sRGB-encoded floats)."""
     w, h = image.size
     if w == 0 or h == 0:
-        raise ValueError(f"image {image.name!r} has no pixels (is the file missing?)")
+        raise core.errors.PanoLightError(f"image {image.name!r} has no pixels (is the file missing?)")
     buf = np.empty(w * h * image.channels, dtype=np.float32)
     image.pixels.foreach_get(buf)
     px = buf.reshape(h, w, image.channels)[::-1, :, :3]

@@ -28,5 +28,9 @@ pip_install() {
 # torch first, pinned to the local CPU wheel: any other spec would pull several GB of CUDA packages.
 pip_install "torch==2.13.0"
 pip_install -e ".[train,mitsuba,blender,bench,dev]"
+# The checkout's own folders (training/, blender_addon/) are not installed as packages; this venv finds
+# them on its path instead, so `panolight train` and `python -m training...` work from any folder.
+site="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
+echo "$root" > "$site/panolight-checkout.pth"
 echo "$want" > "$stamp"
 echo "setup: done" >&2

@@ -10,7 +10,7 @@ Each epoch: progress lines, validation (loss, m-RMSE and irr-RMSE of the predict
 OUT/metrics.csv, and OUT/checkpoint.pt (reloaded with torch.load(weights_only=True) to resume).
 OUT/model.safetensors + OUT/config.json hold the weights of the lighting epoch with the best validation
 m-RMSE (early stopping; written when it improves) for torch-free inference.
-Run under ``torchrun --nproc_per_node N`` it trains data-parallel (DDP: gloo on CPU, nccl on GPU).
+Run under ``torchrun --nproc_per_node N -m training.torchrun`` it trains data-parallel (DDP: gloo on CPU, nccl on GPU).
 """
 from __future__ import annotations
 
@@ -238,16 +238,3 @@ def export(net, cfg, out):
     save_file({k: v.detach().contiguous() for k, v in net.state_dict().items()}, str(Path(out) / "model.safetensors"),
               metadata={"config": json.dumps(cfg)})
     (Path(out) / "config.json").write_text(json.dumps(cfg, indent=2) + "\n")
-
-
-def main(argv=None):
-    """``python -m training.train ...`` (what torchrun launches): the arguments of ``panolight train``."""
-    import sys
-
-    from panolight_core.apps.cli import main as cli_main
-
-    return cli_main(["train", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -145,6 +145,18 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
 EXACT_ORDER = 24  # "exact" irradiance: A_l at l = 24 is 2e-4 of A_0, far below the errors compared
 
 
+def score_lighting(hdr: np.ndarray, coeffs: np.ndarray, lights, ldr_linear: np.ndarray) -> dict:
+    """Diffuse relighting error (irr-RMSE, metrics.GRID) of a lighting model (SH coeffs + lights) against
+    the HDR's exact irradiance, beside the naive lmax 2 projection of the linearised LDR it came from."""
+    from ..lighting.adaptive import LightingModel
+
+    grid = (metrics.GRID_H, metrics.GRID_W)
+    truth = sh.irradiance_map(sh.project(hdr, EXACT_ORDER), *grid)
+    ours = LightingModel(lights, coeffs).irradiance_map(*grid)
+    naive = sh.irradiance_map(sh.project(ldr_linear, 2), *grid)
+    return {"irr_rmse": metrics.irr_rmse_maps(truth, ours), "naive_irr_rmse": metrics.irr_rmse_maps(truth, naive)}
+
+
 def run_adaptive(scenes=STUDIO_HDRIS, log=None) -> list[dict]:
     """The adaptive model (lights + auto order) against a fixed lmax 2, on the HDR inputs.
 

@@ -45,10 +45,9 @@ def jpeg_roundtrip(ldr: np.ndarray, quality: int) -> np.ndarray:
     """(H, W, 3) uint8 -> the same picture saved as a JPEG of that quality and decoded again."""
     from PIL import Image
 
-    buf = _io.BytesIO()
-    Image.fromarray(ldr, "RGB").save(buf, format="JPEG", quality=int(quality))
-    buf.seek(0)
-    with Image.open(buf) as im:
+    from ..io.images import encode_srgb8
+
+    with Image.open(_io.BytesIO(encode_srgb8(ldr, "jpeg", quality))) as im:
         return np.asarray(im.convert("RGB"))
 
 

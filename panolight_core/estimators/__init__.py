@@ -116,7 +116,7 @@ def register_model(label: str, weights) -> str:
                              f"a built-in estimator's name")
 
     load_model(weights)  # fail now, naming the file, not in the middle of an evaluation
-    _REGISTRY[label] = neural_estimator(weights, label)
+    _REGISTRY[label] = Entry(neural_estimator(weights, label), label, f"the trained model {weights}")
     return label
 
 
@@ -126,17 +126,25 @@ def _neural_shipped() -> bool:
     return nn_estimator.DEFAULT_WEIGHTS.is_file()
 
 
-_REGISTRY = {"ambient": ambient, "naive": naive, "analytic": analytic, "sources": per_source,
-             "neural": neural_estimator()}
-DESCRIPTIONS = {  # name -> (label, one line), for CLI help and Blender menus
-    "sources": ("Per-source energy", "Each clipped sun, lamp or window gets the energy a model learned from real "
-                "HDR panoramas predicts; exact for HDR"),
-    "analytic": ("Analytic", "sRGB to linear with power-law highlight recovery; exact for HDR"),
-    "naive": ("Naive", "sRGB to linear only"),
-    "ambient": ("Ambient", "A constant environment (the naive L00)"),
-    "neural": ("Neural", "The paper's network (numpy; no torch needed)"),
+@dataclass(frozen=True)
+class Entry:
+    """A registered estimator: run(pixels, lmax) -> Estimate, a menu label and a one-line description."""
+
+    run: object
+    label: str
+    description: str
+
+
+_REGISTRY = {
+    "ambient": Entry(ambient, "Ambient", "A constant environment (the naive L00)"),
+    "naive": Entry(naive, "Naive", "sRGB to linear only"),
+    "analytic": Entry(analytic, "Analytic", "sRGB to linear with power-law highlight recovery; exact for HDR"),
+    "sources": Entry(per_source, "Per-source energy", "Each clipped sun, lamp or window gets the energy a model "
+                     "learned from real HDR panoramas predicts; exact for HDR"),
+    "neural": Entry(neural_estimator(), "Neural", "The paper's network (numpy; no torch needed)"),
 }
 BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these
+DESCRIPTIONS = {name: (e.label, e.description) for name, e in _REGISTRY.items()}  # CLI help, Blender menus
 AUTO = "sources"  # what ``auto`` means: the best on the cross-validation over the 50 real HDRs (docs/accuracy.md)
 
 
@@ -163,6 +171,6 @@ def estimate(pixels: np.ndarray, lmax: int = 2, estimator: str = "auto") -> Esti
     if pixels.ndim != 3 or pixels.shape[-1] != 3:
         raise PanoLightError(f"panorama pixels must be (H, W, 3), got {pixels.shape}")
     t0 = time.perf_counter()
-    est = _REGISTRY[name](pixels, lmax)
+    est = _REGISTRY[name].run(pixels, lmax)
     est.info.update({"name": name, "version": __version__, "estimate_s": time.perf_counter() - t0})
     return est

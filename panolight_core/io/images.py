@@ -360,11 +360,38 @@ def write_image(path, image, *, bit_depth: int = 8, half: bool = False, quality:
                 png.Writer(q.shape[1], q.shape[0], bitdepth=16, greyscale=False).write(
                     open(tmp, "wb"), q.reshape(q.shape[0], -1).tolist())
             elif bit_depth == 8:
-                from PIL import Image
-
-                q = np.round(enc * 255.0).astype(np.uint8)
-                kw = {"quality": int(quality)} if fmt == "jpeg" else {}
-                Image.fromarray(q, "RGB").save(tmp, format="JPEG" if fmt == "jpeg" else "PNG", **kw)
+                tmp.write_bytes(encode_srgb8(np.round(enc * 255.0).astype(np.uint8), fmt, quality))
             else:
                 raise ImageError(p, f"bit_depth {bit_depth} is not supported for {fmt.upper()} (8, or 16 for PNG)")
+    return p
+
+
+def encode_srgb8(rgb8: np.ndarray, fmt: str = "png", quality: int = 95) -> bytes:
+    """(H, W, 3) uint8 display-referred sRGB -> PNG or JPEG (fmt "png" | "jpeg", JPEG quality) file bytes."""
+    import io as _bytes_io
+
+    from PIL import Image
+
+    if fmt not in ("png", "jpeg"):
+        raise ValueError(f"8-bit formats are png and jpeg, got {fmt!r}")
+    buf = _bytes_io.BytesIO()
+    kw = {"quality": int(quality)} if fmt == "jpeg" else {}
+    Image.fromarray(np.ascontiguousarray(rgb8, dtype=np.uint8), "RGB").save(buf, format=fmt.upper(), **kw)
+    return buf.getvalue()
+
+
+def write_srgb8(path, rgb8: np.ndarray, *, quality: int = 95) -> Path:
+    """Write (H, W, 3) uint8 sRGB pixels as they are (previews, figures, made JPEGs) to .png or .jpg,
+    atomically (temporary name, then rename). Returns the path."""
+    p = Path(path)
+    fmt = _EXTENSIONS.get(p.suffix.lower())
+    img = np.asarray(rgb8)
+    if fmt not in ("png", "jpeg"):
+        raise ImageError(p, f"8-bit images are written as .png or .jpg, not {p.suffix!r}")
+    if img.dtype != np.uint8 or img.ndim != 3 or img.shape[-1] != 3 or 0 in img.shape:
+        raise ImageError(p, f"expected (H, W, 3) uint8 pixels, got {img.dtype} {img.shape}")
+    if not p.parent.is_dir():
+        raise ImageError(p, f"output folder {p.parent} does not exist")
+    with atomic_path(p, p.suffix) as tmp:
+        tmp.write_bytes(encode_srgb8(img, fmt, quality))
     return p

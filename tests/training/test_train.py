@@ -55,7 +55,7 @@ def test_data_parallel_under_torchrun(data, tmp_path):
     cfg = tmp_path / "cfg.json"
     cfg.write_text(json.dumps(_cfg()))
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    r = subprocess.run([sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "-m", "training.train",
+    r = subprocess.run([sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "-m", "training.torchrun",
                         str(cfg), "--data", str(data), "--out", str(tmp_path / "ddp"), "--epochs", "2",
                         "--ae-epochs", "1", "--batch-size", "2", "--procedural", "4", "--val-procedural", "2"],
                        capture_output=True, text=True, timeout=600, env=env, cwd=os.getcwd())

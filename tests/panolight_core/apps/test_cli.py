@@ -100,7 +100,8 @@ def test_bad_input_exit_status_message_and_nothing_written(tmp_path, capsys, mon
 def test_unwritable_output_is_reported_not_raised(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
-    assert main(["build-extension", "-o", str(blocker / "sub")]) == 1
+    src = write_image(tmp_path / "in.exr", np.full((8, 16, 3), 0.5, np.float32))
+    assert main(["estimate", str(src), "-o", str(blocker / "sub"), "-q"]) == 1
     err = capsys.readouterr().err
     assert "panolight: error:" in err and "Traceback" not in err and str(blocker) in err
 
@@ -164,7 +165,7 @@ def test_overflowing_outputs_are_refused_before_writing(tmp_path, capsys):
 def test_sigterm_mid_write_exits_143_and_leaves_no_temporary_files(tmp_path, capsys, monkeypatch):
     import signal
 
-    from panolight_core import pipeline
+    from panolight_core.pipeline import job as pipeline
 
     src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
     real = pipeline.write_image
@@ -208,7 +209,7 @@ def test_a_second_writer_is_refused_and_a_stale_lock_taken_over(tmp_path, capsys
 
 
 def test_out_of_memory_is_one_line(tmp_path, capsys, monkeypatch):
-    from panolight_core import pipeline
+    from panolight_core.pipeline import job as pipeline
 
     src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
 

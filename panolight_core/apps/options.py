@@ -1,0 +1,23 @@
+"""Command-line helpers shared by the core's commands and the commands plugins add (training/commands.py)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+HelpFormatter = argparse.RawDescriptionHelpFormatter  # epilogs keep their examples' line breaks
+
+
+def stderr_log(quiet: bool):
+    """A progress printer: one line on stderr per message, or nothing when quiet."""
+    return (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+
+
+def resolution(text: str) -> tuple[int, int]:
+    """An argparse type: '512x256' -> (512, 256), 2:1 with height 1..8192."""
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"resolution must look like 512x256, got {text!r}") from None
+    if w != 2 * h or h < 1 or h > 8192:
+        raise argparse.ArgumentTypeError(f"resolution must be 2:1 with height 1..8192, got {text!r}")
+    return w, h

@@ -1,0 +1,119 @@
+"""Pixels in, lighting out: ``estimate_lighting`` is the one path the CLI, ``batch`` and Blender take."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import sh
+from ..errors import PanoLightError
+from ..estimators import Estimate, estimate
+from ..estimators.highlights import CLIP_LEVEL
+from ..io.lighting import make_lighting
+from ..lighting.adaptive import LightingModel, fit_model
+from ..lighting.order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE
+from ..sh.window import default_width
+from .settings import Settings
+
+UNITS_HDR = "input radiance units"
+UNITS_LDR = "relative: 1 = the LDR camera's clip level (white)"
+
+
+def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model: str = "auto",
+               tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None):
+    """Panorama pixels (uint8 sRGB LDR or float linear HDR) -> (LightingModel, Estimate), unscaled and with
+    the model's own deringing. lmax: None (auto for model "auto", 2 for "sh"), "auto" or an int.
+    deringing: None = the model's default ("auto" with lights, "none" for SH only)."""
+    if model not in ("auto", "sh"):
+        raise PanoLightError(f"model must be 'auto' or 'sh', got {model!r}")
+    lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
+    est = estimate(pixels, DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax), estimator)
+    return fit_radiance(est.radiance, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
+                        tolerance=tolerance, deringing=deringing), est
+
+
+def fit_radiance(radiance: np.ndarray, *, hdr_input: bool, lmax="auto", model: str = "auto",
+                 tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None) -> LightingModel:
+    """The lighting model of an estimator's linear radiance map (the second half of ``fit_pixels``; the
+    evaluation scores estimates with it). hdr_input: the map is an HDR file's (lights above the median,
+    not above the LDR clip level). lmax: "auto" or an int (as a string or int)."""
+    lmax = str(lmax)
+    order = DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax)
+    return fit_model(radiance, lights=model == "auto", lmax=lmax, tolerance=tolerance, max_order=order,
+                     deringing=deringing or ("auto" if model == "auto" else "none"),
+                     light_threshold=None if hdr_input else CLIP_LEVEL)
+
+
+@dataclass
+class Result:
+    """What ``estimate_lighting`` found. document: the lighting.json content (io.lighting schema) without
+    the input file's identity, which the caller adds as ``source``; model: the lights + SH it describes
+    (Blender world frame, scaled by 2^exposure_ev); estimate: the estimator's output (hdr_panorama needs it)."""
+
+    document: dict
+    model: LightingModel
+    estimate: Estimate
+    scale: float
+
+    def hdr_panorama(self, pixels: np.ndarray) -> np.ndarray:
+        """The full-resolution HDR panorama (pipeline.hdri) in the document's units: (H, W, 3) float32."""
+        from .hdri import hdr_panorama
+
+        with np.errstate(over="ignore", invalid="ignore"):
+            hdri = hdr_panorama(pixels, self.estimate)
+            if self.scale != 1.0:  # scaled in place by row blocks: a 16K HDRI is 1.6 GB, one copy is enough
+                if hdri is pixels:
+                    hdri = hdri.copy()
+                for r in range(0, hdri.shape[0], 256):
+                    hdri[r:r + 256] *= np.float32(self.scale)
+        return hdri
+
+
+def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Result:
+    """Panorama pixels (uint8 sRGB LDR or float32 linear HDR, (H, W, 3), equirect, Blender world frame) ->
+    Result: estimator, lighting model (lights + the SH order the scene needs, or a fixed recipe), the
+    requested deringing and exposure. Raises PanoLightError on bad settings or pixels."""
+    t1 = time.perf_counter()
+    fitted, est = fit_pixels(pixels, lmax=settings.order, estimator=settings.estimator, model=settings.model,
+                             tolerance=settings.tolerance, deringing=None if settings.window == "none" else "none")
+    coeffs, window_info = fitted.coeffs, fitted.info["ringing"]["window"]
+    if settings.window == "auto":
+        width = sh.auto_window_width(coeffs, target="radiance")
+        window_info = {"kind": "sinc4", "mode": "auto", "target": "radiance",
+                       "width": None if math.isinf(width) else width}
+        if not math.isinf(width):
+            coeffs = sh.window(coeffs, "sinc4", width)
+    elif settings.window != "none":
+        width = settings.window_width or default_width(sh.lmax_from_count(coeffs.shape[0]))
+        coeffs = sh.window(coeffs, settings.window, width)
+        window_info = {"kind": settings.window, "mode": "fixed", "width": width}
+    scale = 2.0 ** settings.exposure_ev
+    with np.errstate(over="ignore", invalid="ignore"):
+        lights = [dict(light, intensity=light["intensity"] * scale) for light in fitted.lights]
+        model = LightingModel(lights, coeffs * scale, fitted.info)
+    require_finite({"the SH coefficients": model.coeffs,
+                    "the lights": np.array([light["intensity"] for light in lights], dtype=np.float64)},
+                   settings.exposure_ev)
+    model_info = dict(fitted.info, window=window_info)
+    hdr = pixels.dtype != np.uint8
+    doc = make_lighting(
+        model.coeffs, lights=lights, units=UNITS_HDR if hdr else UNITS_LDR,
+        estimator={k: v for k, v in est.info.items() if k not in ("clipped_regions", "estimate_s")},
+        model=model_info, order=model_info["order"], window=window_info, exposure_ev=settings.exposure_ev,
+        clipped_regions=est.info.get("clipped_regions", []),
+        timings={"estimate_s": round(est.info["estimate_s"], 6),
+                 "model_s": round(time.perf_counter() - t1 - est.info["estimate_s"], 6)},
+    )
+    return Result(doc, model, est, scale)
+
+
+def require_finite(outputs: dict, exposure_ev: float, what: str = "") -> None:
+    """Refuse (PanoLightError) when any named array holds NaN/Inf: an all-Inf EXR is a silent wrong
+    answer. Checked by row blocks (a 16K HDRI has no second full-size copy to spare)."""
+    bad = [name for name, a in outputs.items()
+           if not all(np.isfinite(a[r:r + 256]).all() for r in range(0, max(len(a), 1), 256))]
+    if bad:
+        raise PanoLightError(f"{what}{', '.join(bad)} would not be finite (the input's radiance times "
+                             f"2^{exposure_ev:g} overflows 32-bit floats); lower --exposure or rescale the input")

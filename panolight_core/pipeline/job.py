@@ -1,0 +1,143 @@
+"""A panorama file in, a lighting folder out: the job behind ``panolight estimate`` and ``batch``."""
+from __future__ import annotations
+
+import hashlib
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .. import sh
+from ..camera import ldr_to_linear
+from ..errors import PanoLightError
+from ..io import read_image, write_image, write_srgb8
+from ..io.atomic import pid_alive
+from ..io.lighting import write_lighting
+from .estimate import estimate_lighting, require_finite
+from .settings import Settings
+
+OUTPUT_FILES = ("lighting.json", "hdr.exr", "radiance.exr", "irradiance.exr", "preview.png")
+
+
+def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(512, 256),
+                 repair_nonfinite: bool = False, max_megapixels: float | None = None, overwrite: bool = False,
+                 log=None) -> dict:
+    """Estimate the lighting of panorama ``src`` (pipeline.estimate_lighting with ``settings``) and write
+    OUTPUT_FILES into ``out_dir`` (created). resolution: (W, H) of radiance.exr / irradiance.exr.
+    max_megapixels: the decoding budget (io.images). Files in out_dir that an earlier PanoLight run did not
+    write are kept unless ``overwrite``. Returns the lighting document written. Raises PanoLightError."""
+    log = log or (lambda msg: None)
+    src, out_dir = Path(src), Path(out_dir)
+    for name in OUTPUT_FILES:  # an output never replaces the input (estimate hdr.exr -o . would)
+        if (out_dir / name).resolve() == src.resolve():
+            raise PanoLightError(f"{src}: the output {name} in {out_dir} would overwrite the input; "
+                                 f"choose another output folder (-o)")
+    if not overwrite:
+        _check_foreign_outputs(out_dir)
+    t0 = time.perf_counter()
+    log(f"reading {src}")
+    budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
+    pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error", **budget)
+    t_read = time.perf_counter() - t0
+    log(f"estimating ({settings.estimator}, model {settings.model}, lmax {settings.lmax or 'default'}) on "
+        f"{pixels.shape[1]}x{pixels.shape[0]}")
+    try:
+        result = estimate_lighting(pixels, settings)
+    except PanoLightError as exc:
+        raise PanoLightError(f"{src}: {exc}") from None
+    fitted = result.model
+    w, h = resolution
+    log(f"reconstructing radiance and irradiance at {w}x{h}" +
+        (f" ({len(fitted.lights)} light(s))" if fitted.lights else ""))
+    with np.errstate(over="ignore", invalid="ignore"):
+        radiance = sh.reconstruct(fitted.coeffs, h, w).astype(np.float32)
+        irradiance = fitted.irradiance_map(h, w).astype(np.float32)
+    hdri = result.hdr_panorama(pixels)
+    require_finite({"radiance.exr": radiance, "irradiance.exr": irradiance, "hdr.exr": hdri},
+                   settings.exposure_ev, f"{src}: ")  # refused before anything is written
+    doc = result.document
+    doc["source"] = {"path": str(src), "sha256": hashlib.sha256(src.read_bytes()).hexdigest(),
+                     "width": int(pixels.shape[1]), "height": int(pixels.shape[0]),
+                     "dynamic_range": "ldr-8bit-srgb" if pixels.dtype == np.uint8 else "hdr"}
+    doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    log(f"writing {out_dir}/")
+    with _folder_lock(out_dir):
+        return _write_outputs(out_dir, pixels, doc, fitted, radiance, irradiance, hdri)
+
+
+def _write_outputs(out_dir, pixels, doc, fitted, radiance, irradiance, hdri) -> dict:
+    t2 = time.perf_counter()
+    from .preview import estimate_preview
+
+    shown = ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
+    preview = estimate_preview(shown, radiance, fitted, sh.lmax_from_count(fitted.coeffs.shape[0]))
+    import os
+    import shutil
+
+    # the whole set is written into a private folder and renamed into place, lighting.json last: an
+    # interrupted run leaves nothing half-done, and readers never see a mix of two runs
+    stage = out_dir / f".panolight-{os.getpid()}"
+    stage.mkdir(exist_ok=True)
+    try:
+        write_image(stage / "hdr.exr", hdri)
+        write_image(stage / "radiance.exr", radiance)
+        write_image(stage / "irradiance.exr", irradiance)
+        write_srgb8(stage / "preview.png", preview)
+        doc["timings"]["write_s"] = round(time.perf_counter() - t2, 6)
+        write_lighting(stage / "lighting.json", doc)
+        for name in OUTPUT_FILES[1:] + OUTPUT_FILES[:1]:  # lighting.json (first in the list) moves last
+            os.replace(stage / name, out_dir / name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return doc
+
+
+def _check_foreign_outputs(out_dir: Path) -> None:
+    """Refuse to replace files PanoLight did not write: output names that exist in a folder without a
+    valid lighting.json of an earlier run (``overwrite=True`` / --overwrite replaces them)."""
+    present = [n for n in OUTPUT_FILES if (out_dir / n).exists()]
+    if not present:
+        return
+    from ..io.lighting import read_lighting
+
+    try:
+        read_lighting(out_dir / "lighting.json")
+        return  # an earlier PanoLight run: its outputs are ours to replace
+    except PanoLightError:
+        pass
+    raise PanoLightError(f"{out_dir}: {', '.join(present)} exist and were not written by PanoLight; "
+                         f"choose another folder (-o) or pass --overwrite to replace them")
+
+
+class _folder_lock:
+    """One writer per output folder: OUT/.panolight.lock holds the writer's pid (created exclusively). A
+    second writer is refused in one line; a lock left by a process that no longer runs is taken over."""
+
+    def __init__(self, folder: Path):
+        self.path = Path(folder) / ".panolight.lock"
+
+    def __enter__(self):
+        import os
+
+        for _ in range(2):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                try:
+                    pid = int(self.path.read_text().strip() or 0)
+                except (OSError, ValueError):
+                    pid = 0
+                if pid and pid_alive(pid):
+                    raise PanoLightError(f"{self.path.parent}: another PanoLight process (pid {pid}) is writing "
+                                         f"there; wait for it or choose another folder (-o)") from None
+                self.path.unlink(missing_ok=True)  # stale: its writer is gone
+                continue
+            with os.fdopen(fd, "w") as f:
+                f.write(str(os.getpid()))
+            return self
+        raise PanoLightError(f"{self.path.parent}: cannot take the output folder's lock {self.path.name}")
+
+    def __exit__(self, *exc):
+        self.path.unlink(missing_ok=True)
+        return False

@@ -1,0 +1,147 @@
+"""Estimation settings: one validated record for the CLI, ``batch`` and the Blender add-on.
+
+The option names, ranges, choices and help texts live here once; ``add_arguments`` puts them on any
+argparse parser (``panolight estimate`` and Blender's headless batch.py), and the add-on builds its
+menus from the same tables.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from dataclasses import dataclass
+
+from ..errors import PanoLightError
+from ..lighting.order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE
+from ..sh.window import FAMILIES
+
+MODELS = {  # name -> (label, one line)
+    "auto": ("Lights + SH", "explicit lights for compact bright sources (sun, lamps, windows) plus the SH order "
+                            "the rest needs, deringed only if ringing would show"),
+    "sh": ("SH only", "SH only, at --lmax (default 2)"),
+}
+WINDOWS = {  # deringing: name -> (label, one line)
+    "none": ("Model's choice", "leave deringing to --model (lights + SH dering only where ringing would show)"),
+    "auto": ("Auto sinc^4", "the weakest sinc^4 window that leaves the radiance non-negative"),
+    "sinc4": ("sinc^4", "a fixed sinc^4 window of --window-width"),
+    "lanczos": ("Lanczos", "a fixed Lanczos window of --window-width"),
+    "hanning": ("Hanning", "a fixed Hanning window of --window-width"),
+}
+assert set(WINDOWS) == {"none", "auto", *FAMILIES}
+MAX_LMAX = 100  # a fixed order beyond the adaptive range; render-mitsuba caps what it renders lower
+MAX_EXPOSURE_EV = 60.0  # 2^60 keeps any clip-level radiance finite in float32 outputs
+RANGES = {"tolerance": (0.0, 1.0), "window_width": (1e-6, 1e6), "exposure_ev": (-MAX_EXPOSURE_EV, MAX_EXPOSURE_EV)}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What to estimate. lmax: None (auto with model "auto", 2 with "sh"), "auto", or an order 0..100
+    (int or digits). tolerance: allowed diffuse relighting error of the auto order, relative to order 8.
+    window: deringing (WINDOWS); window_width: of a fixed window (default 2 (lmax + 1)). exposure_ev:
+    the lighting is scaled by 2^exposure_ev. Invalid values raise PanoLightError naming the setting."""
+
+    estimator: str = "auto"
+    model: str = "auto"
+    lmax: str | int | None = None
+    tolerance: float = DEFAULT_TOLERANCE
+    window: str = "none"
+    window_width: float | None = None
+    exposure_ev: float = 0.0
+
+    def __post_init__(self):
+        from ..estimators import resolve
+
+        resolve(self.estimator)  # unknown or unavailable names fail here, before any reading
+        _choice("model", self.model, MODELS)
+        _choice("window", self.window, WINDOWS)
+        if self.lmax is not None:
+            object.__setattr__(self, "lmax", parse_lmax(str(self.lmax), "lmax"))
+        for name, (lo, hi) in RANGES.items():
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value)
+                                          and lo <= value <= hi):
+                raise PanoLightError(f"{name} must be a number between {lo:g} and {hi:g}, got {value!r}")
+
+    @property
+    def order(self) -> str:
+        """The SH order to fit: "auto" or an integer as digits (lmax None resolved by the model)."""
+        if self.lmax is None:
+            return "auto" if self.model == "auto" else "2"
+        return self.lmax
+
+
+def _choice(name: str, value, table: dict) -> None:
+    if value not in table:
+        raise PanoLightError(f"{name} must be one of {', '.join(table)}, got {value!r}")
+
+
+def parse_lmax(text: str, option: str = "--lmax") -> str:
+    """'auto' or an integer 0..MAX_LMAX as digits, else PanoLightError."""
+    if text == "auto":
+        return text
+    try:
+        value = int(text)
+    except ValueError:
+        raise PanoLightError(f"{option} must be an integer 0..{MAX_LMAX} or 'auto', got {text!r}") from None
+    if not 0 <= value <= MAX_LMAX:
+        raise PanoLightError(f"{option} must be in 0..{MAX_LMAX}, got {value}")
+    return str(value)
+
+
+def number(option: str, lo: float, hi: float, integer: bool = False):
+    """An argparse type: a finite number in [lo, hi] (NaN, Inf and out-of-range values get one line)."""
+    def parse(text: str):
+        try:
+            v = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{option} must be {'an integer' if integer else 'a number'}, "
+                                             f"got {text!r}") from None
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise argparse.ArgumentTypeError(f"{option} must be between {lo:g} and {hi:g}, got {text!r}")
+        return v
+    return parse
+
+
+def _argparse_type(check, *args):
+    def parse(text: str):
+        try:
+            return check(text, *args)
+        except PanoLightError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    return parse
+
+
+def _window(text: str) -> str:
+    _choice("--window", text, WINDOWS)
+    return text
+
+
+def add_arguments(parser, default_estimator: str = "auto") -> None:
+    """Add --model --lmax --tolerance --estimator --exposure --window --window-width (``from_args`` reads
+    them back)."""
+    from ..estimators import AUTO, BUILTIN, DESCRIPTIONS
+
+    parser.add_argument("--model", choices=tuple(MODELS), default="auto",
+                        help="; ".join(f"{n}{' (default)' if n == 'auto' else ''}: {text}"
+                                       for n, (_, text) in MODELS.items()))
+    parser.add_argument("--lmax", type=_argparse_type(parse_lmax), default=None,
+                        help=f"SH order 0..{MAX_LMAX}, or 'auto': the smallest order 0..{DEFAULT_MAX_ORDER} within "
+                             f"--tolerance (default: auto with --model auto, 2 with --model sh)")
+    parser.add_argument("--tolerance", type=number("--tolerance", *RANGES["tolerance"]), default=DEFAULT_TOLERANCE,
+                        help=f"with --lmax auto: allowed diffuse relighting error relative to order "
+                             f"{DEFAULT_MAX_ORDER} (default {DEFAULT_TOLERANCE})")
+    parser.add_argument("--estimator", default=default_estimator, choices=BUILTIN + ("auto",), metavar="NAME",
+                        help="; ".join(f"{n}: {text}" for n, (_, text) in DESCRIPTIONS.items())
+                        + f"; auto{' (default)' if default_estimator == 'auto' else ''}: {AUTO}, the best measured")
+    parser.add_argument("--exposure", type=number("--exposure", *RANGES["exposure_ev"]), default=0.0, metavar="EV",
+                        help="scale the estimated lighting by 2^EV (default 0)")
+    parser.add_argument("--window", type=_argparse_type(_window), default="none", metavar="KIND",
+                        help="deringing: " + "; ".join(f"{n}{' (default)' if n == 'none' else ''}: {text}"
+                                                       for n, (_, text) in WINDOWS.items()))
+    parser.add_argument("--window-width", type=number("--window-width", *RANGES["window_width"]), default=None,
+                        help="width of a fixed window (default 2 (lmax+1))")
+
+
+def from_args(args) -> Settings:
+    """The Settings of parsed ``add_arguments`` options."""
+    return Settings(estimator=args.estimator, model=args.model, lmax=args.lmax, tolerance=args.tolerance,
+                    window=args.window, window_width=args.window_width, exposure_ev=args.exposure)

@@ -1,0 +1,169 @@
+"""The checkout's developer commands for ``panolight``: train, synth, sheet and render-mitsuba.
+
+Registered through the ``panolight.commands`` entry point (pyproject.toml), so the core's CLI never
+imports training code; each command imports its module (torch, Mitsuba) only when it runs.
+"""
+from __future__ import annotations
+
+import sys
+
+from panolight_core.apps.options import HelpFormatter, resolution, stderr_log
+from panolight_core.pipeline.settings import number
+
+
+def run_render_mitsuba(args) -> int:
+    from training.mitsuba_render import render_figure
+
+    res = render_figure(args.inputs, args.out, meshes=args.meshes, spp=args.spp, resolution=args.resolution_wh,
+                        yaw=args.yaw, pitch=args.pitch, fov=args.fov, materials=args.materials,
+                        in_panorama=not args.no_panorama_view, compare_hdr=args.compare_hdr,
+                        from_ldr=args.from_ldr, log=stderr_log(args.quiet))
+    print(f"render-mitsuba: {len(res['renders'])} EXR renders and {res['figure']} in {res['seconds']:.0f} s "
+          f"({res['variant']}, {res['spp']} spp)", file=sys.stderr)
+    return 0
+
+
+def run_synth(args) -> int:
+    from panolight_core.apps.batch import Progress, parse_shard
+    from training.synth.store import synthesize
+
+    w, h = args.resolution
+    shard = parse_shard(args.shard)
+    count = len(range(shard[0] - 1, args.count, shard[1]))
+    prog = Progress(count, args.quiet)
+    res = synthesize(args.out, args.count, h, args.spp, args.seed, shard, progress=prog.step)
+    per = res["seconds_per_sample"]
+    print(f"synth: {res['rendered']} rendered, {res['skipped']} already there, in {res['seconds']:.0f} s"
+          + (f" ({per:.2f} s per sample)" if per else "") + f"; {args.out}", file=sys.stderr)
+    return 0
+
+
+def run_sheet(args) -> int:
+    from training.contact_sheet import contact_sheet
+
+    path = contact_sheet(args.dataset, args.output, count=args.count, seed=args.seed)
+    print(f"sheet: {path}", file=sys.stderr)
+    return 0
+
+
+def run_train(args) -> int:
+    from panolight_core.errors import PanoLightError
+
+    try:
+        from training.train import train
+    except ImportError as exc:
+        raise PanoLightError(f"train needs torch (pip install -e '.[train]'): {exc}") from None
+    res = train(args.config, args.data, args.out, epochs=args.epochs, ae_epochs=args.ae_epochs,
+                batch_size=args.batch_size, lr=args.lr, seed=args.seed, procedural=args.procedural,
+                val_procedural=args.val_procedural, cache=args.cache, max_minutes=args.max_minutes,
+                ae_from=args.ae_from, hdr=args.hdr, log=stderr_log(args.quiet))
+    print(f"train: weights in {res['weights']}", file=sys.stderr)
+    return 0
+
+
+
+def register(sub) -> None:
+    """Add the training commands to the ``panolight`` sub-command parsers ``sub``."""
+    fmt = HelpFormatter
+    m = sub.add_parser("render-mitsuba", help="render the paper's bunny/armadillo figure with Mitsuba 3",
+                       formatter_class=fmt,
+                       description="Render meshes with a mirror, rough plastic (ior 1.9) and gold material under the "
+                                   "lighting estimated from each INPUT (a panorama or a lighting.json), composited "
+                                   "over the panorama by differential rendering, and assemble figure.png.",
+                       epilog="examples:\n"
+                              "  panolight render-mitsuba city.jpg --out out/fig --spp 16       # quick look\n"
+                              "  panolight render-mitsuba a.exr b.jpg --out out/fig              # 512 spp, the paper's\n"
+                              "  panolight render-mitsuba s.exr --out o --compare-hdr            # add the HDR-lit row\n"
+                              "Uses llvm_ad_rgb when LLVM 19 is installed (apt-get install libllvm19), else scalar_rgb.")
+    m.add_argument("inputs", nargs="+", help="panoramas (estimated here) or lighting.json files")
+    m.add_argument("--out", required=True, help="output folder (created)")
+    m.add_argument("--meshes", nargs="+", default=None,
+                   help=".ply/.obj meshes with +Y up (default: ../shared/data/meshes/bunny.ply and armadillo.obj)")
+    m.add_argument("--spp", type=number("--spp", 1, 1 << 20, integer=True), default=512,
+                   help="samples per pixel (default 512, the paper's)")
+    m.add_argument("--resolution", dest="resolution_wh", type=lambda t: tuple(int(v) for v in t.lower().split("x")),
+                   default=(320, 240), help="perspective render size WxH (default 320x240)")
+    m.add_argument("--yaw", type=float, default=0.0, help="view azimuth in degrees, 0 = panorama centre, 90 = "
+                                                          "a quarter width to the left (default 0)")
+    m.add_argument("--pitch", type=float, default=-12.0, help="view elevation in degrees (default -12)")
+    m.add_argument("--fov", type=float, default=50.0, help="horizontal field of view in degrees (default 50)")
+    m.add_argument("--materials", nargs="+", default=["mirror", "plastic", "gold"], help="columns of the figure")
+    m.add_argument("--compare-hdr", action="store_true", help="add a row lit by the input HDR itself")
+    m.add_argument("--from-ldr", type=float, default=None, metavar="EV",
+                   help="estimate each HDR input from the JPEG an auto-exposing camera takes of it at this ev "
+                        "(EVALUATION.md, q90), as the paper's figure estimates from photographs; with "
+                        "--compare-hdr the ground-truth row is the HDR in the JPEG's units")
+    m.add_argument("--no-panorama-view", action="store_true", help="skip the objects-in-the-panorama renders")
+    m.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    m.set_defaults(func=run_render_mitsuba)
+
+    sy = sub.add_parser("synth", help="render synthetic training panoramas (HDR, normals, albedo) with Mitsuba",
+                        formatter_class=fmt,
+                        description="Render N random rooms and outdoor scenes into 360-degree panoramas with "
+                                    "normals and albedo, into a sharded, resumable dataset folder.",
+                        epilog="examples:\n"
+                               "  panolight synth --count 2000 --out data/synth                # 256x128, 64 spp\n"
+                               "  panolight synth --count 2000 --out data/synth --shard 1/2 &  # two processes\n"
+                               "  panolight synth --count 2000 --out data/synth --shard 2/2\n"
+                               "  panolight sheet data/synth -o sheet.png                      # look at samples\n"
+                               "Sample i is seeded by SEED + i, so re-runs skip finished samples and shards never "
+                               "collide.")
+    sy.add_argument("--count", type=int, required=True, help="number of samples (indices 0..count-1)")
+    sy.add_argument("--out", required=True, help="dataset folder (created)")
+    sy.add_argument("--resolution", type=resolution, default=(256, 128), help="panorama size WxH (default 256x128)")
+    sy.add_argument("--spp", type=int, default=64,
+                    help="samples per pixel (default 64: about 40 %% slower than 16 and far less noisy)")
+    sy.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
+    sy.add_argument("--shard", help="render only shard I of N, written I/N")
+    sy.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    sy.set_defaults(func=run_synth)
+
+    sc = sub.add_parser("sheet", help="contact sheet of random dataset samples (LDR, normals, HDR, relit)",
+                        formatter_class=fmt, description="Save a PNG contact sheet of random samples of a synthetic "
+                                                         "dataset: LDR, normals, HDR and a relit version.")
+    sc.add_argument("dataset", help="dataset folder written by 'panolight synth'")
+    sc.add_argument("-o", "--output", default="sheet.png", help="PNG path (default sheet.png)")
+    sc.add_argument("--count", type=int, default=6, help="samples shown (default 6)")
+    sc.add_argument("--seed", type=int, default=0, help="which samples and lights (default 0)")
+    sc.set_defaults(func=run_sheet)
+
+    tr = sub.add_parser("train", help="train the learned estimator (paper: autoencoder, then lighting encoder)",
+                        formatter_class=fmt,
+                        description="Train the paper's two networks: the LDR-to-HDR autoencoder first, then the "
+                                    "lighting encoder with it frozen. Data: procedural environments plus, with "
+                                    "--data, Mitsuba panoramas from 'panolight synth' and their relit versions "
+                                    "(paper Eq. 5), prepared once into a cached array file.",
+                        epilog="examples:\n"
+                               "  panolight train small --data data/synth --out runs/small --max-minutes 60\n"
+                               "  panolight train small --procedural 500 --epochs 3 --out /tmp/try   # no Mitsuba data\n"
+                               "  torchrun --nproc_per_node 4 -m training.torchrun paper --data data/synth --out runs/paper\n"
+                               "A run folder holds checkpoint.pt (resumed automatically), metrics.csv, "
+                               "model.safetensors and config.json.")
+    add_train_arguments(tr)
+    tr.set_defaults(func=run_train)
+
+
+def add_train_arguments(tr) -> None:
+    """The options of ``panolight train`` (also ``torchrun -m training.torchrun``)."""
+    tr.add_argument("config", help="small | paper | ablation/VARIANT (e.g. ablation/full-prior) | a JSON config path")
+    tr.add_argument("--data", default=None, help="dataset folder written by 'panolight synth' (optional)")
+    tr.add_argument("--hdr", default=None, metavar="DIR",
+                    help="a folder of real HDR panoramas (.exr/.hdr, e.g. Laval) added as training examples; "
+                         "Blender's studio HDRIs are refused (they are the evaluation set)")
+    tr.add_argument("--procedural", type=int, default=4000,
+                    help="procedural environments in the training set (default 4000)")
+    tr.add_argument("--val-procedural", type=int, default=400, help="procedural validation environments (default 400)")
+    tr.add_argument("--cache", default=None, help="folder for the prepared arrays (default: --data, else --out)")
+    tr.add_argument("--max-minutes", type=float, default=None,
+                    help="stop after the epoch that crosses this training time budget")
+    tr.add_argument("--ae-from", default=None, metavar="WEIGHTS",
+                    help="start from the autoencoder of this model.safetensors (with --ae-epochs 0: train "
+                         "only the lighting encoder, as the ablation variants do)")
+    tr.add_argument("--out", required=True, help="run folder")
+    tr.add_argument("--epochs", type=int, default=10)
+    tr.add_argument("--ae-epochs", type=int, default=2, help="autoencoder-only epochs first (default 2)")
+    tr.add_argument("--batch-size", type=int, default=16)
+    tr.add_argument("--lr", type=float, default=None,
+                    help="Adam learning rate (default: the config's; paper 1e-4, small 1e-3)")
+    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("-q", "--quiet", action="store_true")
