@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from panolight_core.io import write_srgb8
 from panolight_core.pipeline.preview import exposure_for, tonemap
 
 
@@ -41,5 +42,5 @@ def contact_sheet(dataset, output, count: int = 6, seed: int = 0, height: int = 
     sheet = np.concatenate(rows[:-1], axis=0)
     path = Path(output)
     path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(sheet).save(path)
+    write_srgb8(path, sheet)
     return path

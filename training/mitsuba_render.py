@@ -441,9 +441,9 @@ def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320,
                 row.append((mat, res["composite"]))
             rows.append((f"{label} ({vname})", row, exposure_for(bg)))
     grid = _grid_png(rows, tonemap)
-    from PIL import Image
+    from panolight_core.io import write_srgb8
 
-    Image.fromarray(grid).save(out / "figure.png")
+    write_srgb8(out / "figure.png", grid)
     return {"figure": str(out / "figure.png"), "renders": [str(f) for f in files], "variant": mi.variant(),
             "seconds": time.perf_counter() - t0, "spp": spp, "resolution": list(resolution)}
 

@@ -155,8 +155,6 @@ def test_camera_sees_the_panorama_exactly_and_lamps_turn_with_the_lighting(tmp_p
 def test_white_sphere_matches_the_analytic_irradiance(tmp_path):
     path = _small_city(tmp_path, 64)
     _estimate_and_build(path)
-    import json
-
     doc = blender_addon.world.stored_lighting(bpy.context.scene.world)
     coeffs = np.asarray(doc["coefficients"])
     scene = bpy.context.scene

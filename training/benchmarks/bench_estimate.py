@@ -22,7 +22,7 @@ import numpy as np
 from panolight_core.camera import hdr_to_ldr
 from panolight_core.data import STUDIO_HDRIS, studio_hdri
 from panolight_core.estimators import available, estimate
-from panolight_core.io import read_image
+from panolight_core.io import read_image, write_srgb8
 from panolight_core.pipeline import fit_pixels
 
 TARGET_MS = 100.0
@@ -33,7 +33,6 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=15)
     ap.add_argument("--scenes", nargs="+", default=list(STUDIO_HDRIS))
     args = ap.parse_args(argv)
-    from PIL import Image
 
     with tempfile.TemporaryDirectory() as tmp:
         files = []
@@ -43,7 +42,7 @@ def main(argv=None):
                 hdr = read_image(studio_hdri(scene))
             big = np.repeat(np.repeat(hdr, 2, axis=0), 2, axis=1)
             path = Path(tmp) / f"{scene}.jpg"
-            Image.fromarray(hdr_to_ldr(big, 0)).save(path, quality=90)
+            write_srgb8(path, hdr_to_ldr(big, 0), quality=90)
             files.append(path)
         names = tuple(n for n in available() if n != "neural")  # the network has bench_neural.py
         times = {n: [] for n in names + tuple(f"{n} + model" for n in names) + ("decode only",)}
