@@ -227,7 +227,7 @@ def main(argv=None) -> int:
         return 0
     from training.source_energy_cv import cross_validate
 
-    cross_validate(files, X, y, w, g, args)
+    cross_validate(files, X, y, w, g, args, fit, load_hdr)
     return 0
 
 

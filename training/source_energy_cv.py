@@ -69,9 +69,10 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS) -> dict:
             **{f"learned (decision, wide regions q = {q:g})": decided(q) for q in WIDE_CONCENTRATIONS}}
 
 
-def cross_validate(files, X, y, w, g, args):
-    from training.source_energy import fit, load_hdr
-
+def cross_validate(files, X, y, w, g, args, fit, load_hdr):
+    """Leave-scenes-out folds over the region table (X, y, w, g: source_energy.build_table), scored by
+    EVALUATION.md on each held-out scene. fit and load_hdr: source_energy's (passed in, so this module
+    does not import the one that runs it)."""
     n = len(files)
     rng = np.random.default_rng(args.seed)
     perm = rng.permutation(n)

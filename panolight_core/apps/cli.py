@@ -187,8 +187,9 @@ def _load_plugins(sub) -> None:
     for ep in entry_points(group=PLUGIN_GROUP):
         try:
             register = ep.load()
-        except ModuleNotFoundError as exc:
-            if exc.name and ep.value.split(":")[0].startswith(exc.name.split(".")[0]):
+        except Exception as exc:  # a broken plugin must not take the core's commands down with it
+            if isinstance(exc, ModuleNotFoundError) and exc.name and \
+                    ep.value.split(":")[0].split(".")[0] == exc.name.split(".")[0]:
                 continue
             print(f"warning: the '{ep.name}' commands could not be loaded ({exc})", file=sys.stderr)
             continue

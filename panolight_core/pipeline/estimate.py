@@ -110,10 +110,14 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Re
 
 
 def require_finite(outputs: dict, exposure_ev: float, what: str = "") -> None:
-    """Refuse (PanoLightError) when any named array holds NaN/Inf: an all-Inf EXR is a silent wrong
-    answer. Checked by row blocks (a 16K HDRI has no second full-size copy to spare)."""
-    bad = [name for name, a in outputs.items()
-           if not all(np.isfinite(a[r:r + 256]).all() for r in range(0, max(len(a), 1), 256))]
+    """Refuse (PanoLightError) when any named array holds values that are NaN/Inf in 32-bit floats
+    (every output is float32: EXRs, Blender images and lamps): an all-Inf EXR is a silent wrong answer.
+    Checked by row blocks (a 16K HDRI has no second full-size copy to spare)."""
+    def finite(block):
+        with np.errstate(over="ignore", invalid="ignore"):
+            return np.isfinite(block.astype(np.float32, copy=False)).all()
+
+    bad = [name for name, a in outputs.items() if not all(finite(a[r:r + 256]) for r in range(0, max(len(a), 1), 256))]
     if bad:
         raise PanoLightError(f"{what}{', '.join(bad)} would not be finite (the input's radiance times "
                              f"2^{exposure_ev:g} overflows 32-bit floats); lower --exposure or rescale the input")

@@ -24,16 +24,13 @@ def strip(panels: list[tuple[str, np.ndarray]], height: int = 256) -> np.ndarray
     Each panel is auto-exposed on its own (median luminance -> 0.18): SH maps spread a sun's energy
     over the sphere, so one shared exposure would clip them to white.
     """
-    from PIL import Image, ImageDraw
+    from PIL import Image
 
     tiles = []
     for name, img in panels:
         img = area_downsample(np.asarray(img), height)  # average in linear light before tone mapping
         tile = Image.fromarray(tonemap(img, exposure_for(img))).resize((2 * height, height), Image.BILINEAR)
-        draw = ImageDraw.Draw(tile)
-        draw.rectangle((0, 0, 8 + 7 * len(name), 16), fill=(0, 0, 0))
-        draw.text((4, 2), name, fill=(255, 255, 255))
-        tiles.append(np.asarray(tile))
+        tiles.append(_labelled(tile, name))
     gap = np.full((height, 4, 3), 255, dtype=np.uint8)
     out = [tiles[0]]
     for t in tiles[1:]:
@@ -77,13 +74,18 @@ def estimate_preview(image: np.ndarray, radiance: np.ndarray, model, lmax: int,
     label = f"SH radiance (lmax {lmax})" + (f" + {n_lights} light(s)" if n_lights else "")
     panels = strip([("input", image), (label, radiance)], height)
     sphere = diffuse_sphere(model, height)
-    tile = tonemap(sphere, exposure_for(sphere))
-    from PIL import Image, ImageDraw
+    from PIL import Image
 
-    tile_img = Image.fromarray(tile)
-    draw = ImageDraw.Draw(tile_img)
-    label = "diffuse sphere (view +X)"
-    draw.rectangle((0, 0, 8 + 7 * len(label), 16), fill=(0, 0, 0))
-    draw.text((4, 2), label, fill=(255, 255, 255))
+    tile = _labelled(Image.fromarray(tonemap(sphere, exposure_for(sphere))), "diffuse sphere (view +X)")
     gap = np.full((height, 4, 3), 255, dtype=np.uint8)
-    return np.concatenate([panels, gap, np.asarray(tile_img)], axis=1)
+    return np.concatenate([panels, gap, tile], axis=1)
+
+
+def _labelled(tile, name: str) -> np.ndarray:
+    """A PIL tile with ``name`` written top left, white on black, as a uint8 array."""
+    from PIL import ImageDraw
+
+    draw = ImageDraw.Draw(tile)
+    draw.rectangle((0, 0, 8 + 7 * len(name), 16), fill=(0, 0, 0))
+    draw.text((4, 2), name, fill=(255, 255, 255))
+    return np.asarray(tile)

@@ -378,3 +378,27 @@ def test_blender_inputs_go_through_the_cores_validation(tmp_path):
     assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
     doc = blender_addon.world.stored_lighting(bpy.context.scene.world)
     assert doc["coefficients"][0][0] > 0
+
+
+@pytest.mark.parametrize("settings, argv", [
+    ({}, []),
+    ({"model": "sh", "lmax": "3", "window": "hanning", "window_width": 5.0, "exposure": 1.5, "estimator": "analytic"},
+     ["--model", "sh", "--lmax", "3", "--window", "hanning", "--window-width", "5", "--exposure", "1.5",
+      "--estimator", "analytic"]),
+    ({"tolerance": 0.002, "window": "auto", "exposure": -1.0},
+     ["--tolerance", "0.002", "--window", "auto", "--exposure", "-1"])])
+def test_the_panel_settings_give_what_the_cli_gives(tmp_path, settings, argv):
+    from panolight_core.apps.cli import main
+    from panolight_core.io.lighting import read_lighting
+
+    path = _small_city(tmp_path, 32)
+    assert main(["estimate", str(path), "-o", str(tmp_path / "cli"), "-q", *argv]) == 0
+    want, cli_doc = read_lighting(tmp_path / "cli" / "lighting.json")
+    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
+    _configure(**settings)
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    doc = blender_addon.world.stored_lighting(bpy.context.scene.world)
+    assert np.allclose(doc["coefficients"], want, rtol=1e-9, atol=1e-12)
+    assert doc["window"] == cli_doc["window"] and doc["exposure_ev"] == cli_doc["exposure_ev"]
+    assert [light["intensity"] for light in doc["lights"]] == pytest.approx(
+        [light["intensity"] for light in cli_doc["lights"]], rel=1e-9)

@@ -220,3 +220,40 @@ def test_out_of_memory_is_one_line(tmp_path, capsys, monkeypatch):
     assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "out of memory" in err and "Traceback" not in err
+
+
+def test_plugins_add_commands_and_a_missing_plugin_package_is_skipped(monkeypatch, capsys):
+    import importlib.metadata
+
+    from panolight_core.apps import cli
+
+    class EntryPoint:
+        def __init__(self, name, value, load):
+            self.name, self.value, self._load = name, value, load
+
+        def load(self):
+            return self._load()
+
+    def missing():
+        raise ModuleNotFoundError("No module named 'absent_pkg'", name="absent_pkg")
+
+    def broken():
+        raise ImportError("cannot import name 'x'")
+
+    def hello():
+        return lambda sub: sub.add_parser("hello", help="a plugin's command").set_defaults(func=lambda a: 7)
+
+    eps = [EntryPoint("gone", "absent_pkg.commands:register", missing),
+           EntryPoint("broken", "broken_pkg.commands:register", broken),
+           EntryPoint("hello", "hello_pkg:register", hello)]
+    monkeypatch.setattr(importlib.metadata, "entry_points", lambda group: eps if group == cli.PLUGIN_GROUP else [])
+    assert main(["hello"]) == 7
+    err = capsys.readouterr().err
+    assert "'broken' commands could not be loaded" in err and "gone" not in err
+
+
+def test_the_checkout_registers_the_training_commands():
+    r = subprocess.run([sys.executable, "-m", "panolight_core", "--help"], capture_output=True, text=True,
+                       timeout=120)
+    for name in ("estimate", "batch", "eval", "demo", "project", "train", "synth", "sheet", "render-mitsuba"):
+        assert f"    {name}" in r.stdout, name

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from panolight_core.errors import ImageError, PanoLightWarning
-from panolight_core.io import read_image, sniff_format, write_image
+from panolight_core.io import read_image, sniff_format, write_image, write_srgb8
 from panolight_core.io import hdr as hdr_codec
 
 
@@ -284,3 +284,17 @@ def test_a_small_hdr_claiming_a_huge_size_is_refused(tmp_path, size, message):
     path.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + f"-Y {h} +X {w}\n".encode() + b"\x02\x02\x40\x00" * 4)
     with pytest.raises(ImageError, match=f"claim.hdr: .*{message}"):
         read_image(path)
+
+
+def test_srgb8_pixels_are_written_as_they_are(tmp_path):
+    y, x = np.mgrid[0:16, 0:32]
+    px = np.stack([x * 8, y * 16, 255 - x * 8], axis=-1).astype(np.uint8)  # smooth: JPEG keeps it closely
+    back = read_image(write_srgb8(tmp_path / "a.png", px), ldr_as_uint8=True)
+    assert np.array_equal(back, px)
+    jpg = read_image(write_srgb8(tmp_path / "a.jpg", px, quality=100), ldr_as_uint8=True)
+    assert jpg.dtype == np.uint8 and np.abs(jpg.astype(int) - px).mean() < 3
+    for bad, path, msg in ((px.astype(np.float32), "b.png", "uint8"), (px, "b.exr", ".png or .jpg"),
+                           (px[..., :2], "b.png", "uint8"), (px, "missing/b.png", "does not exist")):
+        with pytest.raises(ImageError, match=msg):
+            write_srgb8(tmp_path / path, bad)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.jpg", "a.png"]  # no temporary files left

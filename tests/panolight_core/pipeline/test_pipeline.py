@@ -1,0 +1,102 @@
+"""pipeline: Settings validation, estimate_lighting (the one path from pixels to a lighting document)
+and run_estimate (file -> folder)."""
+import math
+
+import numpy as np
+import pytest
+
+from panolight_core import sh
+from panolight_core.errors import PanoLightError
+from panolight_core.io import write_image
+from panolight_core.io.lighting import read_lighting, validate
+from panolight_core.pipeline import OUTPUT_FILES, Settings, estimate_lighting, fit_pixels, run_estimate
+
+
+@pytest.fixture
+def sunny():
+    """A small HDR sky with a bright sun, and its 8-bit photo (clipped sun)."""
+    h, w = 32, 64
+    dirs = sh.pixel_directions(h, w)
+    hdr = (0.3 + 0.2 * np.clip(dirs[..., 2:3], 0, 1)) * np.ones((h, w, 3))
+    sun = dirs @ np.array([0.6, 0.0, 0.8]) > math.cos(math.radians(6))
+    hdr[sun] = 80.0
+    ldr = np.round(np.clip(hdr, 0, 1) ** (1 / 2.2) * 255).astype(np.uint8)
+    return hdr.astype(np.float32), ldr
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"estimator": "magic"}, "unknown estimator 'magic'"), ({"model": "fancy"}, "model must be one of"),
+    ({"lmax": 101}, "lmax must be in 0..100"), ({"lmax": "x"}, "lmax must be an integer"),
+    ({"tolerance": float("nan")}, "tolerance must be a number"), ({"tolerance": -1.0}, "tolerance must be"),
+    ({"window": "gauss"}, "window must be one of"), ({"window_width": -3.0}, "window_width must be"),
+    ({"exposure_ev": 200.0}, "exposure_ev must be"), ({"exposure_ev": "1"}, "exposure_ev must be")])
+def test_settings_refuse_bad_values_naming_them(kwargs, message):
+    with pytest.raises(PanoLightError, match=message):
+        Settings(**kwargs)
+
+
+def test_settings_order_resolves_the_models_default():
+    assert Settings().order == "auto" and Settings(model="sh").order == "2"
+    assert Settings(lmax=5).order == "5" and Settings(model="sh", lmax="auto").order == "auto"
+
+
+def test_estimate_lighting_is_fit_pixels_with_the_requested_window_and_exposure(sunny):
+    hdr, _ = sunny
+    base = estimate_lighting(hdr, Settings(model="sh", lmax=4))
+    fitted, _ = fit_pixels(hdr, lmax=4, model="sh")
+    assert np.array_equal(base.model.coeffs, fitted.coeffs)
+    windowed = estimate_lighting(hdr, Settings(model="sh", lmax=4, window="hanning", window_width=6.0,
+                                               exposure_ev=1.0))
+    assert np.allclose(windowed.model.coeffs, 2.0 * sh.window(fitted.coeffs, "hanning", 6.0), rtol=1e-12)
+    assert windowed.document["window"] == {"kind": "hanning", "mode": "fixed", "width": 6.0}
+    assert windowed.document["exposure_ev"] == 1.0
+    auto = estimate_lighting(hdr, Settings(model="sh", lmax=4, window="auto"))
+    assert auto.document["window"]["mode"] == "auto"
+
+
+def test_exposure_scales_lights_sh_and_the_hdri_by_the_same_factor(sunny):
+    _, ldr = sunny
+    one = estimate_lighting(ldr)
+    two = estimate_lighting(ldr, Settings(exposure_ev=-2.0))
+    assert one.model.lights, "the clipped sun should become an explicit light"
+    assert np.allclose(two.model.coeffs, one.model.coeffs / 4, rtol=1e-12)
+    for a, b in zip(one.model.lights, two.model.lights):
+        assert math.isclose(b["intensity"], a["intensity"] / 4, rel_tol=1e-12)
+    assert np.allclose(two.hdr_panorama(ldr), one.hdr_panorama(ldr) / 4, rtol=1e-6)
+
+
+def test_the_document_is_valid_and_says_its_units(sunny):
+    hdr, ldr = sunny
+    for px, units in ((hdr, "input radiance units"), (ldr, "relative: 1 = the LDR camera's clip level")):
+        doc = estimate_lighting(px).document
+        validate(doc)
+        assert doc["units"].startswith(units) and doc["estimator"]["name"] == "sources"
+        assert set(doc["timings"]) == {"estimate_s", "model_s"} and "source" not in doc
+        assert np.allclose(doc["coefficients"], estimate_lighting(px).model.coeffs)
+
+
+def test_overflowing_lighting_is_refused(sunny):
+    hdr, _ = sunny
+    with pytest.raises(PanoLightError, match="would not be finite"):
+        estimate_lighting(hdr * np.float32(1e30), Settings(exposure_ev=59.0))
+
+
+def test_run_estimate_writes_the_document_of_estimate_lighting_with_its_source(tmp_path, sunny):
+    _, ldr = sunny
+    from panolight_core.io import write_srgb8
+
+    src = write_srgb8(tmp_path / "sky.png", ldr)
+    settings = Settings(model="sh", lmax=3, window="sinc4", exposure_ev=0.5)
+    doc = run_estimate(src, tmp_path / "out", settings)
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(OUTPUT_FILES)
+    coeffs, written = read_lighting(tmp_path / "out" / "lighting.json")
+    assert np.allclose(coeffs, estimate_lighting(ldr, settings).model.coeffs)
+    assert written["source"]["width"] == 64 and written["source"]["dynamic_range"] == "ldr-8bit-srgb"
+    assert set(written["timings"]) == {"read_s", "estimate_s", "model_s", "write_s"} and written == doc
+
+
+def test_run_estimate_refuses_to_replace_its_input(tmp_path, sunny):
+    hdr, _ = sunny
+    src = write_image(tmp_path / "hdr.exr", hdr)
+    with pytest.raises(PanoLightError, match="would overwrite the input"):
+        run_estimate(src, tmp_path)

@@ -1,0 +1,110 @@
+"""The shape of the house: the core never imports training or the Blender layer, no package imports in
+a cycle, the CLI's import loads no training code, and the extension zip carries no developer tools."""
+import ast
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("panolight_core", "training", "blender_addon")
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _modules() -> dict:
+    return {_module_name(p): p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py")}
+
+
+def _imports(name: str, path: Path, modules: dict) -> set:
+    """Every module ``name`` imports anywhere in its file (module level or inside functions), resolved."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[:len(package.split(".")) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module
+            subs = [f"{target}.{a.name}" for a in node.names if f"{target}.{a.name}" in modules]
+            found.update(subs)
+            if len(subs) < len(node.names) and node.module:  # names from a module, not submodules
+                found.add(target)
+    return found
+
+
+def test_the_core_never_imports_training_or_the_blender_layer():
+    modules = _modules()
+    bad = {(name, imp) for name, path in modules.items() if name.startswith("panolight_core")
+           for imp in _imports(name, path, modules) if imp.split(".")[0] in ("training", "blender_addon", "bpy")}
+    assert not bad, sorted(bad)
+
+
+def test_no_import_cycle_anywhere():
+    modules = _modules()
+    graph = {name: {i for i in _imports(name, path, modules) if i in modules and i != name}
+             for name, path in modules.items()}
+    state, stack, cycles = {}, [], []
+
+    def visit(node):
+        state[node] = "open"
+        stack.append(node)
+        for nxt in graph[node]:
+            if state.get(nxt) == "open":
+                cycles.append(stack[stack.index(nxt):] + [nxt])
+            elif nxt not in state:
+                visit(nxt)
+        stack.pop()
+        state[node] = "done"
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node)
+    assert not cycles, "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_importing_the_cli_loads_no_training_module():
+    code = "import sys, panolight_core.apps.cli; print(sorted(m for m in sys.modules if m.split('.')[0] == 'training'))"
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
+def test_the_extension_zip_holds_the_estimation_core_and_no_developer_tools(tmp_path):
+    r = subprocess.run([sys.executable, str(ROOT / "scripts" / "build_extension.py"), "-o", str(tmp_path)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    zpath, = tmp_path.glob("panolight-*.zip")
+    names = zipfile.ZipFile(zpath).namelist()
+    core = [n for n in names if n.startswith("panolight_core/")]
+    assert "blender_manifest.toml" in names and "operators.py" in names and "panolight_core/sh/basis.py" in core
+    assert "panolight_core/models/sources.safetensors" in core
+    tools = [n for n in core if n.startswith(("panolight_core/apps/", "panolight_core/data.py"))
+             or n.endswith(("cli.py", "evaluation.py", "extension.py", "__main__.py"))]
+    assert not tools, tools
+    assert not any(n.startswith(("training/", "tests/", "scripts/")) for n in names)
+    # every bundled module imports from inside the bundle (relative imports only, no installed copy)
+    bundle = tmp_path / "bundle"
+    zipfile.ZipFile(zpath).extractall(bundle / "addon")
+    (bundle / "addon" / "__init__.py").write_text("")  # stands in for the add-on (which needs bpy)
+    mods = [".".join(Path(n).with_suffix("").parts).removesuffix(".__init__") for n in core if n.endswith(".py")]
+    code = ("import importlib, sys\n"
+            f"for m in {mods!r}: importlib.import_module('addon.' + m)\n"
+            "print(sorted(m for m in sys.modules if m.startswith('panolight_core')))\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=bundle, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
+@pytest.mark.parametrize("package", ["training", "blender_addon"])
+def test_the_checkout_folders_are_not_installed_as_top_level_packages(package):
+    import tomllib
+
+    find = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]["find"]
+    assert all(not pattern.startswith(package) for pattern in find["include"])
