@@ -15,7 +15,7 @@ from ..io.lighting import make_lighting
 from ..lighting.adaptive import LightingModel, fit_model
 from ..lighting.order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE
 from ..sh.window import default_width
-from .settings import Settings
+from .settings import MODELS, Settings, check_choice
 
 UNITS_HDR = "input radiance units"
 UNITS_LDR = "relative: 1 = the LDR camera's clip level (white)"
@@ -26,8 +26,7 @@ def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model:
     """Panorama pixels (uint8 sRGB LDR or float linear HDR) -> (LightingModel, Estimate), unscaled and with
     the model's own deringing. lmax: None (auto for model "auto", 2 for "sh"), "auto" or an int.
     deringing: None = the model's default ("auto" with lights, "none" for SH only)."""
-    if model not in ("auto", "sh"):
-        raise PanoLightError(f"model must be 'auto' or 'sh', got {model!r}")
+    check_choice("model", model, MODELS)
     lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
     est = estimate(pixels, DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax), estimator)
     return fit_radiance(est.radiance, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,

@@ -19,14 +19,13 @@ MODELS = {  # name -> (label, one line)
                             "the rest needs, deringed only if ringing would show"),
     "sh": ("SH only", "SH only, at --lmax (default 2)"),
 }
-WINDOWS = {  # deringing: name -> (label, one line)
+_FAMILY_LABELS = {"sinc4": "sinc^4", "lanczos": "Lanczos", "hanning": "Hanning"}
+WINDOWS = {  # deringing: name -> (label, one line); the fixed families are sh.window's
     "none": ("Model's choice", "leave deringing to --model (lights + SH dering only where ringing would show)"),
     "auto": ("Auto sinc^4", "the weakest sinc^4 window that leaves the radiance non-negative"),
-    "sinc4": ("sinc^4", "a fixed sinc^4 window of --window-width"),
-    "lanczos": ("Lanczos", "a fixed Lanczos window of --window-width"),
-    "hanning": ("Hanning", "a fixed Hanning window of --window-width"),
+    **{f: (_FAMILY_LABELS.get(f, f), f"a fixed {_FAMILY_LABELS.get(f, f)} window of --window-width")
+       for f in FAMILIES},
 }
-assert set(WINDOWS) == {"none", "auto", *FAMILIES}
 MAX_LMAX = 100  # a fixed order beyond the adaptive range; render-mitsuba caps what it renders lower
 MAX_EXPOSURE_EV = 60.0  # 2^60 keeps any clip-level radiance finite in float32 outputs
 RANGES = {"tolerance": (0.0, 1.0), "window_width": (1e-6, 1e6), "exposure_ev": (-MAX_EXPOSURE_EV, MAX_EXPOSURE_EV)}
@@ -51,8 +50,8 @@ class Settings:
         from ..estimators import resolve
 
         resolve(self.estimator)  # unknown or unavailable names fail here, before any reading
-        _choice("model", self.model, MODELS)
-        _choice("window", self.window, WINDOWS)
+        check_choice("model", self.model, MODELS)
+        check_choice("window", self.window, WINDOWS)
         if self.lmax is not None:
             object.__setattr__(self, "lmax", parse_lmax(str(self.lmax), "lmax"))
         for name, (lo, hi) in RANGES.items():
@@ -69,7 +68,8 @@ class Settings:
         return self.lmax
 
 
-def _choice(name: str, value, table: dict) -> None:
+def check_choice(name: str, value, table: dict) -> None:
+    """PanoLightError unless value is a key of table (MODELS, WINDOWS)."""
     if value not in table:
         raise PanoLightError(f"{name} must be one of {', '.join(table)}, got {value!r}")
 
@@ -111,7 +111,7 @@ def _argparse_type(check, *args):
 
 
 def _window(text: str) -> str:
-    _choice("--window", text, WINDOWS)
+    check_choice("--window", text, WINDOWS)
     return text
 
 
