@@ -1,2 +1,11 @@
-"""PanoLight core: SH maths, image I/O and lighting files. numpy-only at import (no bpy, no torch)."""
+"""PanoLight core: HDR lighting from 360-degree panoramas. numpy-only at import (no bpy, no torch).
+
+The stages, in the order a panorama goes through them:
+    camera/      the LDR camera model and its inverse (sRGB, exposure, JPEG)
+    estimators/  what the camera clipped: analytic highlights, learned per-source energy, the network
+    lighting/    the lighting model: explicit lights + SH at the order the scene needs
+    pipeline/    estimate_lighting(pixels, Settings) -> the lighting document; run_estimate: file -> folder
+with sh/ (the SH maths), io/ (images and lighting.json) and apps/ (the panolight command, batch,
+evaluation). See docs/development.md.
+"""
 __version__ = "0.1.0"
