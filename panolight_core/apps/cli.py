@@ -27,6 +27,11 @@ outputs (in OUTDIR; nothing is written anywhere else):
   radiance.exr    the SH part's radiance map at --resolution (the lights are in lighting.json)
   irradiance.exr  diffuse irradiance of the whole model (lights + SH) for a surface facing each direction
   preview.png     input | SH radiance | a white diffuse sphere lit by the estimate, each auto-exposed
+  lighting.usda   the same lighting as a USD stage (Z up, metersPerUnit 1; needs usd-core): variant
+                  "lights" = a DomeLight with radiance.exr + a DistantLight per light (lighting.json's
+                  model), variant "hdri" = a DomeLight with hdr.exr (its sources already in the image)
+--outputs lighting,hdr,previews picks the groups (lighting.json, radiance.exr, lighting.usda | hdr.exr |
+irradiance.exr, preview.png); an earlier run's files outside the chosen groups are removed.
 """
 
 EPILOG_ESTIMATE = f"""\
@@ -65,7 +70,7 @@ writes OUTDIR/eval.md, eval.json and speed_accuracy.png. Expect about a minute w
 def _job_kwargs(args) -> dict:
     """pipeline.run_estimate's file options from parsed arguments (the estimate settings go separately)."""
     return {"resolution": args.resolution, "repair_nonfinite": args.repair_nonfinite,
-            "max_megapixels": args.max_megapixels, "overwrite": args.overwrite}
+            "max_megapixels": args.max_megapixels, "overwrite": args.overwrite, "outputs": args.outputs}
 
 
 def run_estimate(args) -> int:
@@ -156,6 +161,13 @@ def _add_estimate_options(p, default_estimator="auto"):
     estimate_settings.add_arguments(p, default_estimator)
     p.add_argument("--resolution", type=resolution, default=(512, 256),
                    help="size of radiance.exr / irradiance.exr, WxH (default 512x256)")
+    from ..pipeline.job import OUTPUT_GROUPS, parse_outputs
+
+    p.add_argument("--outputs", type=estimate_settings.argparse_type(parse_outputs), default=tuple(OUTPUT_GROUPS),
+                   metavar="GROUPS",
+                   help="what to write, comma-separated (default all): " + "; ".join(
+                       f"{g}: {', '.join(files)}" for g, files in OUTPUT_GROUPS.items())
+                   + " (lighting.usda needs usd-core; lighting is always written)")
     p.add_argument("--repair-nonfinite", action="store_true", help="replace NaN/Inf pixels instead of refusing")
     from ..io.images import DEFAULT_MAX_MEGAPIXELS, MAX_PIXELS
 

@@ -3,31 +3,50 @@ from __future__ import annotations
 
 import hashlib
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from .. import sh
 from ..camera import ldr_to_linear
-from ..errors import PanoLightError
+from ..errors import PanoLightError, PanoLightWarning
 from ..io import read_image, write_image, write_srgb8
 from ..io.atomic import pid_alive
 from ..io.lighting import write_lighting
 from .estimate import estimate_lighting, require_finite
 from .settings import Settings
 
-OUTPUT_FILES = ("lighting.json", "hdr.exr", "radiance.exr", "irradiance.exr", "preview.png")
+OUTPUT_GROUPS = {  # --outputs: what each group writes
+    "lighting": ("lighting.json", "radiance.exr", "lighting.usda"),  # the model; usda needs usd-core
+    "hdr": ("hdr.exr",),  # the full-resolution HDR panorama (the costly one at 8K-16K)
+    "previews": ("irradiance.exr", "preview.png"),
+}
+OUTPUT_FILES = ("lighting.json", "hdr.exr", "radiance.exr", "irradiance.exr", "preview.png", "lighting.usda")
+
+
+def parse_outputs(text) -> tuple[str, ...]:
+    """'lighting,hdr' (or a sequence of group names) -> the OUTPUT_GROUPS chosen, in table order.
+    lighting is always written (it is the record the others belong to)."""
+    names = [n.strip() for n in (text.split(",") if isinstance(text, str) else text) if n.strip()]
+    bad = [n for n in names if n not in OUTPUT_GROUPS]
+    if bad or not names:
+        raise PanoLightError(f"--outputs takes a comma-separated list of {', '.join(OUTPUT_GROUPS)}, got {text!r}")
+    return tuple(g for g in OUTPUT_GROUPS if g in names or g == "lighting")
 
 
 def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(512, 256),
                  repair_nonfinite: bool = False, max_megapixels: float | None = None, overwrite: bool = False,
-                 log=None) -> dict:
+                 outputs=tuple(OUTPUT_GROUPS), log=None) -> dict:
     """Estimate the lighting of panorama ``src`` (pipeline.estimate_lighting with ``settings``) and write
-    OUTPUT_FILES into ``out_dir`` (created). resolution: (W, H) of radiance.exr / irradiance.exr.
-    max_megapixels: the decoding budget (io.images). Files in out_dir that an earlier PanoLight run did not
-    write are kept unless ``overwrite``. Returns the lighting document written. Raises PanoLightError."""
+    the files of the ``outputs`` groups (OUTPUT_GROUPS) into ``out_dir`` (created). resolution: (W, H) of
+    radiance.exr / irradiance.exr. max_megapixels: the decoding budget (io.images). Files in out_dir that
+    an earlier PanoLight run did not write are kept unless ``overwrite``; an earlier run's outputs that
+    this run does not write are removed, so the folder never mixes two runs. Returns the lighting
+    document written. Raises PanoLightError."""
     log = log or (lambda msg: None)
     src, out_dir = Path(src), Path(out_dir)
+    outputs = parse_outputs(outputs)
     for name in OUTPUT_FILES:  # an output never replaces the input (estimate hdr.exr -o . would)
         if (out_dir / name).resolve() == src.resolve():
             raise PanoLightError(f"{src}: the output {name} in {out_dir} would overwrite the input; "
@@ -50,11 +69,12 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
     log(f"reconstructing radiance and irradiance at {w}x{h}" +
         (f" ({len(fitted.lights)} light(s))" if fitted.lights else ""))
     with np.errstate(over="ignore", invalid="ignore"):
-        radiance = sh.reconstruct(fitted.coeffs, h, w).astype(np.float32)
-        irradiance = fitted.irradiance_map(h, w).astype(np.float32)
-    hdri = result.hdr_panorama(pixels)
-    require_finite({"radiance.exr": radiance, "irradiance.exr": irradiance, "hdr.exr": hdri},
-                   settings.exposure_ev, f"{src}: ")  # refused before anything is written
+        maps = {"radiance.exr": sh.reconstruct(fitted.coeffs, h, w).astype(np.float32)}
+        if "previews" in outputs:
+            maps["irradiance.exr"] = fitted.irradiance_map(h, w).astype(np.float32)
+    if "hdr" in outputs:
+        maps["hdr.exr"] = result.hdr_panorama(pixels)
+    require_finite(maps, settings.exposure_ev, f"{src}: ")  # refused before anything is written
     doc = result.document
     doc["source"] = {"path": str(src), "sha256": hashlib.sha256(src.read_bytes()).hexdigest(),
                      "width": int(pixels.shape[1]), "height": int(pixels.shape[0]),
@@ -63,31 +83,46 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
     out_dir.mkdir(parents=True, exist_ok=True)
     log(f"writing {out_dir}/")
     with _folder_lock(out_dir):
-        return _write_outputs(out_dir, pixels, doc, fitted, radiance, irradiance, hdri)
+        return _write_outputs(out_dir, pixels, doc, fitted, maps, outputs)
 
 
-def _write_outputs(out_dir, pixels, doc, fitted, radiance, irradiance, hdri) -> dict:
+def _write_outputs(out_dir, pixels, doc, fitted, maps, outputs) -> dict:
     t2 = time.perf_counter()
-    from .preview import estimate_preview
-
-    shown = ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
-    preview = estimate_preview(shown, radiance, fitted, sh.lmax_from_count(fitted.coeffs.shape[0]))
     import os
     import shutil
+
+    from ..io.usd import usd_available, write_usd
 
     # the whole set is written into a private folder and renamed into place, lighting.json last: an
     # interrupted run leaves nothing half-done, and readers never see a mix of two runs
     stage = out_dir / f".panolight-{os.getpid()}"
     stage.mkdir(exist_ok=True)
+    written = []
     try:
-        write_image(stage / "hdr.exr", hdri)
-        write_image(stage / "radiance.exr", radiance)
-        write_image(stage / "irradiance.exr", irradiance)
-        write_srgb8(stage / "preview.png", preview)
+        for name, image in maps.items():
+            write_image(stage / name, image)
+            written.append(name)
+        if "previews" in outputs:
+            from .preview import estimate_preview
+
+            shown = ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
+            write_srgb8(stage / "preview.png", estimate_preview(shown, maps["radiance.exr"], fitted,
+                                                                sh.lmax_from_count(fitted.coeffs.shape[0])))
+            written.append("preview.png")
+        if usd_available():
+            write_usd(stage / "lighting.usda", doc, hdri="hdr.exr" if "hdr" in outputs else None)
+            written.append("lighting.usda")
+        else:
+            warnings.warn("lighting.usda not written: usd-core is not installed (pip install usd-core)",
+                          PanoLightWarning, stacklevel=3)
         doc["timings"]["write_s"] = round(time.perf_counter() - t2, 6)
         write_lighting(stage / "lighting.json", doc)
-        for name in OUTPUT_FILES[1:] + OUTPUT_FILES[:1]:  # lighting.json (first in the list) moves last
+        for name in written:
             os.replace(stage / name, out_dir / name)
+        for name in OUTPUT_FILES:  # an earlier run's outputs this run did not write: never a mix of runs
+            if name not in written and name != "lighting.json":
+                (out_dir / name).unlink(missing_ok=True)
+        os.replace(stage / "lighting.json", out_dir / "lighting.json")  # last: it marks the set complete
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     return doc

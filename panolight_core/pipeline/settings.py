@@ -101,7 +101,8 @@ def number(option: str, lo: float, hi: float, integer: bool = False):
     return parse
 
 
-def _argparse_type(check, *args):
+def argparse_type(check, *args):
+    """An argparse type from a checker that raises PanoLightError (its message becomes argparse's)."""
     def parse(text: str):
         try:
             return check(text, *args)
@@ -123,7 +124,7 @@ def add_arguments(parser, default_estimator: str = "auto") -> None:
     parser.add_argument("--model", choices=tuple(MODELS), default="auto",
                         help="; ".join(f"{n}{' (default)' if n == 'auto' else ''}: {text}"
                                        for n, (_, text) in MODELS.items()))
-    parser.add_argument("--lmax", type=_argparse_type(parse_lmax), default=None,
+    parser.add_argument("--lmax", type=argparse_type(parse_lmax), default=None,
                         help=f"SH order 0..{MAX_LMAX}, or 'auto': the smallest order 0..{DEFAULT_MAX_ORDER} within "
                              f"--tolerance (default: auto with --model auto, 2 with --model sh)")
     parser.add_argument("--tolerance", type=number("--tolerance", *RANGES["tolerance"]), default=DEFAULT_TOLERANCE,
@@ -134,7 +135,7 @@ def add_arguments(parser, default_estimator: str = "auto") -> None:
                         + f"; auto{' (default)' if default_estimator == 'auto' else ''}: {AUTO}, the best measured")
     parser.add_argument("--exposure", type=number("--exposure", *RANGES["exposure_ev"]), default=0.0, metavar="EV",
                         help="scale the estimated lighting by 2^EV (default 0)")
-    parser.add_argument("--window", type=_argparse_type(_window), default="none", metavar="KIND",
+    parser.add_argument("--window", type=argparse_type(_window), default="none", metavar="KIND",
                         help="deringing: " + "; ".join(f"{n}{' (default)' if n == 'none' else ''}: {text}"
                                                        for n, (_, text) in WINDOWS.items()))
     parser.add_argument("--window-width", type=number("--window-width", *RANGES["window_width"]), default=None,

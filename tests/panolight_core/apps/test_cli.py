@@ -17,8 +17,8 @@ def test_estimate_hdr_writes_its_outputs_and_they_are_right(tmp_path, rng):
     src = write_image(tmp_path / "in.exr", img)
     out = tmp_path / "out"
     assert main(["estimate", str(src), "-o", str(out), "--lmax", "3", "--resolution", "64x32", "-q"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["hdr.exr", "irradiance.exr", "lighting.json", "preview.png",
-                                                     "radiance.exr"]
+    assert sorted(p.name for p in out.iterdir()) == ["hdr.exr", "irradiance.exr", "lighting.json", "lighting.usda",
+                                                     "preview.png", "radiance.exr"]
     coeffs, doc = read_lighting(out / "lighting.json")
     np.testing.assert_allclose(coeffs, sh.project(img.astype(np.float64), 3), rtol=1e-5, atol=1e-6)
     np.testing.assert_array_equal(read_image(out / "hdr.exr"), img)  # an HDR input is its own HDRI
@@ -257,3 +257,17 @@ def test_the_checkout_registers_the_training_commands():
                        timeout=120)
     for name in ("estimate", "batch", "eval", "demo", "project", "train", "synth", "sheet", "render-mitsuba"):
         assert f"    {name}" in r.stdout, name
+
+
+def test_outputs_choose_the_groups_and_leave_no_mix_of_runs(tmp_path, capsys):
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    out = tmp_path / "o"
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0
+    assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "lighting"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["lighting.json", "lighting.usda", "radiance.exr"]
+    assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "hdr,previews"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["hdr.exr", "irradiance.exr", "lighting.json", "lighting.usda",
+                                                     "preview.png", "radiance.exr"]
+    with pytest.raises(SystemExit):
+        main(["estimate", str(src), "-o", str(out), "--outputs", "lighting,thumbnails"])
+    assert "--outputs takes a comma-separated list of lighting, hdr, previews" in capsys.readouterr().err

@@ -1,0 +1,135 @@
+"""lighting.usda: an estimate as a USD stage (UsdLux), for Houdini, Nuke, Omniverse and Blender's USD import.
+
+The stage is Z up (the Blender world frame of lighting.json), metersPerUnit 1, default prim /PanoLight.
+Its variant set "lighting" holds two rigs over the same folder's maps; they never add the same energy
+twice:
+- "lights" (default): the model of lighting.json. A DomeLight textured with radiance.exr (the SH part)
+  and one DistantLight per explicit light (direction, angular size, colour, intensity).
+- "hdri": a DomeLight textured with hdr.exr, whose pixels already hold the sun, lamps and windows at
+  their estimated energy (so no DistantLights).
+
+Orientation. UsdLux lat-long domes follow the OpenEXR convention with the pole along the dome's local
++Y: longitude +pi..-pi left to right, longitude 0 along local +Z, pi/2 along +X. lighting.json's
+equirect maps (CONVENTIONS.md) look along world (sin t cos l, sin t sin l, cos t) at that longitude l,
+so the dome gets the rotation DOME_TO_WORLD (local Z -> world X, X -> Y, Y -> Z). A DistantLight shines
+along its local -Z; its transform points local +Z at the light's direction. Intensity is the irradiance
+on a surface facing the light (lighting.json's intensity times its largest colour channel), colour is
+normalised to a largest channel of 1, angle is the angular diameter in degrees.
+Needs usd-core (``pip install usd-core``, the official Pixar bindings), imported only here.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import PanoLightError
+from .atomic import atomic_path
+
+DOME_TO_WORLD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # world = R @ dome-local
+VARIANTS = ("lights", "hdri")
+
+
+def _pxr():
+    try:
+        from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
+    except ImportError:
+        raise PanoLightError("writing lighting.usda needs usd-core (pip install usd-core)") from None
+    return Gf, Sdf, Usd, UsdGeom, UsdLux
+
+
+def usd_available() -> bool:
+    try:
+        _pxr()
+    except PanoLightError:
+        return False
+    return True
+
+
+def light_frame(direction) -> np.ndarray:
+    """(3, 3) rotation whose third column is the unit ``direction`` (a DistantLight's local +Z)."""
+    z = np.asarray(direction, dtype=np.float64)
+    z = z / np.linalg.norm(z)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(z[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    return np.stack([x, np.cross(z, x), z], axis=1)
+
+
+def _transform(Gf, rotation: np.ndarray):
+    """Gf.Matrix4d of a rotation (USD matrices are row-vector: row i is the image of local axis i)."""
+    m = Gf.Matrix4d(1.0)
+    for i in range(3):
+        m.SetRow(i, Gf.Vec4d(*(float(v) for v in rotation[:, i]), 0.0))
+    return m
+
+
+def write_usd(path, doc: dict, *, radiance: str = "radiance.exr", hdri: str | None = "hdr.exr") -> Path:
+    """Write the lighting document ``doc`` (io.lighting) as a USD stage at ``path`` (.usda or .usd).
+    radiance / hdri: the dome textures, relative to the stage's folder (hdri None: no "hdri" variant).
+    Written atomically. Returns the path."""
+    Gf, Sdf, Usd, UsdGeom, UsdLux = _pxr()
+    p = Path(path)
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    root = UsdGeom.Xform.Define(stage, "/PanoLight")
+    stage.SetDefaultPrim(root.GetPrim())
+    root.GetPrim().SetCustomDataByKey("panolight:units", doc.get("units", ""))
+    root.GetPrim().SetCustomDataByKey("panolight:frame", doc.get("frame", ""))
+    stage.SetMetadata("comment", "PanoLight lighting estimate (lighting.json beside it holds the full record)")
+    rigs = root.GetPrim().GetVariantSets().AddVariantSet("lighting")
+    for name in VARIANTS if hdri else VARIANTS[:1]:
+        rigs.AddVariant(name)
+        rigs.SetVariantSelection(name)
+        with rigs.GetVariantEditContext():
+            dome = UsdLux.DomeLight.Define(stage, "/PanoLight/Environment")
+            dome.CreateTextureFileAttr(Sdf.AssetPath(f"./{radiance if name == 'lights' else hdri}"))
+            dome.CreateTextureFormatAttr(UsdLux.Tokens.latlong)
+            dome.CreateIntensityAttr(1.0)
+            UsdGeom.Xformable(dome).AddTransformOp().Set(_transform(Gf, DOME_TO_WORLD))
+            if name == "lights":
+                for i, light in enumerate(doc.get("lights", [])):
+                    _distant_light(stage, Gf, UsdGeom, UsdLux, f"/PanoLight/Light_{i}", light)
+    rigs.SetVariantSelection("lights")
+    with atomic_path(p, p.suffix) as tmp:
+        stage.GetRootLayer().Export(str(tmp))
+    return p
+
+
+def _distant_light(stage, Gf, UsdGeom, UsdLux, prim_path: str, light: dict) -> None:
+    color = np.asarray(light["color"], dtype=np.float64)
+    peak = float(color.max())
+    sun = UsdLux.DistantLight.Define(stage, prim_path)
+    sun.CreateIntensityAttr(float(light["intensity"]) * peak)
+    sun.CreateColorAttr(Gf.Vec3f(*(float(c / peak) if peak > 0 else 1.0 for c in color)))
+    sun.CreateAngleAttr(math.degrees(float(light.get("angle", 0.0))))
+    UsdGeom.Xformable(sun).AddTransformOp().Set(_transform(Gf, light_frame(light["direction"])))
+    sun.GetPrim().SetCustomDataByKey("panolight:type", light.get("type", "sun"))
+
+
+def read_usd(path, variant: str = "lights") -> dict:
+    """A PanoLight stage back as {"up_axis", "meters_per_unit", "dome": {"texture", "rotation" (3, 3):
+    world = R @ local}, "lights": [{"direction", "angle" (radians), "color" (RGB irradiance per unit
+    intensity), "intensity"}]} for the chosen variant (tests and tools that check what was written)."""
+    Gf, Sdf, Usd, UsdGeom, UsdLux = _pxr()
+    stage = Usd.Stage.Open(str(path))
+    if stage is None:
+        raise PanoLightError(f"{path}: not a USD stage")
+    root = stage.GetDefaultPrim()
+    root.GetVariantSets().GetVariantSet("lighting").SetVariantSelection(variant)
+    out = {"up_axis": UsdGeom.GetStageUpAxis(stage), "meters_per_unit": UsdGeom.GetStageMetersPerUnit(stage),
+           "dome": None, "lights": []}
+    cache = UsdGeom.XformCache()
+    for prim in stage.Traverse():
+        rot = np.array(cache.GetLocalToWorldTransform(prim).ExtractRotationMatrix(), dtype=np.float64).T
+        if prim.IsA(UsdLux.DomeLight):
+            tex = UsdLux.DomeLight(prim).GetTextureFileAttr().Get()
+            out["dome"] = {"texture": tex.path, "rotation": rot}
+        elif prim.IsA(UsdLux.DistantLight):
+            lux = UsdLux.DistantLight(prim)
+            out["lights"].append({"direction": rot[:, 2], "angle": math.radians(lux.GetAngleAttr().Get()),
+                                  "color": np.array(lux.GetColorAttr().Get(), dtype=np.float64),
+                                  "intensity": float(lux.GetIntensityAttr().Get())})
+    return out

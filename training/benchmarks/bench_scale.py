@@ -1,0 +1,212 @@
+"""PanoLight at scale: 16K CLI estimates, 8K/16K Blender runs and batch throughput, against their peers.
+
+Every figure is measured in a fresh child process (peak memory is that process's maximum resident set),
+against a peer measured in the same run on the same file:
+- cli:     ``panolight estimate`` of a 16384 x 8192 JPEG (all outputs) against Pillow's full decode of
+           the file into a numpy array. Targets: time <= 2.0x, peak <= 1.3 GB.
+- blender: Load panorama + Estimate lighting + Build environment of an 8192 x 4096 JPEG with the bpy
+           module, against one ``image.pixels.foreach_get`` of the same image (target <= 2.5x), and the
+           peak of the same at 16384 x 8192 (target <= 3 GB).
+- batch:   ``panolight batch`` over N 1024 x 512 JPEGs: inputs per second (target >= 3x the 4.2 / s
+           measured before the scale work, 2026-12-01 on this 2-core machine).
+Panoramas are made from Blender's city HDRI (EVALUATION.md camera, ev 0, q90) with film grain, so the
+JPEGs are as costly to decode as photographs. Results go to stdout as a markdown table.
+
+    python -m training.benchmarks.bench_scale [--parts cli blender batch] [--repeats 3] [--batch-count 200]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import textwrap
+from pathlib import Path
+
+BATCH_BASELINE_PER_S = 4.2  # inputs / s of `panolight batch` at 1024 x 512 before the scale work (commit 8e6a3c1)
+TARGETS = {"cli_time": 2.0, "cli_peak_gb": 1.3, "blender_time": 2.5, "blender_peak_gb": 3.0, "batch_speedup": 3.0}
+
+_MAKE = """
+import sys, warnings
+import numpy as np
+from panolight_core.camera import hdr_to_ldr
+from panolight_core.camera.resample import area_downsample
+from panolight_core.data import studio_hdri
+from panolight_core.io import read_image, write_srgb8
+warnings.simplefilter("ignore")
+out, width, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+hdr = read_image(studio_hdri("city")).astype(np.float64)
+rng = np.random.default_rng(0)
+for i in range(count):
+    f = max(1, width // 1024)
+    img = area_downsample(hdr, width // 2) if width < 1024 else hdr
+    ldr = hdr_to_ldr(np.roll(img, 37 * i, axis=1), 0.0)
+    rows = []
+    for r in range(0, ldr.shape[0]):  # upsample row by row (a 16K image has no room for float copies)
+        rows.append(np.repeat(ldr[r:r + 1], f, axis=1))
+    big = np.repeat(np.concatenate(rows), f, axis=0) if f > 1 else np.concatenate(rows)
+    grain = rng.integers(-6, 7, size=(min(big.shape[0], 512), big.shape[1], 3), dtype=np.int16)
+    for r in range(0, big.shape[0], grain.shape[0]):
+        block = big[r:r + grain.shape[0]]
+        block[:] = np.clip(block.astype(np.int16) + grain[:len(block)], 0, 255).astype(np.uint8)
+    write_srgb8(f"{out}/pano{i:04d}.jpg" if count > 1 else out, big, quality=90)
+"""
+
+_PEAK = "import resource; print('PEAK', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)"
+
+
+def _child(code: str, *args) -> dict:
+    """Run code in a fresh interpreter; it prints 'TIME seconds' lines; returns times and peak bytes."""
+    r = subprocess.run([sys.executable, "-c", code + "\n" + _PEAK, *map(str, args)], capture_output=True,
+                       text=True, timeout=3600)
+    if r.returncode != 0:
+        raise SystemExit(f"bench_scale: child failed:\n{r.stdout[-2000:]}{r.stderr[-3000:]}")
+    out = {"peak": 0, "times": {}}
+    for line in r.stdout.splitlines():
+        key, _, value = line.partition(" ")
+        if key == "PEAK":
+            out["peak"] = int(value)
+        elif key == "TIME":
+            name, _, seconds = value.partition(" ")
+            out["times"][name] = float(seconds)
+    return out
+
+
+def _make(path, width, count=1):
+    _child(_MAKE, path, width, count)
+
+
+def bench_cli(tmp: Path, repeats: int) -> list[dict]:
+    src = tmp / "pano16k.jpg"
+    _make(src, 16384)
+    pillow = textwrap.dedent("""
+        import sys, time
+        import numpy as np
+        from PIL import Image
+        Image.MAX_IMAGE_PIXELS = None
+        t = time.perf_counter()
+        with Image.open(sys.argv[1]) as im:
+            a = np.asarray(im)
+        print("TIME decode", time.perf_counter() - t)
+    """)
+    cli = textwrap.dedent("""
+        import sys, time
+        from panolight_core.apps.cli import main
+        t = time.perf_counter()
+        rc = main(["estimate", sys.argv[1], "-o", sys.argv[2], "-q", "--overwrite"])
+        print("TIME estimate", time.perf_counter() - t)
+        sys.exit(rc)
+    """)
+    rows = []
+    for _ in range(repeats):  # interleaved, so drift hits both alike
+        p = _child(pillow, src)
+        c = _child(cli, src, tmp / "out16k")
+        rows.append({"decode_s": p["times"]["decode"], "decode_peak": p["peak"],
+                     "estimate_s": c["times"]["estimate"], "estimate_peak": c["peak"]})
+    return rows
+
+
+_BLENDER = """
+import sys, time
+import bpy
+import numpy as np
+import blender_addon
+bpy.ops.wm.read_factory_settings(use_empty=True)
+blender_addon.register()
+path = sys.argv[1]
+if sys.argv[2] == "read":
+    image = bpy.data.images.load(path)
+    t = time.perf_counter()
+    buf = np.empty(image.size[0] * image.size[1] * image.channels, np.float32)
+    image.pixels.foreach_get(buf)
+    print("TIME read", time.perf_counter() - t)
+else:
+    t = time.perf_counter()
+    assert bpy.ops.panolight.load_panorama(filepath=path) == {"FINISHED"}
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+    print("TIME lit", time.perf_counter() - t)
+"""
+
+
+def bench_blender(tmp: Path, repeats: int) -> dict:
+    src8, src16 = tmp / "pano8k.jpg", tmp / "pano16k.jpg"
+    _make(src8, 8192)
+    if not src16.exists():
+        _make(src16, 16384)
+    rows = []
+    for _ in range(repeats):
+        read = _child(_BLENDER, src8, "read")
+        lit = _child(_BLENDER, src8, "lit")
+        rows.append({"read_s": read["times"]["read"], "lit_s": lit["times"]["lit"]})
+    peak16 = _child(_BLENDER, src16, "lit")
+    return {"rows": rows, "peak16": peak16["peak"], "lit16_s": peak16["times"]["lit"]}
+
+
+_BATCH = """
+import sys, time
+from panolight_core.apps.cli import main
+t = time.perf_counter()
+rc = main(["batch", sys.argv[1], "-o", sys.argv[2], "-q", "--overwrite"] + sys.argv[3:])
+print("TIME batch", time.perf_counter() - t)
+"""
+
+
+def bench_batch(tmp: Path, count: int, repeats: int, extra: list[str]) -> list[float]:
+    folder = tmp / "batch_in"
+    folder.mkdir(exist_ok=True)
+    _make(folder, 1024, count)
+    times = []
+    for k in range(repeats):
+        times.append(_child(_BATCH, folder, tmp / f"batch_out{k}", *extra)["times"]["batch"])
+    return times
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--parts", nargs="+", choices=("cli", "blender", "batch"), default=["cli", "blender", "batch"])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--batch-count", type=int, default=200)
+    ap.add_argument("--batch-args", nargs=argparse.REMAINDER, default=[],
+                    help="extra arguments for panolight batch (e.g. --outputs lighting)")
+    ap.add_argument("--json", help="also write the raw numbers here")
+    args = ap.parse_args(argv)
+    med = statistics.median
+    gb = 1e9
+    lines = ["| measurement | PanoLight | peer | ratio | target | met |", "|---|---:|---:|---:|---:|---|"]
+    raw = {}
+    with tempfile.TemporaryDirectory() as t:
+        tmp = Path(t)
+        if "cli" in args.parts:
+            rows = raw["cli"] = bench_cli(tmp, args.repeats)
+            est, dec = med(r["estimate_s"] for r in rows), med(r["decode_s"] for r in rows)
+            peak = max(r["estimate_peak"] for r in rows) / gb
+            lines.append(f"| CLI estimate, 16K JPEG (s) | {est:.2f} | Pillow decode {dec:.2f} | {est / dec:.2f}x | "
+                         f"<= {TARGETS['cli_time']}x | {'yes' if est / dec <= TARGETS['cli_time'] else 'no'} |")
+            lines.append(f"| CLI peak memory, 16K JPEG (GB) | {peak:.2f} | Pillow decode "
+                         f"{max(r['decode_peak'] for r in rows) / gb:.2f} | | <= {TARGETS['cli_peak_gb']} | "
+                         f"{'yes' if peak <= TARGETS['cli_peak_gb'] else 'no'} |")
+        if "blender" in args.parts:
+            b = raw["blender"] = bench_blender(tmp, args.repeats)
+            lit, read = med(r["lit_s"] for r in b["rows"]), med(r["read_s"] for r in b["rows"])
+            lines.append(f"| Blender load + estimate + build, 8K JPEG (s) | {lit:.2f} | one pixel read {read:.2f} | "
+                         f"{lit / read:.2f}x | <= {TARGETS['blender_time']}x | "
+                         f"{'yes' if lit / read <= TARGETS['blender_time'] else 'no'} |")
+            lines.append(f"| Blender peak memory, 16K JPEG (GB) | {b['peak16'] / gb:.2f} | | | "
+                         f"<= {TARGETS['blender_peak_gb']} | {'yes' if b['peak16'] / gb <= TARGETS['blender_peak_gb'] else 'no'} |")
+        if "batch" in args.parts:
+            times = raw["batch"] = bench_batch(tmp, args.batch_count, args.repeats, args.batch_args)
+            rate = args.batch_count / med(times)
+            lines.append(f"| batch, {args.batch_count} JPEGs of 1024 x 512 (inputs / s) | {rate:.1f} | before "
+                         f"{BATCH_BASELINE_PER_S:.1f} | {rate / BATCH_BASELINE_PER_S:.2f}x | >= {TARGETS['batch_speedup']}x | "
+                         f"{'yes' if rate / BATCH_BASELINE_PER_S >= TARGETS['batch_speedup'] else 'no'} |")
+    print("\n".join(lines))
+    if args.json:
+        Path(args.json).write_text(json.dumps(raw, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
