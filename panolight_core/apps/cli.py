@@ -92,8 +92,10 @@ def run_project(args) -> int:
 
 
 def run_batch(args) -> int:
+    import functools
+
     from ..pipeline import run_estimate as job
-    from .batch import collect_inputs, parse_shard, run_batch as batch
+    from .batch import collect_inputs, default_jobs, parse_shard, run_batch as batch
 
     shard_spec = parse_shard(args.shard)
     settings = estimate_settings.from_args(args)
@@ -106,9 +108,9 @@ def run_batch(args) -> int:
         recorded = {"lmax": settings.lmax, "estimator": settings.estimator, "model": settings.model,
                     "exposure_ev": settings.exposure_ev, "window": settings.window,
                     "window_width": settings.window_width, "tolerance": settings.tolerance,
-                    **{k: (list(v) if isinstance(v, tuple) else v) for k, v in kwargs.items()}}
-        report = batch(inputs, Path(args.output), lambda src, dst: job(src, dst, settings, **kwargs), shard_spec,
-                       args.quiet, settings=recorded)
+                    **{k: (list(v) if isinstance(v, tuple) else v) for k, v in kwargs.items() if k not in ("overwrite", "max_megapixels")}}
+        report = batch(inputs, Path(args.output), functools.partial(job, settings=settings, **kwargs), shard_spec,
+                       args.quiet, settings=recorded, jobs=args.jobs or default_jobs())
     print(f"batch: {report['ok']} ok, {report['skipped']} up to date, {report['failed']} failed of "
           f"{report['this_shard']} "
           f"(shard {report['shard']} of {report['total_inputs']} inputs); report: {report['report_path']}",
@@ -230,6 +232,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--list", help="a text file with one input path per line ('#' comments allowed)")
     b.add_argument("--recursive", action="store_true", help="also search sub-folders of the given folders")
     b.add_argument("--shard", help="run only shard I of N, written I/N (1 <= I <= N)")
+    b.add_argument("--jobs", type=estimate_settings.number("--jobs", 0, 256, integer=True), default=0, metavar="N",
+                   help="worker processes (default 0: one per CPU this process may use; 1: no pool)")
 
     e = _command(sub, "eval", run_eval, help="score every estimator on the eight Blender studio HDRIs",
                  description="Evaluate estimators with the EVALUATION.md metrics and protocol.", epilog=EPILOG_EVAL)

@@ -32,3 +32,20 @@ def area_downsample(img: np.ndarray, height: int, width: int | None = None) -> n
     xs = np.linspace(0, w, width + 1).astype(int)
     rows = np.add.reduceat(img.astype(np.float64), ys[:-1], axis=0) / np.diff(ys)[:, None, None]
     return np.add.reduceat(rows, xs[:-1], axis=1) / np.diff(xs)[None, :, None]
+
+
+def sample_equirect(img: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Bilinear lookup of an (H, W, C) equirect map (CONVENTIONS.md frame, pixel centres at +0.5) at
+    (..., 3) unit directions -> (..., C) float64; columns wrap around, rows clamp at the poles."""
+    h, w = img.shape[:2]
+    d = np.asarray(directions, dtype=np.float64)
+    u = (0.5 - np.arctan2(d[..., 1], d[..., 0]) / (2.0 * np.pi)) % 1.0
+    v = np.arccos(np.clip(d[..., 2], -1.0, 1.0)) / np.pi
+    x, y = u * w - 0.5, np.clip(v * h - 0.5, 0.0, h - 1.0)
+    x0, y0 = np.floor(x).astype(np.int64), np.minimum(np.floor(y).astype(np.int64), h - 2 if h > 1 else 0)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+    x0, x1 = x0 % w, (x0 + 1) % w
+    y1 = np.minimum(y0 + 1, h - 1)
+    top = img[y0, x0] * (1 - fx) + img[y0, x1] * fx
+    bottom = img[y1, x0] * (1 - fx) + img[y1, x1] * fx
+    return top * (1 - fy) + bottom * fy

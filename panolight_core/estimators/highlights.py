@@ -88,6 +88,48 @@ def label_blobs(mask: np.ndarray) -> tuple[np.ndarray, int]:
     return labels, int(ids.size)
 
 
+def component_at(mask: np.ndarray, y: int, x: int) -> np.ndarray:
+    """Boolean mask of the connected component of ``mask`` holding pixel (y, x), with label_blobs'
+    connectivity (4-neighbours, the seam, across the poles), found by a flood fill over horizontal runs
+    from that pixel: the cost is the component's runs, not the whole map's. Empty if (y, x) is outside."""
+    h, w = mask.shape
+    out = np.zeros((h, w), dtype=bool)
+    if not mask[y, x]:
+        return out
+    runs = {}
+
+    def row_runs(r):
+        if r not in runs:
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], mask[r].astype(np.int8), [0]])))
+            runs[r] = (edges[::2], edges[1::2])
+        return runs[r]
+
+    stack = [(y, x)]
+    while stack:
+        r, c = stack.pop()
+        if out[r, c] or not mask[r, c]:
+            continue
+        starts, ends = row_runs(r)
+        k = int(np.searchsorted(starts, c, side="right")) - 1
+        x0, x1 = int(starts[k]), int(ends[k])
+        out[r, x0:x1] = True
+        if x0 == 0 and mask[r, w - 1]:  # the seam joins the first and last columns
+            stack.append((r, w - 1))
+        if x1 == w and mask[r, 0]:
+            stack.append((r, 0))
+        for rr in (r - 1, r + 1):
+            if 0 <= rr < h:
+                s2, e2 = row_runs(rr)
+                for a in np.flatnonzero((s2 < x1) & (e2 > x0)):
+                    stack.append((rr, max(int(s2[a]), x0)))
+        if r in (0, h - 1):  # across the pole: column x meets column x + w/2
+            cols = np.arange(x0, x1)
+            for t in np.unique(np.concatenate([(cols + w // 2) % w, (cols - w // 2) % w])):
+                if mask[r, t] and not out[r, t]:
+                    stack.append((r, int(t)))
+    return out
+
+
 def _ring_fit(ang, lum, wts):
     """Weighted least-squares slope of log(lum) on log(ang): returns -slope (the exponent p)."""
     x, y = np.log(ang), np.log(lum)

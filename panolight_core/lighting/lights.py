@@ -29,7 +29,7 @@ import numpy as np
 
 from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
-from ..estimators.highlights import label_blobs
+from ..estimators.highlights import component_at
 from ..camera.resample import area_downsample
 
 PEAK_RATIO = 50.0
@@ -73,12 +73,6 @@ def _peak_direction(full: np.ndarray, core: np.ndarray) -> np.ndarray | None:
     return d / n if n > 0 else None
 
 
-def _component_at(mask: np.ndarray, y: int, x: int) -> np.ndarray:
-    """Boolean mask of the connected component of ``mask`` containing pixel (y, x)."""
-    labels, _ = label_blobs(mask)
-    return labels == labels[y, x]
-
-
 def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int = MAX_LIGHTS,
                    peak_ratio: float = PEAK_RATIO, max_radius_deg: float = MAX_RADIUS_DEG,
                    min_irradiance_share: float = MIN_IRRADIANCE_SHARE, threshold: float | None = None):
@@ -119,10 +113,10 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
             break
         y, x = np.unravel_index(np.argmax(np.where(avail, lum, -np.inf)), lum.shape)
         peak = float(lum[y, x])
-        region = _component_at(avail, y, x)
+        region = component_at(avail, y, x)
         tau = base
         while True:
-            core = _component_at(avail & (lum > tau), y, x) if tau < peak else np.zeros_like(avail)
+            core = component_at(avail & (lum > tau), y, x) if tau < peak else np.zeros_like(avail)
             if tau >= peak:
                 core[y, x] = True
             area = float((omega * core).sum())

@@ -99,15 +99,16 @@ def _write_outputs(out_dir, pixels, doc, fitted, maps, outputs) -> dict:
     stage.mkdir(exist_ok=True)
     written = []
     try:
-        for name, image in maps.items():
-            write_image(stage / name, image)
+        for name, image in maps.items():  # the fastest lossless codec for each: a photograph, smooth maps
+            write_image(stage / name, image, compression="piz" if name == "hdr.exr" else "rle")
             written.append(name)
         if "previews" in outputs:
             from .preview import estimate_preview
 
             shown = ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
             write_srgb8(stage / "preview.png", estimate_preview(shown, maps["radiance.exr"], fitted,
-                                                                sh.lmax_from_count(fitted.coeffs.shape[0])))
+                                                                sh.lmax_from_count(fitted.coeffs.shape[0]),
+                                                                irradiance_map=maps["irradiance.exr"]))
             written.append("preview.png")
         if usd_available():
             write_usd(stage / "lighting.usda", doc, hdri="hdr.exr" if "hdr" in outputs else None)

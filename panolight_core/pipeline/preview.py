@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..camera.color import linear_to_srgb, luminance
-from ..camera.resample import area_downsample
+from ..camera.resample import area_downsample, sample_equirect
 
 
 def exposure_for(image: np.ndarray) -> float:
@@ -38,9 +38,11 @@ def strip(panels: list[tuple[str, np.ndarray]], height: int = 256) -> np.ndarray
     return np.concatenate(out, axis=1)
 
 
-def diffuse_sphere(model, size: int = 256, albedo: float = 0.8) -> np.ndarray:
+def diffuse_sphere(model, size: int = 256, albedo: float = 0.8, irradiance_map=None) -> np.ndarray:
     """(size, size, 3) linear image of a white Lambertian sphere lit by ``model``: SH radiance
     coefficients (K, 3), or anything with an ``irradiance(normals)`` method (adaptive.LightingModel).
+    irradiance_map: the model's (H, W, 3) equirect irradiance, if already made (irradiance.exr): the
+    sphere then looks it up (bilinear) instead of evaluating the model again.
 
     The camera sits at the panorama's centre looking along +X (the middle of the panorama) with +Z up,
     so image right is -Y: the sphere is what an object placed in front of the viewer would look like.
@@ -55,7 +57,9 @@ def diffuse_sphere(model, size: int = 256, albedo: float = 0.8) -> np.ndarray:
     c = np.sqrt(np.clip(1.0 - r2, 0.0, 1.0))
     normals = np.stack([-c, -a, b], axis=-1)[inside]
     out = np.zeros((size, size, 3))
-    if hasattr(model, "irradiance"):
+    if irradiance_map is not None:
+        shade = albedo / np.pi * sample_equirect(irradiance_map, normals)
+    elif hasattr(model, "irradiance"):
         shade = albedo / np.pi * model.irradiance(normals)
     else:
         shade = albedo / np.pi * sh.irradiance(np.asarray(model, dtype=np.float64), normals)
@@ -66,14 +70,14 @@ def diffuse_sphere(model, size: int = 256, albedo: float = 0.8) -> np.ndarray:
 
 
 def estimate_preview(image: np.ndarray, radiance: np.ndarray, model, lmax: int,
-                     height: int = 256) -> np.ndarray:
+                     height: int = 256, irradiance_map=None) -> np.ndarray:
     """uint8 strip: input | SH radiance | diffuse sphere under the estimated light (each auto-exposed).
 
     model: SH coefficients or an adaptive.LightingModel (its lights then light the sphere too)."""
     n_lights = len(getattr(model, "lights", []))
     label = f"SH radiance (lmax {lmax})" + (f" + {n_lights} light(s)" if n_lights else "")
     panels = strip([("input", image), (label, radiance)], height)
-    sphere = diffuse_sphere(model, height)
+    sphere = diffuse_sphere(model, height, irradiance_map=irradiance_map)
     from PIL import Image
 
     tile = _labelled(Image.fromarray(tonemap(sphere, exposure_for(sphere))), "diffuse sphere (view +X)")

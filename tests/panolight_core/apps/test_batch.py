@@ -1,4 +1,5 @@
 import json
+from pathlib import Path
 
 import pytest
 
@@ -149,3 +150,27 @@ def test_an_interrupted_batch_reports_how_far_it_got(tmp_path):
         run_batch(inputs, tmp_path / "out", job, quiet=True, settings={"lmax": "2"})
     report = json.loads((tmp_path / "out" / "batch_report.json").read_text())
     assert report["interrupted"] and [r["status"] for r in report["results"]] == ["ok"]
+
+
+def test_worker_processes_give_the_same_report_in_input_order(tmp_path, rng):
+    import json
+
+    from panolight_core.apps.cli import main
+    from panolight_core.io import write_image
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for i in range(5):
+        write_image(folder / f"p{i}.png", rng.random((16, 32, 3)))
+    (folder / "p2.png").write_bytes(b"not an image")  # one failure in the middle
+    reports = []
+    for jobs in ("1", "2"):
+        out = tmp_path / f"out{jobs}"
+        assert main(["batch", str(folder), "-o", str(out), "-q", "--jobs", jobs]) == 1
+        doc = json.loads((out / "batch_report.json").read_text())
+        reports.append([(Path(r["input"]).name, r["status"]) for r in doc["results"]])
+        assert doc["ok"] == 4 and doc["failed"] == 1
+        for i in (0, 1, 3, 4):
+            assert (out / f"p{i}" / "lighting.json").is_file()
+    assert reports[0] == reports[1] == [("p0.png", "ok"), ("p1.png", "ok"), ("p2.png", "failed"), ("p3.png", "ok"),
+                                        ("p4.png", "ok")]

@@ -86,3 +86,22 @@ def test_beats_naive_on_synthetic_outdoor_scenes_at_ev0():
         analytic.append(metrics.irr_rmse(gt, estimate(ldr, 2, "analytic").coeffs))
     assert len(naive) >= 8
     assert np.mean(analytic) < np.mean(naive)
+
+
+def test_component_at_is_label_blobs_component(rng):
+    from panolight_core.estimators.highlights import component_at, label_blobs
+
+    for trial in range(60):
+        h = int(rng.integers(2, 24))
+        w = 2 * h
+        mask = rng.random((h, w)) < rng.uniform(0.2, 0.7)
+        if trial % 3 == 0:  # regions touching the poles and the seam
+            mask[0, :] |= rng.random(w) < 0.5
+            mask[:, 0] |= rng.random(h) < 0.5
+            mask[:, -1] |= rng.random(h) < 0.5
+        labels, _ = label_blobs(mask)
+        ys, xs = np.nonzero(mask)
+        for k in rng.choice(len(ys), size=min(4, len(ys)), replace=False) if len(ys) else []:
+            y, x = ys[k], xs[k]
+            assert np.array_equal(component_at(mask, y, x), labels == labels[y, x]), (trial, y, x)
+    assert not component_at(np.zeros((4, 8), bool), 1, 1).any()

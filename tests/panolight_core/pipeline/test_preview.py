@@ -41,3 +41,14 @@ def test_preview_strip_layout():
     assert out.dtype == np.uint8 and out.shape == (32, 64 + 4 + 64 + 4 + 32, 3)
     assert (out[:, 64:68] == 255).all()  # white gaps between the tiles
     assert strip([("a", image)], 16).shape == (16, 32, 3)
+
+
+def test_the_sphere_from_the_irradiance_map_matches_the_model():
+    lights = [{"type": "sun", "direction": [0.6, -0.48, 0.64], "color": [1, 0.9, 0.8], "intensity": 5.0,
+               "angle": 0.02}]
+    c = np.zeros((9, 3))
+    c[0], c[3] = 1.0, 0.4
+    model = LightingModel(lights, c)
+    exact = diffuse_sphere(model, 64)
+    looked_up = diffuse_sphere(model, 64, irradiance_map=model.irradiance_map(256, 512))
+    assert np.abs(looked_up - exact).max() < 0.01 * exact.max()
