@@ -233,7 +233,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--recursive", action="store_true", help="also search sub-folders of the given folders")
     b.add_argument("--shard", help="run only shard I of N, written I/N (1 <= I <= N)")
     b.add_argument("--jobs", type=estimate_settings.number("--jobs", 0, 256, integer=True), default=0, metavar="N",
-                   help="worker processes (default 0: one per CPU this process may use; 1: no pool)")
+                   help="worker processes (default 0: one more than the CPUs this process may use; 1: no pool). "
+                        "Each holds one panorama: at 16K, about 1.3 GB")
 
     e = _command(sub, "eval", run_eval, help="score every estimator on the eight Blender studio HDRIs",
                  description="Evaluate estimators with the EVALUATION.md metrics and protocol.", epilog=EPILOG_EVAL)
