@@ -34,6 +34,29 @@ def area_downsample(img: np.ndarray, height: int, width: int | None = None) -> n
     return np.add.reduceat(rows, xs[:-1], axis=1) / np.diff(xs)[None, :, None]
 
 
+BLOCK_PIXELS = 1 << 22  # pixels per row block of the block-wise passes (4 M: 16K panoramas in 32 blocks)
+
+
+def row_blocks(height: int, width: int, multiple: int = 1):
+    """(r0, r1) row ranges covering ``height`` rows of ``width`` pixels in blocks of about BLOCK_PIXELS,
+    each a multiple of ``multiple`` rows (the rows one work-map row averages) except perhaps the last."""
+    step = max(multiple, (BLOCK_PIXELS // max(width, 1)) // multiple * multiple)
+    return [(r, min(height, r + step)) for r in range(0, height, step)]
+
+
+def area_downsample_rows(img: np.ndarray, height: int, transform, width: int | None = None) -> np.ndarray:
+    """``area_downsample(transform(img), height, width)`` computed by row blocks, so ``transform`` (a
+    per-pixel map, e.g. sRGB -> linear) never makes a full-resolution copy; the same numbers (each
+    output row averages the same rows in the same order). Non-integer factors use the whole image."""
+    h, w = img.shape[:2]
+    width = 2 * height if width is None else width
+    if h <= height or h % height or w % width:
+        return area_downsample(transform(img), height, width)
+    fy = h // height
+    parts = [area_downsample(transform(img[r0:r1]), (r1 - r0) // fy, width) for r0, r1 in row_blocks(h, w, fy)]
+    return np.concatenate(parts, axis=0)
+
+
 def sample_equirect(img: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Bilinear lookup of an (H, W, C) equirect map (CONVENTIONS.md frame, pixel centres at +0.5) at
     (..., 3) unit directions -> (..., C) float64; columns wrap around, rows clamp at the poles."""

@@ -38,7 +38,7 @@ from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
 from ..errors import PanoLightError
 from .highlights import CORE_RADIUS, MAX_EXPONENT, _ring_fit, label_blobs, power_law_gain
-from ..camera.resample import area_downsample
+from ..camera.resample import area_downsample, area_downsample_rows
 
 WORK_HEIGHT = 128  # rows of the source work map (1.4 degree cells): a 0.5 degree sun still marks its cells
 MAX_REGIONS = 48  # regions modelled, largest clipped area first; smaller speckles keep the clip level
@@ -63,12 +63,16 @@ def work_maps(ldr: np.ndarray, height: int = WORK_HEIGHT):
     if a.dtype != np.uint8 or a.ndim != 3 or a.shape[-1] != 3:
         raise PanoLightError(f"source energy needs (H, W, 3) uint8 sRGB pixels, got {a.dtype} {a.shape}")
     h = min(height, a.shape[0])
-    hi = a >= 254
-    anyc = hi[..., 0] | hi[..., 1] | hi[..., 2]
-    allc = hi[..., 0] & hi[..., 1] & hi[..., 2]
-    clip = np.stack([anyc, allc], -1).astype(np.float32)
-    rad = area_downsample(SRGB8_TO_LINEAR[a], h)
-    fr = area_downsample(clip, h)
+
+    def clip_fractions(block):
+        hi = block >= 254
+        anyc = hi[..., 0] | hi[..., 1] | hi[..., 2]
+        allc = hi[..., 0] & hi[..., 1] & hi[..., 2]
+        return np.stack([anyc, allc], -1).astype(np.float32)
+
+    # by row blocks: a 16K panorama has no room for full-resolution float copies
+    rad = area_downsample_rows(a, h, lambda block: SRGB8_TO_LINEAR[block])
+    fr = area_downsample_rows(a, h, clip_fractions)
     return rad, fr[..., 0], fr[..., 1]
 
 
@@ -339,7 +343,8 @@ def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray) -> np
 def fill_full_resolution(linear: np.ndarray, clipped: np.ndarray, excess: np.ndarray,
                          centres=(), exponents=(), labels=None) -> np.ndarray:
     """Full-resolution HDR: ``linear`` (H, W, 3) plus the work map's ``excess`` (h, w, 3) put back into
-    the clipped pixels (``clipped`` (H, W) bool). Returns float32 (H, W, 3).
+    the clipped pixels (``clipped`` (H, W) bool). Returns float32 (H, W, 3). (``FullResolutionFill``
+    does the same by row blocks, for panoramas with no room for a second copy.)
 
     Cells of a region (``labels`` (h, w) ids into ``centres`` (n, 3) and ``exponents`` (n,)): the
     region's whole excess energy (sum of excess x cell solid angle) goes into its clipped pixels with
@@ -348,43 +353,85 @@ def fill_full_resolution(linear: np.ndarray, clipped: np.ndarray, excess: np.nda
     placement within the region differs from the work map. Other cells: their clipped pixels (all of
     the cell where none clipped) share the cell's excess evenly, so the cell's pixel mean gains exactly
     its excess."""
-    H, W = clipped.shape
-    h, w = excess.shape[:2]
     out = np.array(linear, dtype=np.float32, copy=True)
-    has = excess.max(axis=-1) > 0
-    if not has.any():
-        return out
-    in_region = np.zeros((h, w), bool) if labels is None else (labels >= 0) & (labels < len(centres))
-    if in_region.any():
-        cell_sr = sh.pixel_solid_angles(h, w)
-        n = len(centres)
-        lab = labels[in_region]
-        energy = np.stack([np.bincount(lab, (excess[..., c] * cell_sr)[in_region], n) for c in range(3)], -1)
-        ys, xs = np.nonzero(clipped)
-        pl = labels[(ys * h) // H, (xs * w) // W]
-        keep = pl >= 0
-        ys, xs, pl = ys[keep], xs[keep], pl[keep]
-        if ys.size:
-            d = sh.grid.directions_at(ys, xs, H, W)
-            t = np.arccos(np.clip(np.einsum("ij,ij->i", d, np.asarray(centres, dtype=np.float64)[pl]), -1.0, 1.0))
-            wt = np.maximum(t, CORE_RADIUS) ** (-np.asarray(exponents, dtype=np.float64)[pl])
-            om = sh.row_solid_angles(H, W)[ys]
-            norm = np.bincount(pl, wt * om, n)
-            got = norm > 0
-            scale = np.where(got, 1.0 / np.maximum(norm, 1e-300), 0.0)
-            out[ys, xs] += (energy[pl] * (wt * scale[pl])[:, None]).astype(np.float32)
-            in_region &= got[np.maximum(labels, 0)]  # a region without a clipped pixel falls back to its cells
-    ys_full = (np.arange(H) * h) // H  # work row of each full row
-    xs_full = (np.arange(W) * w) // W
-    row0, row1 = np.searchsorted(ys_full, np.arange(h)), np.searchsorted(ys_full, np.arange(h), side="right")
-    col0, col1 = np.searchsorted(xs_full, np.arange(w)), np.searchsorted(xs_full, np.arange(w), side="right")
-    for y, x in zip(*np.nonzero(has & ~in_region)):
-        r0, r1, c0, c1 = row0[y], row1[y], col0[x], col1[x]
-        block = clipped[r0:r1, c0:c1]
-        weight = block.astype(np.float32) if block.any() else np.ones(block.shape, np.float32)
-        # the cell's pixel mean gains excess[y, x]: pixel j gets excess x n_pixels x weight_j / sum(weight)
-        out[r0:r1, c0:c1] += (weight * (block.size / weight.sum()))[..., None] * excess[y, x].astype(np.float32)
+    fill = FullResolutionFill(np.nonzero(clipped), clipped.shape, excess, centres, exponents, labels)
+    fill.apply(out, 0, clipped)
     return out
+
+
+class FullResolutionFill:
+    """``fill_full_resolution`` split into a plan, made from the clipped pixels' coordinates (ys, xs) of an
+    (H, W) panorama, and ``apply`` to any row block of the linearised panorama, in place."""
+
+    def __init__(self, clipped_yx, shape, excess: np.ndarray, centres=(), exponents=(), labels=None):
+        H, W = shape
+        h, w = excess.shape[:2]
+        self.shape = (H, W)
+        self.clipped_yx_cache = clipped_yx
+        self.has = excess.max(axis=-1) > 0
+        self.pixels = None  # (ys, xs, add (n, 3) float32) for region pixels
+        self.cells = []  # (r0, r1, c0, c1, excess (3,) float32) of the other cells
+        if not self.has.any():
+            return
+        in_region = np.zeros((h, w), bool) if labels is None else (labels >= 0) & (labels < len(centres))
+        if in_region.any():
+            cell_sr = sh.pixel_solid_angles(h, w)
+            n = len(centres)
+            lab = labels[in_region]
+            energy = np.stack([np.bincount(lab, (excess[..., c] * cell_sr)[in_region], n) for c in range(3)], -1)
+            ys, xs = clipped_yx
+            pl = labels[(ys * h) // H, (xs * w) // W]
+            keep = pl >= 0
+            ys, xs, pl = ys[keep], xs[keep], pl[keep]
+            if ys.size:
+                d = sh.grid.directions_at(ys, xs, H, W)
+                t = np.arccos(np.clip(np.einsum("ij,ij->i", d, np.asarray(centres, dtype=np.float64)[pl]), -1.0,
+                                      1.0))
+                wt = np.maximum(t, CORE_RADIUS) ** (-np.asarray(exponents, dtype=np.float64)[pl])
+                om = sh.row_solid_angles(H, W)[ys]
+                norm = np.bincount(pl, wt * om, n)
+                got = norm > 0
+                scale = np.where(got, 1.0 / np.maximum(norm, 1e-300), 0.0)
+                self.pixels = (ys, xs, (energy[pl] * (wt * scale[pl])[:, None]).astype(np.float32))
+                in_region &= got[np.maximum(labels, 0)]  # a region without a clipped pixel falls back to its cells
+        ys_full = (np.arange(H) * h) // H  # work row of each full row
+        xs_full = (np.arange(W) * w) // W
+        row0, row1 = np.searchsorted(ys_full, np.arange(h)), np.searchsorted(ys_full, np.arange(h), side="right")
+        col0, col1 = np.searchsorted(xs_full, np.arange(w)), np.searchsorted(xs_full, np.arange(w), side="right")
+        for y, x in zip(*np.nonzero(self.has & ~in_region)):
+            self.cells.append((row0[y], row1[y], col0[x], col1[x], excess[y, x].astype(np.float32)))
+
+    def rows_touched(self) -> bool:
+        return self.pixels is not None or bool(self.cells)
+
+    def apply(self, block: np.ndarray, r0: int, clipped_block: np.ndarray) -> None:
+        """Add the recovered energy to rows r0 .. r0 + len(block) of the panorama: ``block`` float32
+        (n, W, 3) linear, in place; ``clipped_block`` (n, W) bool, those rows' clipped pixels."""
+        r1 = r0 + block.shape[0]
+        if self.pixels is not None:
+            ys, xs, add = self.pixels
+            sel = (ys >= r0) & (ys < r1)
+            block[ys[sel] - r0, xs[sel]] += add[sel]
+        for c_r0, c_r1, c0, c1, exc in self.cells:
+            if c_r1 <= r0 or c_r0 >= r1:
+                continue
+            # the cell's pixel mean gains excess: pixel j gets excess x n_pixels x weight_j / sum(weight); the
+            # weights are over the whole cell, which may span two blocks
+            cell_clipped = self._cell_clipped(c_r0, c_r1, c0, c1, r0, clipped_block)
+            weight = cell_clipped.astype(np.float32) if cell_clipped.any() else np.ones(cell_clipped.shape, np.float32)
+            part = weight * (cell_clipped.size / weight.sum())
+            a, b = max(c_r0, r0), min(c_r1, r1)
+            block[a - r0:b - r0, c0:c1] += part[a - c_r0:b - c_r0][..., None] * exc
+
+    def _cell_clipped(self, c_r0, c_r1, c0, c1, r0, clipped_block):
+        r1 = r0 + clipped_block.shape[0]
+        if c_r0 >= r0 and c_r1 <= r1:
+            return clipped_block[c_r0 - r0:c_r1 - r0, c0:c1]
+        ys, xs = self.clipped_yx_cache
+        sel = (ys >= c_r0) & (ys < c_r1) & (xs >= c0) & (xs < c1)
+        cell = np.zeros((c_r1 - c_r0, c1 - c0), bool)
+        cell[ys[sel] - c_r0, xs[sel] - c0] = True
+        return cell
 
 
 @dataclass

@@ -378,6 +378,42 @@ def write_image(path, image, *, bit_depth: int = 8, half: bool = False, quality:
     return p
 
 
+def write_exr_rows(path, height: int, width: int, blocks, *, compression: str = "piz", check=None) -> Path:
+    """Write a float32 RGB EXR of (height, width) from ``blocks``, an iterable of (first row, (n, width, 3))
+    in order, scanline by scanline: the image never exists whole in memory. ``check(block)`` may raise
+    to stop (the half-written file is removed). Written atomically; returns the path."""
+    import Imath
+    import OpenEXR
+
+    p = Path(path)
+    if not p.parent.is_dir():
+        raise ImageError(p, f"output folder {p.parent} does not exist")
+    codec = {"zip": Imath.Compression.ZIP_COMPRESSION, "piz": Imath.Compression.PIZ_COMPRESSION,
+             "rle": Imath.Compression.RLE_COMPRESSION, "none": Imath.Compression.NO_COMPRESSION}
+    if compression not in codec:
+        raise ValueError(f"EXR compression must be one of {EXR_COMPRESSIONS}, got {compression!r}")
+    header = OpenEXR.Header(int(width), int(height))
+    header["compression"] = Imath.Compression(codec[compression])
+    with atomic_path(p, p.suffix) as tmp:
+        out = OpenEXR.OutputFile(str(tmp), header)
+        try:
+            expected = 0
+            for r0, block in blocks:
+                if r0 != expected or block.shape[1:] != (width, 3):
+                    raise ValueError(f"blocks must cover rows in order with shape (n, {width}, 3)")
+                if check is not None:
+                    check(block)
+                data = np.asarray(block, dtype=np.float32)
+                out.writePixels({c: np.ascontiguousarray(data[..., i]).tobytes() for i, c in enumerate("RGB")},
+                                data.shape[0])
+                expected += data.shape[0]
+            if expected != height:
+                raise ValueError(f"blocks covered {expected} of {height} rows")
+        finally:
+            out.close()
+    return p
+
+
 def encode_srgb8(rgb8: np.ndarray, fmt: str = "png", quality: int = 95) -> bytes:
     """(H, W, 3) uint8 display-referred sRGB -> PNG or JPEG (fmt "png" | "jpeg", JPEG quality) file bytes."""
     import io as _bytes_io

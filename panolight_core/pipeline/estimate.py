@@ -58,16 +58,18 @@ class Result:
 
     def hdr_panorama(self, pixels: np.ndarray) -> np.ndarray:
         """The full-resolution HDR panorama (pipeline.hdri) in the document's units: (H, W, 3) float32."""
-        from .hdri import hdr_panorama
+        out = np.empty(pixels.shape, np.float32)
+        for r0, block in self.hdr_blocks(pixels):
+            out[r0:r0 + len(block)] = block
+        return out
+
+    def hdr_blocks(self, pixels: np.ndarray):
+        """``hdr_panorama`` by row blocks, (first row, float32 (n, W, 3)): what hdr.exr is streamed from."""
+        from .hdri import hdr_blocks
 
         with np.errstate(over="ignore", invalid="ignore"):
-            hdri = hdr_panorama(pixels, self.estimate)
-            if self.scale != 1.0:  # scaled in place by row blocks: a 16K HDRI is 1.6 GB, one copy is enough
-                if hdri is pixels:
-                    hdri = hdri.copy()
-                for r in range(0, hdri.shape[0], 256):
-                    hdri[r:r + 256] *= np.float32(self.scale)
-        return hdri
+            for r0, block in hdr_blocks(pixels, self.estimate):
+                yield r0, (block * np.float32(self.scale) if self.scale != 1.0 else block)
 
 
 def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Result:

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..camera import clipped_mask, ldr_to_linear
-from ..camera.resample import area_downsample
-from ..estimators.sources import fill_full_resolution
+from ..camera.resample import area_downsample, row_blocks
+from ..estimators.sources import FullResolutionFill, fill_full_resolution
 
 
 def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
@@ -22,14 +22,13 @@ def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
     float linear) and its ``estimators.Estimate``."""
     if pixels.dtype != np.uint8:
         return np.asarray(pixels, dtype=np.float32)
-    linear = ldr_to_linear(pixels)
     rec = getattr(est, "recovery", None)
     if rec is not None:
-        hi = pixels >= 254
-        clipped = hi[..., 0] & hi[..., 1] & hi[..., 2]  # the per-source regions are all-channel clipped
-        excess = np.maximum(rec.work - rec.base, 0.0)
-        return fill_full_resolution(linear, clipped, excess, rec.regions.centre, rec.regions.shape_exponents(),
-                                    rec.regions.labels)
+        out = np.empty(pixels.shape, np.float32)
+        for r0, block in hdr_blocks(pixels, est):
+            out[r0:r0 + len(block)] = block
+        return out
+    linear = ldr_to_linear(pixels)
     work = est.radiance
     if work is None:
         return linear
@@ -39,3 +38,32 @@ def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
         return linear
     base = area_downsample(linear, work.shape[0], work.shape[1])
     return fill_full_resolution(linear, clipped_mask(pixels), np.maximum(work - base, 0.0))
+
+
+def hdr_blocks(pixels: np.ndarray, est):
+    """The rows of ``hdr_panorama`` as (first row, float32 (n, W, 3) block), about 4 M pixels at a time:
+    what a writer streams to disk so that a 16K panorama never exists as a full float copy. The
+    per-source path is computed block by block; the others are computed whole, then cut."""
+    rec = getattr(est, "recovery", None)
+    if pixels.dtype == np.uint8 and rec is not None:
+        H, W = pixels.shape[:2]
+        h = rec.work.shape[0]
+        blocks = row_blocks(H, W, max(1, H // h) if H % h == 0 else 1)
+        clipped = [_all_clipped(pixels[r0:r1]) for r0, r1 in blocks]  # the per-source regions: all channels
+        ys = np.concatenate([np.nonzero(c)[0] + r0 for c, (r0, _) in zip(clipped, blocks)])
+        xs = np.concatenate([np.nonzero(c)[1] for c in clipped])
+        fill = FullResolutionFill((ys, xs), (H, W), np.maximum(rec.work - rec.base, 0.0), rec.regions.centre,
+                                  rec.regions.shape_exponents(), rec.regions.labels)
+        for (r0, r1), c in zip(blocks, clipped):
+            block = ldr_to_linear(pixels[r0:r1])
+            fill.apply(block, r0, c)
+            yield r0, block
+        return
+    full = hdr_panorama(pixels, est)
+    for r0, r1 in row_blocks(*full.shape[:2]):
+        yield r0, full[r0:r1]
+
+
+def _all_clipped(block: np.ndarray) -> np.ndarray:
+    hi = block >= 254
+    return hi[..., 0] & hi[..., 1] & hi[..., 2]

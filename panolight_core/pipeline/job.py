@@ -11,7 +11,9 @@ import numpy as np
 from .. import sh
 from ..camera import ldr_to_linear
 from ..errors import PanoLightError, PanoLightWarning
+from ..camera.resample import area_downsample_rows
 from ..io import read_image, write_image, write_srgb8
+from ..io.images import write_exr_rows
 from ..io.atomic import pid_alive
 from ..io.lighting import write_lighting
 from .estimate import estimate_lighting, require_finite
@@ -72,21 +74,25 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
         maps = {"radiance.exr": sh.reconstruct(fitted.coeffs, h, w).astype(np.float32)}
         if "previews" in outputs:
             maps["irradiance.exr"] = fitted.irradiance_map(h, w).astype(np.float32)
-    if "hdr" in outputs:
-        maps["hdr.exr"] = result.hdr_panorama(pixels)
     require_finite(maps, settings.exposure_ev, f"{src}: ")  # refused before anything is written
     doc = result.document
     doc["source"] = {"path": str(src), "sha256": hashlib.sha256(src.read_bytes()).hexdigest(),
                      "width": int(pixels.shape[1]), "height": int(pixels.shape[0]),
                      "dynamic_range": "ldr-8bit-srgb" if pixels.dtype == np.uint8 else "hdr"}
     doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
+    created = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
     log(f"writing {out_dir}/")
-    with _folder_lock(out_dir):
-        return _write_outputs(out_dir, pixels, doc, fitted, maps, outputs)
+    try:
+        with _folder_lock(out_dir):
+            return _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, settings.exposure_ev)
+    except BaseException:  # refused or interrupted mid-write: a folder this run made is not left behind
+        if created and out_dir.is_dir() and not any(out_dir.iterdir()):
+            out_dir.rmdir()
+        raise
 
 
-def _write_outputs(out_dir, pixels, doc, fitted, maps, outputs) -> dict:
+def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev) -> dict:
     t2 = time.perf_counter()
     import os
     import shutil
@@ -99,13 +105,18 @@ def _write_outputs(out_dir, pixels, doc, fitted, maps, outputs) -> dict:
     stage.mkdir(exist_ok=True)
     written = []
     try:
-        for name, image in maps.items():  # the fastest lossless codec for each: a photograph, smooth maps
-            write_image(stage / name, image, compression="piz" if name == "hdr.exr" else "rle")
+        fitted = result.model
+        for name, image in maps.items():  # RLE: the fastest lossless codec for smooth maps
+            write_image(stage / name, image, compression="rle")
             written.append(name)
+        if "hdr" in outputs:  # streamed by row blocks (PIZ: the fast lossless codec for photographs)
+            write_exr_rows(stage / "hdr.exr", pixels.shape[0], pixels.shape[1], result.hdr_blocks(pixels),
+                           check=lambda block: require_finite({"hdr.exr": block}, exposure_ev, f"{src}: "))
+            written.append("hdr.exr")
         if "previews" in outputs:
-            from .preview import estimate_preview
+            from .preview import PREVIEW_HEIGHT, estimate_preview
 
-            shown = ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
+            shown = area_downsample_rows(pixels, min(PREVIEW_HEIGHT, pixels.shape[0]), _linear)
             write_srgb8(stage / "preview.png", estimate_preview(shown, maps["radiance.exr"], fitted,
                                                                 sh.lmax_from_count(fitted.coeffs.shape[0]),
                                                                 irradiance_map=maps["irradiance.exr"]))
@@ -127,6 +138,10 @@ def _write_outputs(out_dir, pixels, doc, fitted, maps, outputs) -> dict:
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     return doc
+
+
+def _linear(block: np.ndarray) -> np.ndarray:
+    return ldr_to_linear(block) if block.dtype == np.uint8 else block
 
 
 def _check_foreign_outputs(out_dir: Path) -> None:

@@ -7,6 +7,9 @@ from ..camera.color import linear_to_srgb, luminance
 from ..camera.resample import area_downsample, sample_equirect
 
 
+PREVIEW_HEIGHT = 256  # rows of each preview tile
+
+
 def exposure_for(image: np.ndarray) -> float:
     """Scale putting the median luminance at 0.18 (the EVALUATION.md auto-exposure), 1 if degenerate."""
     med = float(np.median(luminance(image)))

@@ -179,7 +179,7 @@ def test_sigterm_mid_write_exits_143_and_leaves_no_temporary_files(tmp_path, cap
     out = tmp_path / "o"
     assert main(["estimate", str(src), "-o", str(out), "-q"]) == 143
     assert "terminated" in capsys.readouterr().err
-    assert list(out.iterdir()) == []  # nothing half-done: no outputs, no temporary files, no lock
+    assert not out.exists()  # nothing half-done: no outputs, no temporary files, no lock, not even the folder
     assert signal.getsignal(signal.SIGTERM) is not None  # the previous handler is back
 
 
@@ -271,3 +271,11 @@ def test_outputs_choose_the_groups_and_leave_no_mix_of_runs(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["estimate", str(src), "-o", str(out), "--outputs", "lighting,thumbnails"])
     assert "--outputs takes a comma-separated list of lighting, hdr, previews" in capsys.readouterr().err
+
+
+def test_an_hdri_that_would_overflow_alone_is_refused_and_leaves_no_folder(tmp_path, capsys):
+    img = np.full((16, 32, 3), 1e-3, np.float32)
+    img[8, 16] = 3.0e37  # one pixel: the SH and maps stay finite, the scaled HDRI's pixel does not
+    src = write_image(tmp_path / "spike.exr", img)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "--exposure", "4", "-q"]) == 1
+    assert "hdr.exr would not be finite" in capsys.readouterr().err and not (tmp_path / "o").exists()
