@@ -288,7 +288,11 @@ def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: 
         else:
             import multiprocessing
 
-            pool = multiprocessing.get_context().Pool(min(jobs, len(tasks)), initializer=_worker_init)
+            # forkserver/spawn: workers start from a clean process, never a fork of one whose library
+            # thread pools (OpenEXR's, BLAS's) would hang in the child
+            methods = multiprocessing.get_all_start_methods()
+            ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+            pool = ctx.Pool(min(jobs, len(tasks)), initializer=_worker_init)
             for k, result in pool.imap_unordered(_process_task, tasks):
                 record(k, result)
             pool.close()

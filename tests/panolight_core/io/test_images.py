@@ -298,3 +298,17 @@ def test_srgb8_pixels_are_written_as_they_are(tmp_path):
         with pytest.raises(ImageError, match=msg):
             write_srgb8(tmp_path / path, bad)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.jpg", "a.png"]  # no temporary files left
+
+
+def test_large_images_are_copied_out_in_strips_with_the_same_pixels():
+    from PIL import Image
+
+    from panolight_core.io import images
+
+    y, x = np.mgrid[0:64, 0:128]
+    px = np.stack([x * 2, y * 4, (x + y) % 256], -1).astype(np.uint8)
+    with Image.fromarray(px) as im:
+        assert np.array_equal(images._pil_rgb(im), px)
+    big = np.tile(px, (50, 50, 1))  # 3200 x 6400 = 20 MP: above the strip threshold (16.8 MP)
+    with Image.fromarray(big) as im:
+        assert np.array_equal(images._pil_rgb(im), big)
