@@ -53,9 +53,25 @@ def _settings(context):
 
 
 def _fit(pixels, settings):
-    """Runs in a worker thread: numpy only, never bpy. Returns (lighting document, HDRI (H, W, 3))."""
-    result = core.pipeline.estimate_lighting(pixels, settings)
-    return result.document, result.hdr_panorama(pixels)
+    """Runs in a worker thread: numpy only, never bpy. Returns the core's pipeline.Result."""
+    return core.pipeline.estimate_lighting(pixels, settings)
+
+
+def _read_panorama(image):
+    """The panorama's pixels for the core: one pixel read, validated like a file (NaN refused, negative
+    radiance clamped)."""
+    pixels = W.image_pixels(image)
+    if pixels.dtype != np.uint8:
+        pixels = core.io.images.sanitise_pixels(image.name, pixels)
+    return pixels
+
+
+def _make_hdri(world, pixels, result):
+    """The reconstructed HDRI as PanoLight's float image, filled by row blocks and marked with the
+    estimate it belongs to (made only when a world is lit with it: at 16K it is 2 GB in Blender)."""
+    image = W.radiance_image(result.hdr_blocks(pixels), W.HDRI_IMAGE_NAME, shape=pixels.shape[:2])
+    image[W.ESTIMATE_KEY] = world.get(W.ESTIMATE_KEY, "")
+    return image
 
 
 class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
@@ -113,16 +129,15 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     def _inputs(self, context):
         world = context.scene.world
         settings = _settings(context).estimate_settings()  # invalid settings fail before any pixel is read
-        image = W.stored_panorama(world)
-        pixels = W.image_pixels(image)
-        if pixels.dtype != np.uint8:  # the core's validation, as for files: NaN refused, negatives clamped
-            pixels = core.io.images.sanitise_pixels(image.name, pixels)
-        return world, pixels, settings
+        self._pixels = _read_panorama(W.stored_panorama(world))
+        return world, self._pixels, settings
 
     def _store(self, context, world, result):
-        doc, hdri = result
+        doc = result.document
         W.store_lighting(world, doc)
-        W.radiance_image(hdri, W.HDRI_IMAGE_NAME)
+        if _settings(context).lighting_source == "HDRI":
+            _make_hdri(world, self._pixels, result)
+        self._pixels = None
         n = len(doc.get("lights", []))
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
@@ -202,8 +217,8 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         s = _settings(context)
         if s.lighting_source == "HDRI":
             image = W.own_image(W.HDRI_IMAGE_NAME)
-            if image is None:
-                raise Error("no reconstructed HDRI: use Estimate lighting first")
+            if image is None or image.get(W.ESTIMATE_KEY) != world.get(W.ESTIMATE_KEY):
+                image = self._hdri_now(context, world, panorama, doc)
             lights = []  # the sun and lamps are in the HDRI itself
         else:
             coeffs = np.asarray(doc["coefficients"], dtype=np.float64)
@@ -218,6 +233,22 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
             f"SH order {doc['lmax']}, {len(lights)} sun lamp(s)"
         self.report({"INFO"}, f"PanoLight: environment built ({what})")
         return {"FINISHED"}
+
+    def _hdri_now(self, context, world, panorama, doc):
+        """The HDRI of the stored estimate, made now: the panorama is read and estimated again with the
+        panel's settings (the estimators are deterministic); if those settings have changed since, the
+        new estimate replaces the stored one, so the HDRI and the stored lighting always agree."""
+        pixels = _read_panorama(panorama)
+        result = _fit(pixels, _settings(context).estimate_settings())
+        if not _same_lighting(result.document, doc):
+            W.store_lighting(world, result.document)
+            self.report({"WARNING"}, "PanoLight: the settings changed since Estimate lighting: re-estimated")
+        return _make_hdri(world, pixels, result)
+
+
+def _same_lighting(a: dict, b: dict) -> bool:
+    return np.allclose(a["coefficients"], b["coefficients"], rtol=1e-9, atol=1e-12) and \
+        len(a.get("lights", [])) == len(b.get("lights", []))
 
 
 class PANOLIGHT_OT_export_lighting(bpy.types.Operator, ExportHelper):

@@ -25,6 +25,7 @@ HDRI_IMAGE_NAME = "PanoLight HDRI"
 TAG = "panolight"
 PANORAMA_KEY = "panolight_panorama"  # world ID property: the name of the panorama image
 LIGHTING_KEY = "panolight_lighting"  # world ID property: the estimate, a lighting.json document as JSON
+ESTIMATE_KEY = "panolight_estimate"  # world and HDRI image ID property: which estimate the HDRI is of
 
 
 def stored_panorama(world):
@@ -50,29 +51,46 @@ def stored_lighting(world) -> dict:
 
 
 def store_lighting(world, doc: dict | None) -> None:
-    """Store an estimate on ``world`` (None forgets it: a new panorama needs a new estimate)."""
+    """Store an estimate on ``world`` (None forgets it: a new panorama needs a new estimate), with a new
+    ESTIMATE_KEY token (the HDRI image made from it carries the same token)."""
+    import uuid
+
     if doc is None:
         world.pop(LIGHTING_KEY, None)
+        world.pop(ESTIMATE_KEY, None)
     else:
         world[LIGHTING_KEY] = json.dumps(doc)
+        world[ESTIMATE_KEY] = uuid.uuid4().hex
 
 
 def has_lighting(world) -> bool:
     return bool(world is not None and world.get(LIGHTING_KEY))
 
 
+BLOCK_ROWS_PIXELS = 1 << 22  # pixels per row block of the conversions below (a 16K image has no room to spare)
+
+
 def image_pixels(image) -> np.ndarray:
     """(H, W, 3) pixels of a Blender image, top row first: uint8 sRGB for 8-bit images, float32 linear
-    for float images (Image.pixels is bottom-up RGBA; 8-bit images come back as sRGB-encoded floats)."""
+    for float images (Image.pixels is bottom-up RGBA; 8-bit images come back as sRGB-encoded floats).
+    One pixel read; the conversion runs by row blocks, so the only full-size temporary is that read."""
     w, h = image.size
     if w == 0 or h == 0:
         raise core.errors.PanoLightError(f"image {image.name!r} has no pixels (is the file missing?)")
-    buf = np.empty(w * h * image.channels, dtype=np.float32)
+    c = image.channels
+    buf = np.empty(w * h * c, dtype=np.float32)
     image.pixels.foreach_get(buf)
-    px = buf.reshape(h, w, image.channels)[::-1, :, :3]
-    if image.is_float:
-        return np.ascontiguousarray(px)
-    return np.round(np.clip(px, 0.0, 1.0) * 255.0).astype(np.uint8)
+    px = buf.reshape(h, w, c)
+    out = np.empty((h, w, 3), np.float32 if image.is_float else np.uint8)
+    step = max(1, BLOCK_ROWS_PIXELS // w)
+    for r0 in range(0, h, step):  # output rows r0..r1 are input rows h-r1..h-r0, flipped
+        r1 = min(h, r0 + step)
+        block = px[h - r1:h - r0, :, :3][::-1]
+        if image.is_float:
+            out[r0:r1] = block
+        else:
+            out[r0:r1] = np.round(np.clip(block, 0.0, 1.0) * 255.0)
+    return out
 
 
 HDR_FORMATS = ("OPEN_EXR", "OPEN_EXR_MULTILAYER", "HDR")
@@ -107,10 +125,16 @@ def own_image(name: str):
     return next((im for im in bpy.data.images if im.get(TAG) == name), None)
 
 
-def radiance_image(radiance: np.ndarray, name: str = SH_IMAGE_NAME):
+def radiance_image(radiance, name: str = SH_IMAGE_NAME, shape=None):
     """Create or update a packed float image (the SH radiance map, or the reconstructed HDRI with
-    ``name=HDRI_IMAGE_NAME``) from (H, W, 3) linear pixels, top row first."""
-    h, w = radiance.shape[:2]
+    ``name=HDRI_IMAGE_NAME``) from (H, W, 3) linear pixels, top row first, or from row blocks
+    (first row, (n, W, 3)) of an image of ``shape`` (H, W): the HDRI is filled block by block."""
+    if shape is None:
+        radiance = np.asarray(radiance)
+        h, w = radiance.shape[:2]
+        blocks = [(0, radiance)]
+    else:
+        (h, w), blocks = shape, radiance
     image = own_image(name)
     if image is not None and tuple(image.size) != (w, h):
         bpy.data.images.remove(image)
@@ -120,8 +144,11 @@ def radiance_image(radiance: np.ndarray, name: str = SH_IMAGE_NAME):
         image[TAG] = name
     image.colorspace_settings.name = "Linear Rec.709"
     rgba = np.ones((h, w, 4), dtype=np.float32)
-    rgba[..., :3] = radiance[::-1]
+    for r0, block in blocks:  # Blender's rows go bottom-up
+        n = block.shape[0]
+        rgba[h - r0 - n:h - r0, :, :3] = block[::-1]
     image.pixels.foreach_set(rgba.ravel())
+    del rgba
     image.pack()
     return image
 

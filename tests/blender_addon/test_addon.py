@@ -402,3 +402,29 @@ def test_the_panel_settings_give_what_the_cli_gives(tmp_path, settings, argv):
     assert doc["window"] == cli_doc["window"] and doc["exposure_ev"] == cli_doc["exposure_ev"]
     assert [light["intensity"] for light in doc["lights"]] == pytest.approx(
         [light["intensity"] for light in cli_doc["lights"]], rel=1e-9)
+
+
+def test_the_hdri_is_made_only_for_lighting_with_it_and_follows_the_estimate(tmp_path):
+    W = blender_addon.world
+    path = _small_city(tmp_path, 32)
+    for image in [im for im in bpy.data.images if im.get(W.TAG) == W.HDRI_IMAGE_NAME]:
+        bpy.data.images.remove(image)
+    s = bpy.context.scene.panolight
+    s.lighting_source = "SH"
+    _estimate_and_build(path)
+    assert W.own_image(W.HDRI_IMAGE_NAME) is None  # the default world needs no full-resolution float copy
+    world = bpy.context.scene.world
+    before = W.stored_lighting(world)["coefficients"]
+    s.lighting_source = "HDRI"
+    assert bpy.ops.panolight.build_environment() == {"FINISHED"}  # made now, of the stored estimate
+    hdri = W.own_image(W.HDRI_IMAGE_NAME)
+    assert hdri is not None and hdri[W.ESTIMATE_KEY] == world[W.ESTIMATE_KEY]
+    assert np.allclose(W.stored_lighting(world)["coefficients"], before)
+    assert bpy.ops.panolight.build_environment() == {"FINISHED"}  # up to date: reused, not made again
+    assert W.own_image(W.HDRI_IMAGE_NAME) == hdri
+    bpy.data.images.remove(hdri)
+    s.exposure = 1.0  # settings changed after estimating: the HDRI made now and the stored estimate agree
+    assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+    assert np.allclose(W.stored_lighting(world)["coefficients"], 2.0 * np.asarray(before))
+    assert W.own_image(W.HDRI_IMAGE_NAME)[W.ESTIMATE_KEY] == world[W.ESTIMATE_KEY]
+    s.exposure, s.lighting_source = 0.0, "SH"
