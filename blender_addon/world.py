@@ -88,8 +88,8 @@ def image_pixels(image) -> np.ndarray:
         block = px[h - r1:h - r0, :, :3][::-1]
         if image.is_float:
             out[r0:r1] = block
-        else:
-            out[r0:r1] = np.round(np.clip(block, 0.0, 1.0) * 255.0)
+        else:  # byte images read back as exact k / 255 in [0, 1]: +0.5 and truncation round them
+            out[r0:r1] = np.minimum(block * np.float32(255.0) + np.float32(0.5), np.float32(255.0))
     return out
 
 
