@@ -36,9 +36,9 @@ import numpy as np
 
 from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
+from ..camera.resample import area_downsample_rows
 from ..errors import PanoLightError
 from .highlights import CORE_RADIUS, MAX_EXPONENT, _ring_fit, label_blobs, power_law_gain
-from ..camera.resample import area_downsample, area_downsample_rows
 
 WORK_HEIGHT = 128  # rows of the source work map (1.4 degree cells): a 0.5 degree sun still marks its cells
 MAX_REGIONS = 48  # regions modelled, largest clipped area first; smaller speckles keep the clip level

@@ -119,6 +119,9 @@ def _read_exr(path) -> np.ndarray:
     x0, y0, x1, y1 = _exr_window(heads[i].header, "dataWindow")
     yield y1 - y0 + 1, x1 - x0 + 1  # checked against the size budget before any pixel is decoded
     layout = _exr_colour(_exr_names(heads[i].header))
+    if layout == "RGB" and len(heads) == 1 and {"R", "G", "B"} <= set(_exr_names(heads[i].header)):
+        yield _read_exr_rows(path, y0, y1 - y0 + 1, x1 - x0 + 1)  # scanlines by row blocks, as float32
+        return
     channels = OpenEXR.File(str(path)).parts[i].channels
     if layout == "RGB":
         key = "RGB" if "RGB" in channels else "RGBA"
@@ -135,6 +138,26 @@ def _read_exr(path) -> np.ndarray:
         yield _luminance_chroma_to_rgb(channels, y1 - y0 + 1, x1 - x0 + 1)
     else:
         yield np.repeat(channels["Y"].pixels[..., None], 3, axis=-1)
+
+
+def _read_exr_rows(path, y0: int, h: int, w: int) -> np.ndarray:
+    """A single-part RGB(A) EXR decoded by row blocks straight into float32 (H, W, 3): no full-size
+    half-float or RGBA temporary (a 16K half EXR peaks at its float32 size, not 1.5 times it)."""
+    import Imath
+    import OpenEXR
+
+    out = np.empty((h, w, 3), np.float32)
+    f = OpenEXR.InputFile(str(path))
+    try:
+        float_type = Imath.PixelType(Imath.PixelType.FLOAT)
+        for r in range(0, h, _BLOCK_ROWS):
+            n = min(_BLOCK_ROWS, h - r)
+            planes = f.channels(["R", "G", "B"], float_type, y0 + r, y0 + r + n - 1)
+            for c, plane in enumerate(planes):
+                out[r:r + n, :, c] = np.frombuffer(plane, dtype=np.float32).reshape(n, w)
+    finally:
+        f.close()
+    return out
 
 
 def _luminance_chroma_to_rgb(channels, h: int, w: int) -> np.ndarray:

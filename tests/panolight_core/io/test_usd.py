@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("pxr")
 
 from panolight_core.apps.cli import main  # noqa: E402
-from panolight_core.io import read_image, write_image  # noqa: E402
+from panolight_core.io import read_image  # noqa: E402
 from panolight_core.io.usd import DOME_TO_WORLD, light_frame, read_usd, write_usd  # noqa: E402
 
 
