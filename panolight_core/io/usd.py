@@ -12,9 +12,10 @@ Orientation. UsdLux lat-long domes follow the OpenEXR convention with the pole a
 +Y: longitude +pi..-pi left to right, longitude 0 along local +Z, pi/2 along +X. lighting.json's
 equirect maps (CONVENTIONS.md) look along world (sin t cos l, sin t sin l, cos t) at that longitude l,
 so the dome gets the rotation DOME_TO_WORLD (local Z -> world X, X -> Y, Y -> Z). A DistantLight shines
-along its local -Z; its transform points local +Z at the light's direction. Intensity is the irradiance
-on a surface facing the light (lighting.json's intensity times its largest colour channel), colour is
-normalised to a largest channel of 1, angle is the angular diameter in degrees.
+along its local -Z; its transform points local +Z at the light's direction. It is normalised, so its
+intensity is the irradiance on a surface facing the light (lighting.json's intensity times its largest
+colour channel); colour is normalised to a largest channel of 1, angle is the angular diameter in
+degrees (the UsdLux specification; Blender 5.0's importer reads 4x the strength and twice the angle).
 Needs usd-core (``pip install usd-core``, the official Pixar bindings), imported only here.
 """
 from __future__ import annotations
@@ -102,6 +103,7 @@ def _distant_light(stage, Gf, UsdGeom, UsdLux, prim_path: str, light: dict) -> N
     color = np.asarray(light["color"], dtype=np.float64)
     peak = float(color.max())
     sun = UsdLux.DistantLight.Define(stage, prim_path)
+    sun.CreateNormalizeAttr(True)  # a normalised distant light's intensity is the illuminance it gives
     sun.CreateIntensityAttr(float(light["intensity"]) * peak)
     sun.CreateColorAttr(Gf.Vec3f(*(float(c / peak) if peak > 0 else 1.0 for c in color)))
     sun.CreateAngleAttr(math.degrees(float(light.get("angle", 0.0))))

@@ -10,11 +10,11 @@ import numpy as np
 
 from .. import sh
 from ..camera import ldr_to_linear
-from ..errors import PanoLightError, PanoLightWarning
 from ..camera.resample import area_downsample_rows
+from ..errors import PanoLightError, PanoLightWarning
 from ..io import read_image, write_image, write_srgb8
-from ..io.images import write_exr_rows
 from ..io.atomic import pid_alive
+from ..io.images import write_exr_rows
 from ..io.lighting import write_lighting
 from .estimate import estimate_lighting, require_finite
 from .settings import Settings

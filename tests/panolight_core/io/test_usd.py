@@ -93,3 +93,14 @@ def test_write_usd_without_hdri_has_one_rig(tmp_path):
     stage = read_usd(tmp_path / "l.usda")
     assert stage["lights"][0]["intensity"] == 2.0 and stage["lights"][0]["angle"] == 0.0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["l.usda"]  # written atomically, nothing else
+
+
+def test_distant_lights_are_normalised_so_intensity_is_irradiance(tmp_path):
+    from pxr import Usd, UsdLux
+
+    write_usd(tmp_path / "l.usda", {"lights": [{"type": "sun", "direction": [1, 0, 0], "color": [1, 1, 1],
+                                                "intensity": 3.0, "angle": 0.01}]})
+    stage = Usd.Stage.Open(str(tmp_path / "l.usda"))
+    lights = [UsdLux.DistantLight(p) for p in stage.Traverse() if p.IsA(UsdLux.DistantLight)]
+    assert len(lights) == 1 and lights[0].GetNormalizeAttr().Get() is True
+    assert lights[0].GetAngleAttr().Get() == pytest.approx(math.degrees(0.01), rel=1e-6)
