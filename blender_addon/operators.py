@@ -157,7 +157,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
         def work():
             try:
                 self._result = _fit(pixels, settings)
-            except REPORTED as exc:
+            except Exception as exc:  # handed to modal, which reports it (or raises it, if it is a bug)
                 self._error = exc
 
         self._thread = threading.Thread(target=work, daemon=True)

@@ -131,7 +131,7 @@ def add_arguments(parser, default_estimator: str = "auto") -> None:
                         help=f"with --lmax auto: allowed diffuse relighting error relative to order "
                              f"{DEFAULT_MAX_ORDER} (default {DEFAULT_TOLERANCE})")
     parser.add_argument("--estimator", default=default_estimator, choices=BUILTIN + ("auto",), metavar="NAME",
-                        help="; ".join(f"{n}: {text}" for n, (_, text) in DESCRIPTIONS.items())
+                        help="; ".join(f"{n}: {text[:1].lower()}{text[1:]}" for n, (_, text) in DESCRIPTIONS.items())
                         + f"; auto{' (default)' if default_estimator == 'auto' else ''}: {AUTO}, the best measured")
     parser.add_argument("--exposure", type=number("--exposure", *RANGES["exposure_ev"]), default=0.0, metavar="EV",
                         help="scale the estimated lighting by 2^EV (default 0)")
