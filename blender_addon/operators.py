@@ -58,9 +58,11 @@ def _fit(pixels, settings):
 
 
 def _read_panorama(image):
-    """The panorama's pixels for the core: one pixel read, validated like a file (NaN refused, negative
-    radiance clamped)."""
-    pixels = W.image_pixels(image)
+    """The panorama's pixels for the core: read from its file by scanlines where Blender's OpenImageIO
+    can, else one pixel read of the image; validated like a file (NaN refused, negative radiance clamped)."""
+    pixels = W.file_pixels(image)
+    if pixels is None:
+        pixels = W.image_pixels(image)
     if pixels.dtype != np.uint8:
         pixels = core.io.images.sanitise_pixels(image.name, pixels)
     return pixels

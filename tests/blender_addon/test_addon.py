@@ -428,3 +428,42 @@ def test_the_hdri_is_made_only_for_lighting_with_it_and_follows_the_estimate(tmp
     assert np.allclose(W.stored_lighting(world)["coefficients"], 2.0 * np.asarray(before))
     assert W.own_image(W.HDRI_IMAGE_NAME)[W.ESTIMATE_KEY] == world[W.ESTIMATE_KEY]
     s.exposure, s.lighting_source = 0.0, "SH"
+
+
+def _blender_site_packages():
+    """The Python packages Blender ships (OpenImageIO among them): on sys.path inside Blender, not for the
+    bpy module."""
+    import glob
+
+    hits = glob.glob(str(Path(bpy.__file__).parents[3] / "python" / "lib" / "python3*" / "site-packages"))
+    return hits[0] if hits else None
+
+
+def test_scanline_reads_give_the_pixels_blender_holds(tmp_path, monkeypatch):
+    site = _blender_site_packages()
+    if site is None:
+        pytest.skip("this bpy build ships no Python packages")
+    monkeypatch.setattr(sys, "path", sys.path + [site])  # appended: usd-core's pxr stays first
+    pytest.importorskip("OpenImageIO")
+    from panolight_core.io import write_srgb8
+
+    W = blender_addon.world
+    y, x = np.mgrid[0:64, 0:128]
+    ldr = np.stack([x * 2, y * 4, (x * y) % 256], -1).astype(np.uint8)
+    files = [write_srgb8(tmp_path / "a.png", ldr), write_srgb8(tmp_path / "a.jpg", ldr, quality=92),
+             _small_city(tmp_path, 32)]
+    for path in files:
+        image = W.load_panorama(str(path))
+        by_file, by_blender = W.file_pixels(image), W.image_pixels(image)
+        assert by_file is not None and by_file.dtype == by_blender.dtype
+        assert np.array_equal(by_file, by_blender), path.name
+    image.pixels[0] = 0.5  # an edited image: its pixels are Blender's, not the file's
+    assert W.file_pixels(image) is None
+    # the operator's estimate is the same either way
+    assert bpy.ops.panolight.load_panorama(filepath=str(files[1])) == {"FINISHED"}
+    _configure()
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    with_oiio = W.stored_lighting(bpy.context.scene.world)["coefficients"]
+    monkeypatch.setattr(W, "file_pixels", lambda image: None)
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    assert W.stored_lighting(bpy.context.scene.world)["coefficients"] == with_oiio
