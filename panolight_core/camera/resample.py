@@ -57,6 +57,34 @@ def area_downsample_rows(img: np.ndarray, height: int, transform, width: int | N
     return np.concatenate(parts, axis=0)
 
 
+def area_mean_lut(img: np.ndarray, height: int, lut: np.ndarray) -> np.ndarray:
+    """``area_downsample(lut[img], height)`` for a uint8 (H, W, C) image and a float32 (256,) table (sRGB
+    -> linear), without the full-size float image: each output row's input rows are looked up and summed
+    one at a time, in area_downsample's order, so the numbers are the same to the bit. Twice as fast on
+    large panoramas (the float32 temporaries stay in cache)."""
+    h, w = img.shape[:2]
+    width = 2 * height
+    if h <= height or h % height or w % width:
+        return area_downsample_rows(img, height, lambda block: lut[block])
+    fy, fx = h // height, w // width
+    r = img.reshape(height, fy, w, -1)
+    out = np.empty((height, width, r.shape[-1]))
+    step = max(1, BLOCK_PIXELS // (4 * w))  # output rows per pass
+    tmp = np.empty((min(step, height), w, r.shape[-1]), np.float32)
+    for k0 in range(0, height, step):
+        k1 = min(height, k0 + step)
+        rows = lut[r[k0:k1, 0]]
+        for i in range(1, fy):
+            np.take(lut, r[k0:k1, i], out=tmp[:k1 - k0])
+            rows += tmp[:k1 - k0]
+        c = rows.reshape(k1 - k0, width, fx, -1)
+        acc = c[:, :, 0].astype(np.float64)
+        for i in range(1, fx):
+            acc += c[:, :, i]
+        out[k0:k1] = acc / (fy * fx)
+    return out
+
+
 def sample_equirect(img: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Bilinear lookup of an (H, W, C) equirect map (CONVENTIONS.md frame, pixel centres at +0.5) at
     (..., 3) unit directions -> (..., C) float64; columns wrap around, rows clamp at the poles."""

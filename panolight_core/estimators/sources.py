@@ -36,7 +36,7 @@ import numpy as np
 
 from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
-from ..camera.resample import area_downsample_rows
+from ..camera.resample import area_downsample_rows, area_mean_lut
 from ..errors import PanoLightError
 from .highlights import CORE_RADIUS, MAX_EXPONENT, _ring_fit, label_blobs, power_law_gain
 
@@ -71,7 +71,7 @@ def work_maps(ldr: np.ndarray, height: int = WORK_HEIGHT):
         return np.stack([anyc, allc], -1).astype(np.float32)
 
     # by row blocks: a 16K panorama has no room for full-resolution float copies
-    rad = area_downsample_rows(a, h, lambda block: SRGB8_TO_LINEAR[block])
+    rad = area_mean_lut(a, h, SRGB8_TO_LINEAR)
     fr = area_downsample_rows(a, h, clip_fractions)
     return rad, fr[..., 0], fr[..., 1]
 

@@ -33,3 +33,13 @@ def test_area_downsample_keeps_the_mean(rng):
     img = rng.random((64, 128, 3))
     small = area_downsample(img, 16)
     assert small.shape == (16, 32, 3) and np.allclose(small.mean(axis=(0, 1)), img.mean(axis=(0, 1)))
+
+
+def test_the_lut_mean_is_area_downsample_of_the_lut_image_to_the_bit(rng):
+    from panolight_core.camera.color import SRGB8_TO_LINEAR
+    from panolight_core.camera.resample import area_mean_lut
+
+    for shape, height in (((256, 512, 3), 64), ((96, 192, 3), 32), ((100, 200, 3), 32), ((64, 128, 3), 64)):
+        img = rng.integers(0, 256, shape, dtype=np.uint8)
+        want = area_downsample(SRGB8_TO_LINEAR[img], height)
+        assert np.array_equal(area_mean_lut(img, height, SRGB8_TO_LINEAR), want), shape
