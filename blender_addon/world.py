@@ -67,9 +67,6 @@ def has_lighting(world) -> bool:
     return bool(world is not None and world.get(LIGHTING_KEY))
 
 
-BLOCK_ROWS_PIXELS = 1 << 22  # pixels per row block of the conversions below (a 16K image has no room to spare)
-
-
 def image_pixels(image) -> np.ndarray:
     """(H, W, 3) pixels of a Blender image, top row first: uint8 sRGB for 8-bit images, float32 linear
     for float images (Image.pixels is bottom-up RGBA; 8-bit images come back as sRGB-encoded floats).
@@ -82,9 +79,7 @@ def image_pixels(image) -> np.ndarray:
     image.pixels.foreach_get(buf)
     px = buf.reshape(h, w, c)
     out = np.empty((h, w, 3), np.float32 if image.is_float else np.uint8)
-    step = max(1, BLOCK_ROWS_PIXELS // w)
-    for r0 in range(0, h, step):  # output rows r0..r1 are input rows h-r1..h-r0, flipped
-        r1 = min(h, r0 + step)
+    for r0, r1 in core.camera.resample.row_blocks(h, w):  # output rows r0..r1 are input rows h-r1..h-r0
         block = px[h - r1:h - r0, :, :3][::-1]
         if image.is_float:
             out[r0:r1] = block
@@ -115,12 +110,11 @@ def file_pixels(image):
         w, h = spec.width, spec.height
         out = np.empty((h, w, 3), np.float32 if image.is_float else np.uint8)
         fmt = oiio.FLOAT if image.is_float else oiio.UINT8
-        step = max(1, BLOCK_ROWS_PIXELS // w)
-        for r0 in range(0, h, step):
-            block = inp.read_scanlines(0, 0, r0, min(h, r0 + step), 0, 0, 3, fmt)
-            if block is None or block.shape[:2] != (min(h, r0 + step) - r0, w):
+        for r0, r1 in core.camera.resample.row_blocks(h, w):
+            block = inp.read_scanlines(0, 0, r0, r1, 0, 0, 3, fmt)
+            if block is None or block.shape[:2] != (r1 - r0, w):
                 return None
-            out[r0:r0 + block.shape[0]] = block.reshape(block.shape[0], w, -1)[..., :3]
+            out[r0:r1] = block.reshape(r1 - r0, w, -1)[..., :3]
         return out
     finally:
         inp.close()

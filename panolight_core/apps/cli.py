@@ -114,6 +114,7 @@ def run_project(args) -> int:
 
 
 def run_batch(args) -> int:
+    import dataclasses
     import functools
 
     from ..pipeline import run_estimate as job
@@ -127,10 +128,9 @@ def run_batch(args) -> int:
     kwargs = _job_kwargs(args)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PanoLightWarning)
-        recorded = {"lmax": settings.lmax, "estimator": settings.estimator, "model": settings.model,
-                    "exposure_ev": settings.exposure_ev, "window": settings.window,
-                    "window_width": settings.window_width, "tolerance": settings.tolerance,
-                    **{k: (list(v) if isinstance(v, tuple) else v) for k, v in kwargs.items() if k not in ("overwrite", "max_megapixels")}}
+        recorded = {**dataclasses.asdict(settings),  # what the outputs depend on (the resume key)
+                    **{k: (list(v) if isinstance(v, tuple) else v) for k, v in kwargs.items()
+                       if k not in ("overwrite", "max_megapixels")}}
         report = batch(inputs, Path(args.output), functools.partial(job, settings=settings, **kwargs), shard_spec,
                        args.quiet, settings=recorded, jobs=args.jobs or default_jobs())
     print(f"batch: {report['ok']} ok, {report['skipped']} up to date, {report['failed']} failed of "

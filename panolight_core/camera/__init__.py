@@ -59,7 +59,14 @@ def ldr_to_linear(ldr: np.ndarray) -> np.ndarray:
     return srgb_to_linear(a.astype(np.float32)).astype(np.float32)
 
 
-def clipped_mask(ldr: np.ndarray) -> np.ndarray:
-    """(H, W) bool: pixels whose brightest uint8 channel is 254 or 255 (clipped by the camera)."""
+def linear(pixels: np.ndarray) -> np.ndarray:
+    """Panorama pixels as linear radiance: uint8 sRGB through ``ldr_to_linear``, float (HDR) as they are."""
+    return ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
+
+
+def clipped_mask(ldr: np.ndarray, all_channels: bool = False) -> np.ndarray:
+    """(H, W) bool: pixels whose brightest uint8 channel is 254 or 255 (clipped by the camera), or with
+    ``all_channels`` whose every channel is (white: the per-source estimator's regions)."""
     a = np.asarray(ldr)
-    return np.maximum(np.maximum(a[..., 0], a[..., 1]), a[..., 2]) >= 254
+    pick = np.minimum if all_channels else np.maximum
+    return pick(pick(a[..., 0], a[..., 1]), a[..., 2]) >= 254

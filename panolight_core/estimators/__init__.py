@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import __version__, sh
-from ..camera import ldr_to_linear
+from ..camera import linear
 from ..errors import PanoLightError
 from .highlights import recover_highlights
 
@@ -48,12 +48,8 @@ class Estimate:
         return sh.lmax_from_count(self.coeffs.shape[0])
 
 
-def _linear(pixels: np.ndarray) -> np.ndarray:
-    return ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
-
-
 def ambient(pixels: np.ndarray, lmax: int) -> Estimate:
-    lin = _linear(pixels)
+    lin = linear(pixels)
     c = sh.project(lin, lmax).astype(np.float64)
     c[1:] = 0.0
     flat = np.broadcast_to(c[0] / np.sqrt(4.0 * np.pi), lin.shape)
@@ -61,7 +57,7 @@ def ambient(pixels: np.ndarray, lmax: int) -> Estimate:
 
 
 def naive(pixels: np.ndarray, lmax: int) -> Estimate:
-    lin = _linear(pixels)
+    lin = linear(pixels)
     return Estimate(sh.project(lin, lmax).astype(np.float64), "naive", radiance=lin)
 
 

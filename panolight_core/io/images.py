@@ -213,13 +213,14 @@ def _pil_rgb(im) -> np.ndarray:
     """(H, W, 3) uint8 of a loaded RGB Pillow image. Large images are copied out in row strips: numpy's
     own conversion goes through a whole-image bytes object (twice the image at its peak: a 16K JPEG
     peaks at 1.0 GB this way, 1.4 GB that way)."""
+    from ..camera.resample import row_blocks
+
     w, h = im.size
     if w * h <= (1 << 24):
         return np.asarray(im)
     out = np.empty((h, w, 3), np.uint8)
-    step = max(1, (1 << 22) // w)
-    for r in range(0, h, step):
-        out[r:r + step] = np.asarray(im.crop((0, r, w, min(h, r + step))))
+    for r0, r1 in row_blocks(h, w):
+        out[r0:r1] = np.asarray(im.crop((0, r0, w, r1)))
     return out
 
 

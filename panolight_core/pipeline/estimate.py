@@ -58,10 +58,9 @@ class Result:
 
     def hdr_panorama(self, pixels: np.ndarray) -> np.ndarray:
         """The full-resolution HDR panorama (pipeline.hdri) in the document's units: (H, W, 3) float32."""
-        out = np.empty(pixels.shape, np.float32)
-        for r0, block in self.hdr_blocks(pixels):
-            out[r0:r0 + len(block)] = block
-        return out
+        from .hdri import assemble
+
+        return assemble(pixels.shape, self.hdr_blocks(pixels))
 
     def hdr_blocks(self, pixels: np.ndarray):
         """``hdr_panorama`` by row blocks, (first row, float32 (n, W, 3)): what hdr.exr is streamed from."""

@@ -22,12 +22,8 @@ def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
     float linear) and its ``estimators.Estimate``."""
     if pixels.dtype != np.uint8:
         return np.asarray(pixels, dtype=np.float32)
-    rec = getattr(est, "recovery", None)
-    if rec is not None:
-        out = np.empty(pixels.shape, np.float32)
-        for r0, block in hdr_blocks(pixels, est):
-            out[r0:r0 + len(block)] = block
-        return out
+    if getattr(est, "recovery", None) is not None:
+        return assemble(pixels.shape, hdr_blocks(pixels, est))
     linear = ldr_to_linear(pixels)
     work = est.radiance
     if work is None:
@@ -40,6 +36,14 @@ def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
     return fill_full_resolution(linear, clipped_mask(pixels), np.maximum(work - base, 0.0))
 
 
+def assemble(shape, blocks) -> np.ndarray:
+    """A float32 image of ``shape`` from row blocks (first row, (n, W, C)), as ``hdr_blocks`` yields them."""
+    out = np.empty(shape, np.float32)
+    for r0, block in blocks:
+        out[r0:r0 + len(block)] = block
+    return out
+
+
 def hdr_blocks(pixels: np.ndarray, est):
     """The rows of ``hdr_panorama`` as (first row, float32 (n, W, 3) block), about 4 M pixels at a time:
     what a writer streams to disk so that a 16K panorama never exists as a full float copy. The
@@ -49,7 +53,7 @@ def hdr_blocks(pixels: np.ndarray, est):
         H, W = pixels.shape[:2]
         h = rec.work.shape[0]
         blocks = row_blocks(H, W, max(1, H // h) if H % h == 0 else 1)
-        clipped = [_all_clipped(pixels[r0:r1]) for r0, r1 in blocks]  # the per-source regions: all channels
+        clipped = [clipped_mask(pixels[r0:r1], all_channels=True) for r0, r1 in blocks]  # the per-source regions
         ys = np.concatenate([np.nonzero(c)[0] + r0 for c, (r0, _) in zip(clipped, blocks)])
         xs = np.concatenate([np.nonzero(c)[1] for c in clipped])
         fill = FullResolutionFill((ys, xs), (H, W), np.maximum(rec.work - rec.base, 0.0), rec.regions.centre,
@@ -62,8 +66,3 @@ def hdr_blocks(pixels: np.ndarray, est):
     full = hdr_panorama(pixels, est)
     for r0, r1 in row_blocks(*full.shape[:2]):
         yield r0, full[r0:r1]
-
-
-def _all_clipped(block: np.ndarray) -> np.ndarray:
-    hi = block >= 254
-    return hi[..., 0] & hi[..., 1] & hi[..., 2]

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import sh
-from ..camera import ldr_to_linear
+from ..camera import linear
 from ..camera.resample import area_downsample_rows
 from ..errors import PanoLightError, PanoLightWarning
 from ..io import read_image, write_image, write_srgb8
@@ -116,7 +116,7 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
         if "previews" in outputs:
             from .preview import PREVIEW_HEIGHT, estimate_preview
 
-            shown = area_downsample_rows(pixels, min(PREVIEW_HEIGHT, pixels.shape[0]), _linear)
+            shown = area_downsample_rows(pixels, min(PREVIEW_HEIGHT, pixels.shape[0]), linear)
             write_srgb8(stage / "preview.png", estimate_preview(shown, maps["radiance.exr"], fitted,
                                                                 sh.lmax_from_count(fitted.coeffs.shape[0]),
                                                                 irradiance_map=maps["irradiance.exr"]))
@@ -138,10 +138,6 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     return doc
-
-
-def _linear(block: np.ndarray) -> np.ndarray:
-    return ldr_to_linear(block) if block.dtype == np.uint8 else block
 
 
 def _check_foreign_outputs(out_dir: Path) -> None:
