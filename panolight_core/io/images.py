@@ -365,7 +365,14 @@ def _sanitise(path, img: np.ndarray, nonfinite: str, negative: str) -> np.ndarra
     return img
 
 
-EXR_COMPRESSIONS = ("zip", "piz", "rle", "none")
+EXR_COMPRESSIONS = {"zip": "ZIP_COMPRESSION", "piz": "PIZ_COMPRESSION", "rle": "RLE_COMPRESSION",
+                    "none": "NO_COMPRESSION"}  # name -> the codec's name in OpenEXR and Imath
+
+
+def _exr_codec(compression: str) -> str:
+    if compression not in EXR_COMPRESSIONS:
+        raise ValueError(f"EXR compression must be one of {tuple(EXR_COMPRESSIONS)}, got {compression!r}")
+    return EXR_COMPRESSIONS[compression]
 
 
 def write_image(path, image, *, bit_depth: int = 8, half: bool = False, quality: int = 95,
@@ -394,11 +401,7 @@ def write_image(path, image, *, bit_depth: int = 8, half: bool = False, quality:
             import OpenEXR
 
             data = np.ascontiguousarray(img, dtype=np.float16 if half else np.float32)
-            if compression not in EXR_COMPRESSIONS:
-                raise ValueError(f"EXR compression must be one of {EXR_COMPRESSIONS}, got {compression!r}")
-            codec = {"zip": OpenEXR.ZIP_COMPRESSION, "piz": OpenEXR.PIZ_COMPRESSION, "rle": OpenEXR.RLE_COMPRESSION,
-                     "none": OpenEXR.NO_COMPRESSION}
-            header = {"compression": codec[compression], "type": OpenEXR.scanlineimage}
+            header = {"compression": getattr(OpenEXR, _exr_codec(compression)), "type": OpenEXR.scanlineimage}
             with OpenEXR.File(header, {"RGB": data}) as f:
                 f.write(str(tmp))
         elif fmt == "hdr":
@@ -428,12 +431,9 @@ def write_exr_rows(path, height: int, width: int, blocks, *, compression: str = 
     p = Path(path)
     if not p.parent.is_dir():
         raise ImageError(p, f"output folder {p.parent} does not exist")
-    codec = {"zip": Imath.Compression.ZIP_COMPRESSION, "piz": Imath.Compression.PIZ_COMPRESSION,
-             "rle": Imath.Compression.RLE_COMPRESSION, "none": Imath.Compression.NO_COMPRESSION}
-    if compression not in codec:
-        raise ValueError(f"EXR compression must be one of {EXR_COMPRESSIONS}, got {compression!r}")
+    codec = getattr(Imath.Compression, _exr_codec(compression))
     header = OpenEXR.Header(int(width), int(height))
-    header["compression"] = Imath.Compression(codec[compression])
+    header["compression"] = Imath.Compression(codec)
     with atomic_path(p, p.suffix) as tmp:
         out = OpenEXR.OutputFile(str(tmp), header)
         try:
