@@ -366,12 +366,11 @@ class FullResolutionFill:
     def __init__(self, clipped_yx, shape, excess: np.ndarray, centres=(), exponents=(), labels=None):
         H, W = shape
         h, w = excess.shape[:2]
-        self.shape = (H, W)
         self.clipped_yx_cache = clipped_yx
-        self.has = excess.max(axis=-1) > 0
+        has = excess.max(axis=-1) > 0
         self.pixels = None  # (ys, xs, add (n, 3) float32) for region pixels
         self.cells = []  # (r0, r1, c0, c1, excess (3,) float32) of the other cells
-        if not self.has.any():
+        if not has.any():
             return
         in_region = np.zeros((h, w), bool) if labels is None else (labels >= 0) & (labels < len(centres))
         if in_region.any():
@@ -398,11 +397,8 @@ class FullResolutionFill:
         xs_full = (np.arange(W) * w) // W
         row0, row1 = np.searchsorted(ys_full, np.arange(h)), np.searchsorted(ys_full, np.arange(h), side="right")
         col0, col1 = np.searchsorted(xs_full, np.arange(w)), np.searchsorted(xs_full, np.arange(w), side="right")
-        for y, x in zip(*np.nonzero(self.has & ~in_region)):
+        for y, x in zip(*np.nonzero(has & ~in_region)):
             self.cells.append((row0[y], row1[y], col0[x], col1[x], excess[y, x].astype(np.float32)))
-
-    def rows_touched(self) -> bool:
-        return self.pixels is not None or bool(self.cells)
 
     def apply(self, block: np.ndarray, r0: int, clipped_block: np.ndarray) -> None:
         """Add the recovered energy to rows r0 .. r0 + len(block) of the panorama: ``block`` float32

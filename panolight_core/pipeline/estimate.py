@@ -54,7 +54,11 @@ class Result:
     document: dict
     model: LightingModel
     estimate: Estimate
-    scale: float
+
+    @property
+    def scale(self) -> float:
+        """The exposure factor 2^exposure_ev the model (and the HDRI) carry."""
+        return 2.0 ** self.document["exposure_ev"]
 
     def hdr_panorama(self, pixels: np.ndarray) -> np.ndarray:
         """The full-resolution HDR panorama (pipeline.hdri) in the document's units: (H, W, 3) float32."""
@@ -106,7 +110,7 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Re
         timings={"estimate_s": round(est.info["estimate_s"], 6),
                  "model_s": round(time.perf_counter() - t1 - est.info["estimate_s"], 6)},
     )
-    return Result(doc, model, est, scale)
+    return Result(doc, model, est)
 
 
 def require_finite(outputs: dict, exposure_ev: float, what: str = "") -> None:

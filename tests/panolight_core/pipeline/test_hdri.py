@@ -69,3 +69,21 @@ def test_hdr_input_is_its_own_hdri():
     px = np.random.default_rng(0).random((8, 16, 3)).astype(np.float32)
     _, est = fit_pixels(px)
     np.testing.assert_array_equal(hdr_panorama(px, est), px)
+
+
+def test_block_wise_hdri_is_the_whole_image_fill_even_when_blocks_split_work_cells(city_ldr, monkeypatch):
+    from panolight_core.camera import clipped_mask, ldr_to_linear
+    from panolight_core.camera import resample
+    from panolight_core.estimators.sources import fill_full_resolution
+    from panolight_core.pipeline.hdri import assemble, hdr_blocks
+
+    ldr = city_ldr[:300, :600]  # 300 rows over a 128-row work map: cells do not align with blocks
+    _, est = fit_pixels(ldr)
+    rec = est.recovery
+    whole = fill_full_resolution(ldr_to_linear(ldr), clipped_mask(ldr, all_channels=True),
+                                 np.maximum(rec.work - rec.base, 0.0), rec.regions.centre,
+                                 rec.regions.shape_exponents(), rec.regions.labels)
+    monkeypatch.setattr(resample, "BLOCK_PIXELS", 600 * 7)  # 7-row blocks
+    blocks = list(hdr_blocks(ldr, est))
+    assert len(blocks) > 40 and whole.max() > 1.0  # many blocks, and energy was filled in
+    np.testing.assert_array_equal(assemble(ldr.shape, blocks), whole)
