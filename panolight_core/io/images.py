@@ -202,11 +202,31 @@ def _read_pil(path, as_uint8=False):
         if im.format == "PNG" and (im.mode in ("I;16", "I;16B", "I") or _png_bit_depth(path) == 16):
             yield _read_png16(path, as_uint8)
             return
+        if im.format == "JPEG" and im.mode == "RGB" and orientation in (0, 1):
+            rgb = _decode_jpeg(path)
+            if rgb is not None:
+                yield rgb if as_uint8 else SRGB8_TO_LINEAR[rgb]
+                return
         im.load()
         upright = ImageOps.exif_transpose(im) if orientation not in (0, 1) else im  # (each step is a copy)
         rgb = _pil_rgb(upright if upright.mode == "RGB" else upright.convert("RGB"))
         del upright
     yield rgb if as_uint8 else SRGB8_TO_LINEAR[rgb]
+
+
+def _decode_jpeg(path) -> np.ndarray | None:
+    """(H, W, 3) uint8 of an upright colour JPEG decoded by simplejpeg (libjpeg-turbo straight into one
+    numpy array: a 16K panorama in a third of Pillow's time and memory; the same pixels, as both use
+    libjpeg-turbo's accurate DCT and upsampling), or None when simplejpeg is not installed or refuses the
+    file, so that Pillow decodes it (and words any error)."""
+    try:
+        import simplejpeg
+    except ImportError:
+        return None
+    try:
+        return simplejpeg.decode_jpeg(Path(path).read_bytes(), colorspace="RGB")
+    except ValueError:
+        return None
 
 
 def _pil_rgb(im) -> np.ndarray:

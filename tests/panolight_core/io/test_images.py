@@ -1,8 +1,10 @@
+import sys
 import warnings
 
 import numpy as np
 import pytest
 
+from panolight_core.camera.color import SRGB8_TO_LINEAR
 from panolight_core.errors import ImageError, PanoLightWarning
 from panolight_core.io import read_image, sniff_format, write_image, write_srgb8
 from panolight_core.io import hdr as hdr_codec
@@ -312,3 +314,39 @@ def test_large_images_are_copied_out_in_strips_with_the_same_pixels():
     big = np.tile(px, (50, 50, 1))  # 3200 x 6400 = 20 MP: above the strip threshold (16.8 MP)
     with Image.fromarray(big) as im:
         assert np.array_equal(images._pil_rgb(im), big)
+
+
+@pytest.mark.parametrize("options", [{"quality": 90}, {"quality": 95, "subsampling": 0},
+                                     {"quality": 75, "subsampling": 1}, {"quality": 85, "progressive": True}])
+def test_jpegs_decode_to_pillows_pixels_with_or_without_simplejpeg(tmp_path, monkeypatch, options):
+    from PIL import Image
+
+    rng = np.random.default_rng(3)
+    px = (rng.random((33, 66, 3)) * 255).astype(np.uint8)
+    px[:10] = np.linspace(0, 255, 66).astype(np.uint8)[None, :, None]  # a ramp up to clipped white
+    path = tmp_path / "a.jpg"
+    Image.fromarray(px).save(path, **options)
+    with Image.open(path) as im:
+        expected = np.asarray(im.convert("RGB"))
+    fast = read_image(path, ldr_as_uint8=True)
+    monkeypatch.setitem(sys.modules, "simplejpeg", None)  # not installed: Pillow decodes
+    slow = read_image(path, ldr_as_uint8=True)
+    assert np.array_equal(fast, expected) and np.array_equal(slow, expected)
+    assert np.array_equal(read_image(path), SRGB8_TO_LINEAR[expected])
+
+
+def test_jpegs_simplejpeg_refuses_fall_back_to_pillow(tmp_path):
+    from PIL import Image
+
+    grey = tmp_path / "grey.jpg"
+    Image.fromarray(np.full((8, 16), 77, np.uint8), "L").save(grey)
+    assert np.array_equal(read_image(grey, ldr_as_uint8=True), np.full((8, 16, 3), 77, np.uint8))
+    cmyk = tmp_path / "cmyk.jpg"
+    Image.new("CMYK", (16, 8), (0, 0, 0, 0)).save(cmyk)
+    assert np.all(read_image(cmyk, ldr_as_uint8=True) >= 250)  # no ink: white
+    ok = tmp_path / "ok.jpg"
+    Image.fromarray((np.random.default_rng(0).random((64, 128, 3)) * 255).astype(np.uint8)).save(ok)
+    data = ok.read_bytes()
+    (tmp_path / "cut.jpg").write_bytes(data[:len(data) // 2])  # simplejpeg refuses; Pillow words the error
+    with pytest.raises(ImageError, match="cut.jpg: cannot decode JPEG pixels"):
+        read_image(tmp_path / "cut.jpg")
