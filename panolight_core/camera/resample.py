@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import threads
+
 
 def area_downsample(img: np.ndarray, height: int, width: int | None = None) -> np.ndarray:
     """Area-average an (H, W, C) image to (height, width, C) float64 (as is if H <= height).
@@ -53,7 +55,8 @@ def area_downsample_rows(img: np.ndarray, height: int, transform, width: int | N
     if h <= height or h % height or w % width:
         return area_downsample(transform(img), height, width)
     fy = h // height
-    parts = [area_downsample(transform(img[r0:r1]), (r1 - r0) // fy, width) for r0, r1 in row_blocks(h, w, fy)]
+    parts = threads.map_ordered(lambda rows: area_downsample(transform(img[rows[0]:rows[1]]), (rows[1] - rows[0]) // fy,
+                                                              width), row_blocks(h, w, fy))
     return np.concatenate(parts, axis=0)
 
 
@@ -70,18 +73,21 @@ def area_mean_lut(img: np.ndarray, height: int, lut: np.ndarray) -> np.ndarray:
     r = img.reshape(height, fy, w, -1)
     out = np.empty((height, width, r.shape[-1]))
     step = max(1, BLOCK_PIXELS // (4 * w))  # output rows per pass
-    tmp = np.empty((min(step, height), w, r.shape[-1]), np.float32)
-    for k0 in range(0, height, step):
+
+    def rows_of(k0):
         k1 = min(height, k0 + step)
         rows = lut[r[k0:k1, 0]]
+        tmp = np.empty_like(rows)
         for i in range(1, fy):
-            np.take(lut, r[k0:k1, i], out=tmp[:k1 - k0])
-            rows += tmp[:k1 - k0]
+            np.take(lut, r[k0:k1, i], out=tmp)
+            rows += tmp
         c = rows.reshape(k1 - k0, width, fx, -1)
         acc = c[:, :, 0].astype(np.float64)
         for i in range(1, fx):
             acc += c[:, :, i]
         out[k0:k1] = acc / (fy * fx)
+
+    threads.map_ordered(rows_of, range(0, height, step))  # each pass writes its own rows of out
     return out
 
 

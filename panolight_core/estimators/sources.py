@@ -34,9 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import sh
+from .. import sh, threads
+from ..camera import clipped_mask
 from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
-from ..camera.resample import area_downsample_rows, area_mean_lut
+from ..camera.resample import area_downsample_rows, area_mean_lut, row_blocks
 from ..errors import PanoLightError
 from .highlights import CORE_RADIUS, MAX_EXPONENT, _ring_fit, label_blobs, power_law_gain
 
@@ -63,17 +64,35 @@ def work_maps(ldr: np.ndarray, height: int = WORK_HEIGHT):
     if a.dtype != np.uint8 or a.ndim != 3 or a.shape[-1] != 3:
         raise PanoLightError(f"source energy needs (H, W, 3) uint8 sRGB pixels, got {a.dtype} {a.shape}")
     h = min(height, a.shape[0])
-
-    def clip_fractions(block):
-        hi = block >= 254
-        anyc = hi[..., 0] | hi[..., 1] | hi[..., 2]
-        allc = hi[..., 0] & hi[..., 1] & hi[..., 2]
-        return np.stack([anyc, allc], -1).astype(np.float32)
-
     # by row blocks: a 16K panorama has no room for full-resolution float copies
     rad = area_mean_lut(a, h, SRGB8_TO_LINEAR)
-    fr = area_downsample_rows(a, h, clip_fractions)
+    fr = clip_fractions(a, h)
     return rad, fr[..., 0], fr[..., 1]
+
+
+def clip_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
+    """(height, 2 height, 2) float64: the fraction of each cell's pixels with any channel / every channel
+    at 254 or more (``clipped_mask``), ``ldr`` uint8 (H, W, 3). Whole-number factors count pixels by row
+    blocks on every thread; other sizes average the masks as ``area_downsample`` does (the same numbers:
+    the counts are exact either way)."""
+    H, W = ldr.shape[:2]
+    width = 2 * height
+    if H <= height or H % height or W % width:
+        return area_downsample_rows(ldr, height, lambda block: np.stack(
+            [clipped_mask(block), clipped_mask(block, all_channels=True)], -1).astype(np.float32))
+    fy, fx = H // height, W // width
+
+    def counts(rows):
+        block = ldr[rows[0]:rows[1]]
+        n = (rows[1] - rows[0]) // fy
+        c0, c1, c2 = block[..., 0], block[..., 1], block[..., 2]
+        out = []
+        for m in (np.maximum(np.maximum(c0, c1), c2), np.minimum(np.minimum(c0, c1), c2)):
+            per_row = (m >= 254).view(np.uint8).reshape(n, fy, W).sum(axis=1, dtype=np.uint32)
+            out.append(per_row.reshape(n, width, fx).sum(axis=-1, dtype=np.int64))
+        return np.stack(out, -1)
+
+    return np.concatenate(threads.map_ordered(counts, row_blocks(H, W, fy))) / (fy * fx)
 
 
 @dataclass

@@ -1,0 +1,69 @@
+"""Threads for the block-wise pixel passes (sRGB decoding, area means, clipped masks, the HDRI fill):
+numpy releases the GIL inside these loops, so row blocks run on every CPU at once.
+
+``count()`` is the number of threads a pass may use: the CPUs this process may run on, or
+PANOLIGHT_THREADS, or what ``limited(n)`` sets for a while (batch workers, which are already one per
+CPU, run with one). Results come back in the blocks' order, so they never depend on the count.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+
+_limit: int | None = None
+
+
+def count() -> int:
+    """Threads a pass may use (>= 1)."""
+    if _limit is not None:
+        return _limit
+    env = os.environ.get("PANOLIGHT_THREADS", "").strip()
+    if env.isdigit() and int(env) > 0:
+        return int(env)
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+@contextlib.contextmanager
+def limited(n: int):
+    """Run the passes inside with at most ``n`` threads."""
+    global _limit
+    before, _limit = _limit, max(1, int(n))
+    try:
+        yield
+    finally:
+        _limit = before
+
+
+def imap(fn, items, ahead: int | None = None):
+    """``fn(item)`` for each item, yielded in order, computed by ``count()`` threads with at most
+    ``ahead`` (default: the thread count) results waiting: a consumer that streams the results (a file
+    writer) bounds the memory in flight. With one thread, or one item, it runs in the caller's thread."""
+    items = list(items)
+    n = min(count(), len(items))
+    if n <= 1:
+        for item in items:
+            yield fn(item)
+        return
+    ahead = max(n, ahead or n)
+    with ThreadPoolExecutor(max_workers=n, thread_name_prefix="panolight") as pool:
+        pending = deque()
+        try:
+            for item in items:
+                pending.append(pool.submit(fn, item))
+                if len(pending) >= ahead:
+                    yield pending.popleft().result()
+            while pending:
+                yield pending.popleft().result()
+        finally:  # a consumer that stops early (an error, a full disk) cancels what has not started
+            for f in pending:
+                f.cancel()
+
+
+def map_ordered(fn, items) -> list:
+    """``[fn(item) for item in items]`` computed by ``count()`` threads."""
+    return list(imap(fn, items, ahead=len(items) if hasattr(items, "__len__") else None))

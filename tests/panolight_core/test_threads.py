@@ -1,0 +1,73 @@
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from panolight_core import threads
+
+
+def test_results_come_in_order_whatever_the_thread_count():
+    def slow_first(i):
+        time.sleep(0.02 if i == 0 else 0.0)  # the first item finishes last
+        return i * i, threading.current_thread().name
+
+    with threads.limited(3):
+        out = threads.map_ordered(slow_first, range(7))
+    assert [v for v, _ in out] == [i * i for i in range(7)]
+    assert any(name.startswith("panolight") for _, name in out)
+    with threads.limited(1):
+        assert [v for v, name in threads.map_ordered(slow_first, range(3))] == [0, 1, 4]
+        assert threads.count() == 1
+    assert threads.count() >= 1
+
+
+def test_imap_keeps_at_most_ahead_results_waiting_and_stops_with_its_consumer():
+    started = []
+    lock = threading.Lock()
+
+    def work(i):
+        with lock:
+            started.append(i)
+        return i
+
+    with threads.limited(2):
+        it = threads.imap(work, range(100), ahead=3)
+        assert next(it) == 0
+        time.sleep(0.05)
+        assert len(started) <= 4  # three submitted before the first result, one after
+        it.close()  # the consumer stops: nothing else starts
+        n = len(started)
+        time.sleep(0.05)
+        assert len(started) == n < 100
+
+
+def test_errors_reach_the_caller():
+    def boom(i):
+        if i == 2:
+            raise ValueError("item 2")
+        return i
+
+    with threads.limited(2), pytest.raises(ValueError, match="item 2"):
+        threads.map_ordered(boom, range(5))
+
+
+def test_environment_variable(monkeypatch):
+    monkeypatch.setenv("PANOLIGHT_THREADS", "5")
+    assert threads.count() == 5
+    monkeypatch.setenv("PANOLIGHT_THREADS", "zero")
+    assert threads.count() >= 1
+
+
+def test_work_maps_are_the_same_on_one_thread_and_many(monkeypatch):
+    from panolight_core.camera import resample
+    from panolight_core.estimators.sources import work_maps
+
+    monkeypatch.setattr(resample, "BLOCK_PIXELS", 1 << 16)  # 32 rows of 2048: many row blocks
+    rng = np.random.default_rng(0)
+    ldr = (rng.random((512, 1024, 3)) * 300).clip(0, 255).astype(np.uint8)
+    with threads.limited(1):
+        one = work_maps(ldr)
+    with threads.limited(4):
+        many = work_maps(ldr)
+    assert all(np.array_equal(a, b) for a, b in zip(one, many))
