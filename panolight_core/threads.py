@@ -15,6 +15,14 @@ from concurrent.futures import ThreadPoolExecutor
 _limit: int | None = None
 
 
+def cpus() -> int:
+    """The CPUs this process may run on (>= 1)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
 def count() -> int:
     """Threads a pass may use (>= 1)."""
     if _limit is not None:
@@ -22,10 +30,13 @@ def count() -> int:
     env = os.environ.get("PANOLIGHT_THREADS", "").strip()
     if env.isdigit() and int(env) > 0:
         return int(env)
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not Linux
-        return max(1, os.cpu_count() or 1)
+    return cpus()
+
+
+def set_count(n: int) -> None:
+    """From now on, passes in this process use at most ``n`` threads (a batch worker: one)."""
+    global _limit
+    _limit = max(1, int(n))
 
 
 @contextlib.contextmanager

@@ -206,10 +206,14 @@ def _process_task(task):
 
 
 def _worker_init():
-    """Pool workers leave Ctrl-C to the batch process, which stops them (SIGTERM: they clean up)."""
+    """Pool workers leave Ctrl-C to the batch process, which stops them (SIGTERM: they clean up), and
+    run their pixel passes on one thread: the workers already fill the CPUs."""
     import signal
 
+    from .. import threads
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threads.set_count(1)
     _keep_freed_memory()
 
 
@@ -233,13 +237,9 @@ def default_jobs() -> int:
     """Worker processes for ``batch``: one more than the CPUs this process may use, so that one worker's
     file writes overlap the others' computing (bench_scale, 2 CPUs: 2 workers 12.7 inputs / s, 3 15.3,
     4 15.6)."""
-    import os
+    from .. import threads
 
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        cpus = os.cpu_count() or 1
-    return max(1, cpus) + 1
+    return threads.cpus() + 1
 
 
 def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: bool = False,

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import threads
+from . import clipped_mask
 
 
 def area_downsample(img: np.ndarray, height: int, width: int | None = None) -> np.ndarray:
@@ -89,6 +90,31 @@ def area_mean_lut(img: np.ndarray, height: int, lut: np.ndarray) -> np.ndarray:
 
     threads.map_ordered(rows_of, range(0, height, step))  # each pass writes its own rows of out
     return out
+
+
+def clipped_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
+    """(height, 2 height, 2) float64: the fraction of each cell's pixels with any channel / every channel
+    at 254 or more (``clipped_mask``), ``ldr`` uint8 (H, W, 3). Whole-number factors count pixels by row
+    blocks on every thread; other sizes average the masks as ``area_downsample`` does (the same numbers:
+    the counts are exact either way)."""
+    H, W = ldr.shape[:2]
+    width = 2 * height
+    if H <= height or H % height or W % width:
+        return area_downsample_rows(ldr, height, lambda block: np.stack(
+            [clipped_mask(block), clipped_mask(block, all_channels=True)], -1).astype(np.float32))
+    fy, fx = H // height, W // width
+
+    def counts(rows):
+        block = ldr[rows[0]:rows[1]]
+        n = (rows[1] - rows[0]) // fy
+        c0, c1, c2 = block[..., 0], block[..., 1], block[..., 2]
+        out = []
+        for m in (np.maximum(np.maximum(c0, c1), c2), np.minimum(np.minimum(c0, c1), c2)):
+            per_row = (m >= 254).view(np.uint8).reshape(n, fy, W).sum(axis=1, dtype=np.uint32)
+            out.append(per_row.reshape(n, width, fx).sum(axis=-1, dtype=np.int64))
+        return np.stack(out, -1)
+
+    return np.concatenate(threads.map_ordered(counts, row_blocks(H, W, fy))) / (fy * fx)
 
 
 def sample_equirect(img: np.ndarray, directions: np.ndarray) -> np.ndarray:

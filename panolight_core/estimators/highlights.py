@@ -22,13 +22,11 @@ reports its behaviour on synthetic skies and rooms. Everything runs on an area-a
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
 from .. import sh
-from ..camera.resample import area_downsample
-from ..camera import clipped_mask
+from ..camera.resample import area_downsample, area_mean_lut, clipped_fractions
 from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
 
 CLIP_LEVEL = 0.99  # linear value of sRGB 254/255 is 0.991: at or above counts as clipped
@@ -216,45 +214,13 @@ def power_law_gain(solid_angle: float, exponent: float, core_radius: float = COR
     return max(1.0, energy / (math.pi * t_c * t_c))
 
 
-_POOL = None
-
-
-def _pool():
-    global _POOL
-    if _POOL is None:
-        from concurrent.futures import ThreadPoolExecutor
-
-        _POOL = ThreadPoolExecutor(max_workers=max(1, min(4, os.cpu_count() or 1)),
-                                   thread_name_prefix="panolight")
-    return _POOL
-
-
-def _ldr_chunk(a: np.ndarray, rows: int, width: int) -> tuple[np.ndarray, np.ndarray]:
-    clip = clipped_mask(a)
-    rad = area_downsample(SRGB8_TO_LINEAR[a], rows, width)
-    frac = area_downsample(clip[..., None].astype(np.float32), rows, width)[..., 0]
-    return rad, frac
-
-
 def ldr_work_maps(ldr: np.ndarray, work_height: int) -> tuple[np.ndarray, np.ndarray]:
-    """uint8 sRGB pixels -> (linear radiance (h, 2h, 3), clipped fraction (h, 2h)) at h = work_height.
-
-    A pixel is clipped when its brightest channel is 254 or 255. Large images are split into row
-    bands (aligned to the averaging blocks) processed on a small thread pool: numpy releases the GIL
-    for the lookup and the sums, so two cores halve the time.
-    """
+    """uint8 sRGB pixels -> (linear radiance (h, 2h, 3), clipped fraction (h, 2h)) at h = work_height:
+    the area means of the sRGB-decoded pixels and of ``clipped_mask`` (brightest channel 254 or 255),
+    by row blocks on every thread."""
     a = np.asarray(ldr)
-    h, w = a.shape[:2]
-    width = 2 * work_height
-    bands = max(1, min(4, os.cpu_count() or 1))
-    if h <= work_height or h % work_height or w % width or h * w < (1 << 20) or bands == 1 \
-            or work_height % bands:
-        return _ldr_chunk(a, min(work_height, h), width if h > work_height else w)
-    step = h // bands
-    out_rows = work_height // bands
-    parts = [_pool().submit(_ldr_chunk, a[i * step:(i + 1) * step], out_rows, width) for i in range(bands)]
-    results = [f.result() for f in parts]
-    return np.concatenate([r[0] for r in results]), np.concatenate([r[1] for r in results])
+    h = min(work_height, a.shape[0])
+    return area_mean_lut(a, h, SRGB8_TO_LINEAR), clipped_fractions(a, h)[..., 0]
 
 
 def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: float = CORE_RADIUS):

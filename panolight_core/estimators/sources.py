@@ -34,10 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import sh, threads
-from ..camera import clipped_mask
+from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
-from ..camera.resample import area_downsample_rows, area_mean_lut, row_blocks
+from ..camera.resample import area_mean_lut, clipped_fractions
 from ..errors import PanoLightError
 from .highlights import CORE_RADIUS, MAX_EXPONENT, _ring_fit, label_blobs, power_law_gain
 
@@ -66,33 +65,8 @@ def work_maps(ldr: np.ndarray, height: int = WORK_HEIGHT):
     h = min(height, a.shape[0])
     # by row blocks: a 16K panorama has no room for full-resolution float copies
     rad = area_mean_lut(a, h, SRGB8_TO_LINEAR)
-    fr = clip_fractions(a, h)
+    fr = clipped_fractions(a, h)
     return rad, fr[..., 0], fr[..., 1]
-
-
-def clip_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
-    """(height, 2 height, 2) float64: the fraction of each cell's pixels with any channel / every channel
-    at 254 or more (``clipped_mask``), ``ldr`` uint8 (H, W, 3). Whole-number factors count pixels by row
-    blocks on every thread; other sizes average the masks as ``area_downsample`` does (the same numbers:
-    the counts are exact either way)."""
-    H, W = ldr.shape[:2]
-    width = 2 * height
-    if H <= height or H % height or W % width:
-        return area_downsample_rows(ldr, height, lambda block: np.stack(
-            [clipped_mask(block), clipped_mask(block, all_channels=True)], -1).astype(np.float32))
-    fy, fx = H // height, W // width
-
-    def counts(rows):
-        block = ldr[rows[0]:rows[1]]
-        n = (rows[1] - rows[0]) // fy
-        c0, c1, c2 = block[..., 0], block[..., 1], block[..., 2]
-        out = []
-        for m in (np.maximum(np.maximum(c0, c1), c2), np.minimum(np.minimum(c0, c1), c2)):
-            per_row = (m >= 254).view(np.uint8).reshape(n, fy, W).sum(axis=1, dtype=np.uint32)
-            out.append(per_row.reshape(n, width, fx).sum(axis=-1, dtype=np.int64))
-        return np.stack(out, -1)
-
-    return np.concatenate(threads.map_ordered(counts, row_blocks(H, W, fy))) / (fy * fx)
 
 
 @dataclass
@@ -386,6 +360,7 @@ class FullResolutionFill:
         H, W = shape
         h, w = excess.shape[:2]
         self.clipped_yx_cache = clipped_yx
+        self.shape, self.work_shape = (H, W), (h, w)
         has = excess.max(axis=-1) > 0
         self.pixels = None  # (ys, xs, add (n, 3) float32) for region pixels
         self.cells = []  # (r0, r1, c0, c1, excess (3,) float32) of the other cells
@@ -418,6 +393,19 @@ class FullResolutionFill:
         col0, col1 = np.searchsorted(xs_full, np.arange(w)), np.searchsorted(xs_full, np.arange(w), side="right")
         for y, x in zip(*np.nonzero(has & ~in_region)):
             self.cells.append((row0[y], row1[y], col0[x], col1[x], excess[y, x].astype(np.float32)))
+
+    def peak(self) -> float:
+        """An upper bound of the energy ``apply`` adds to any one pixel (per channel, linear units)."""
+        top = float(self.pixels[2].max()) if self.pixels is not None and self.pixels[2].size else 0.0
+        if self.cells:
+            ys, xs = self.clipped_yx_cache
+            (H, W), (h, w) = self.shape, self.work_shape
+            clipped = np.bincount((ys * h // H) * w + xs * w // W, minlength=h * w)
+            for c_r0, c_r1, c0, c1, exc in self.cells:
+                n = (c_r1 - c_r0) * (c1 - c0)
+                k = clipped[(c_r0 * h // H) * w + c0 * w // W]  # the cell's clipped pixels (0: all share)
+                top = max(top, float(exc.max()) * (n / k if k else 1.0))
+        return top
 
     def apply(self, block: np.ndarray, r0: int, clipped_block: np.ndarray) -> None:
         """Add the recovered energy to rows r0 .. r0 + len(block) of the panorama: ``block`` float32

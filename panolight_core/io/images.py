@@ -441,10 +441,19 @@ def write_image(path, image, *, bit_depth: int = 8, half: bool = False, quality:
     return p
 
 
-def write_exr_rows(path, height: int, width: int, blocks, *, compression: str = "piz", check=None) -> Path:
-    """Write a float32 RGB EXR of (height, width) from ``blocks``, an iterable of (first row, (n, width, 3))
-    in order, scanline by scanline: the image never exists whole in memory. ``check(block)`` may raise
-    to stop (the half-written file is removed). Written atomically; returns the path."""
+HALF_MAX = 65504.0  # the largest finite half float
+HALF_MIN_NORMAL = 2.0 ** -14  # below it half floats lose precision (subnormals)
+
+
+def write_exr_rows(path, height: int, width: int, blocks, *, compression: str = "piz", half: bool = False,
+                   check=None) -> Path:
+    """Write an RGB EXR of (height, width) from ``blocks``, an iterable of (first row, (n, width, 3))
+    in order, scanline by scanline: the image never exists whole in memory. Channels are float32, or half
+    floats with ``half`` (the caller makes sure the values fit: HALF_MAX). ``check(block)`` may raise to
+    stop (the half-written file is removed). Each block is compressed and written (OpenEXR, without the
+    GIL) while the next is made. Written atomically; returns the path."""
+    from concurrent.futures import ThreadPoolExecutor
+
     import Imath
     import OpenEXR
 
@@ -454,8 +463,12 @@ def write_exr_rows(path, height: int, width: int, blocks, *, compression: str = 
     codec = getattr(Imath.Compression, _exr_codec(compression))
     header = OpenEXR.Header(int(width), int(height))
     header["compression"] = Imath.Compression(codec)
-    with atomic_path(p, p.suffix) as tmp:
+    dtype = np.float16 if half else np.float32
+    if half:
+        header["channels"] = {c: Imath.Channel(Imath.PixelType(Imath.PixelType.HALF)) for c in "RGB"}
+    with atomic_path(p, p.suffix) as tmp, ThreadPoolExecutor(1, thread_name_prefix="panolight-exr") as writer:
         out = OpenEXR.OutputFile(str(tmp), header)
+        pending = None
         try:
             expected = 0
             for r0, block in blocks:
@@ -463,15 +476,25 @@ def write_exr_rows(path, height: int, width: int, blocks, *, compression: str = 
                     raise ValueError(f"blocks must cover rows in order with shape (n, {width}, 3)")
                 if check is not None:
                     check(block)
-                data = np.asarray(block, dtype=np.float32)
-                out.writePixels({c: np.ascontiguousarray(data[..., i]).tobytes() for i, c in enumerate("RGB")},
-                                data.shape[0])
-                expected += data.shape[0]
+                if pending is not None:
+                    pending.result()  # one block in flight: memory stays bounded
+                pending = writer.submit(_write_planes, out, block, dtype)
+                expected += block.shape[0]
+            if pending is not None:
+                pending.result()
             if expected != height:
                 raise ValueError(f"blocks covered {expected} of {height} rows")
         finally:
+            if pending is not None:
+                pending.exception()  # never close the file under a running write
             out.close()
     return p
+
+
+def _write_planes(out, block: np.ndarray, dtype) -> None:
+    """One (n, W, 3) block into an open OpenEXR.OutputFile, as its R, G and B planes of ``dtype``."""
+    out.writePixels({c: np.ascontiguousarray(block[..., i], dtype=dtype) for i, c in enumerate("RGB")},
+                    block.shape[0])
 
 
 def encode_srgb8(rgb8: np.ndarray, fmt: str = "png", quality: int = 95) -> bytes:

@@ -67,12 +67,11 @@ class Result:
         return assemble(pixels.shape, self.hdr_blocks(pixels))
 
     def hdr_blocks(self, pixels: np.ndarray):
-        """``hdr_panorama`` by row blocks, (first row, float32 (n, W, 3)): what hdr.exr is streamed from."""
-        from .hdri import hdr_blocks
+        """``hdr_panorama`` by row blocks: a ``pipeline.hdri.HdrRows`` (iterate for (first row, float32
+        (n, W, 3)); ``peak`` bounds its values), what hdr.exr is streamed from."""
+        from .hdri import HdrRows
 
-        with np.errstate(over="ignore", invalid="ignore"):
-            for r0, block in hdr_blocks(pixels, self.estimate):
-                yield r0, (block * np.float32(self.scale) if self.scale != 1.0 else block)
+        return HdrRows(pixels, self.estimate, self.scale)
 
 
 def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Result:

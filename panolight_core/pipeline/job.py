@@ -110,7 +110,8 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
             write_image(stage / name, image, compression="rle")
             written.append(name)
         if "hdr" in outputs:  # streamed by row blocks (PIZ: the fast lossless codec for photographs)
-            write_exr_rows(stage / "hdr.exr", pixels.shape[0], pixels.shape[1], result.hdr_blocks(pixels),
+            rows = result.hdr_blocks(pixels)
+            write_exr_rows(stage / "hdr.exr", pixels.shape[0], pixels.shape[1], rows, half=rows.fits_half(),
                            check=lambda block: require_finite({"hdr.exr": block}, exposure_ev, f"{src}: "))
             written.append("hdr.exr")
         if "previews" in outputs:

@@ -41,9 +41,18 @@ def pixel_directions(height: int, width: int) -> np.ndarray:
 
 
 def directions_at(rows, cols, height: int, width: int) -> np.ndarray:
-    """(..., 3) float64 view directions of the pixel centres (rows, cols) of an H x W equirect image."""
-    theta = np.pi * (np.asarray(rows) + 0.5) / height
-    u = (np.asarray(cols) + 0.5) / width
+    """(..., 3) float64 view directions of the pixel centres (rows, cols) of an H x W equirect image.
+    Integer indices look the sines and cosines up in per-row and per-column tables (the same numbers,
+    without millions of trigonometric calls)."""
+    rows, cols = np.asarray(rows), np.asarray(cols)
+    if rows.dtype.kind in "iu" and cols.dtype.kind in "iu" and rows.size > height + width:
+        theta = np.pi * (np.arange(height) + 0.5) / height
+        phi = 2 * np.pi * ((np.arange(width) + 0.5) / width)
+        st, ct, cp, sp = np.sin(theta), np.cos(theta), np.cos(phi), np.sin(phi)
+        st_r = st[rows]
+        return np.stack([-st_r * cp[cols], st_r * sp[cols], ct[rows]], axis=-1)
+    theta = np.pi * (rows + 0.5) / height
+    u = (cols + 0.5) / width
     st = np.sin(theta)
     return np.stack([-st * np.cos(2 * np.pi * u), st * np.sin(2 * np.pi * u), np.cos(theta)], axis=-1)
 

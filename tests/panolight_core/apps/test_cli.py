@@ -279,3 +279,27 @@ def test_an_hdri_that_would_overflow_alone_is_refused_and_leaves_no_folder(tmp_p
     src = write_image(tmp_path / "spike.exr", img)
     assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "--exposure", "4", "-q"]) == 1
     assert "hdr.exr would not be finite" in capsys.readouterr().err and not (tmp_path / "o").exists()
+
+
+def test_hdr_exr_is_half_floats_for_an_8_bit_input_and_float32_when_it_would_not_fit(tmp_path):
+    import OpenEXR
+
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.data import studio_hdri
+    from panolight_core.io import write_srgb8
+    from panolight_core.pipeline import Settings, estimate_lighting
+
+    ldr = hdr_to_ldr(read_image(studio_hdri("sunrise"), negative="clamp").astype(np.float64), 0.0)
+    src = write_srgb8(tmp_path / "in.png", ldr)
+
+    def channel_type(folder):
+        with OpenEXR.File(str(folder / "hdr.exr")) as f:
+            return f.channels()["RGB"].pixels.dtype
+
+    for ev, dtype in ((0, np.float16), (16, np.float32)):
+        out = tmp_path / f"ev{ev}"
+        assert main(["estimate", str(src), "-o", str(out), "-q", "--exposure", str(ev)]) == 0
+        assert channel_type(out) == dtype
+        want = estimate_lighting(ldr, Settings(exposure_ev=ev)).hdr_panorama(ldr)
+        assert want.max() > 1.0  # energy was recovered
+        np.testing.assert_allclose(read_image(out / "hdr.exr"), want, rtol=2 ** -11, atol=0)

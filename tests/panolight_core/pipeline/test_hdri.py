@@ -87,3 +87,26 @@ def test_block_wise_hdri_is_the_whole_image_fill_even_when_blocks_split_work_cel
     blocks = list(hdr_blocks(ldr, est))
     assert len(blocks) > 40 and whole.max() > 1.0  # many blocks, and energy was filled in
     np.testing.assert_array_equal(assemble(ldr.shape, blocks), whole)
+
+
+def test_the_peak_bounds_every_value_before_the_first_block(city_ldr):
+    from panolight_core.pipeline.hdri import HdrRows, assemble
+
+    for ldr, estimator in ((city_ldr, "sources"), (city_ldr, "analytic"),
+                           (np.random.default_rng(0).random((8, 16, 3)).astype(np.float32), "sources")):
+        _, est = fit_pixels(ldr, estimator=estimator)
+        for scale in (1.0, 8.0):
+            rows = HdrRows(ldr, est, scale)
+            top = float(assemble(ldr.shape, rows).max())
+            assert top <= rows.peak <= top + scale * 1.0 + 1e-6, (estimator, scale)  # a bound, and a close one
+
+
+def test_half_floats_only_for_8_bit_inputs_whose_range_fits(city_ldr):
+    from panolight_core.pipeline.hdri import HdrRows
+
+    _, est = fit_pixels(city_ldr)
+    assert HdrRows(city_ldr, est).fits_half()
+    assert not HdrRows(city_ldr, est, 2.0 ** 16).fits_half()  # its peak would overflow half floats
+    assert not HdrRows(city_ldr, est, 2.0 ** -5).fits_half()  # its darkest steps would be subnormal
+    hdr = city_ldr.astype(np.float32) / 255
+    assert not HdrRows(hdr, fit_pixels(hdr)[1]).fits_half()  # a float input keeps float32
