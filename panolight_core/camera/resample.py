@@ -61,6 +61,9 @@ def area_downsample_rows(img: np.ndarray, height: int, transform, width: int | N
     return np.concatenate(parts, axis=0)
 
 
+LUT_PASS_PIXELS = 1 << 18  # area_mean_lut's pass size (see there)
+
+
 def area_mean_lut(img: np.ndarray, height: int, lut: np.ndarray) -> np.ndarray:
     """``area_downsample(lut[img], height)`` for a uint8 (H, W, C) image and a float32 (256,) table (sRGB
     -> linear), without the full-size float image: each output row's input rows are looked up and summed
@@ -73,7 +76,9 @@ def area_mean_lut(img: np.ndarray, height: int, lut: np.ndarray) -> np.ndarray:
     fy, fx = h // height, w // width
     r = img.reshape(height, fy, w, -1)
     out = np.empty((height, width, r.shape[-1]))
-    step = max(1, BLOCK_PIXELS // (4 * w))  # output rows per pass
+    # output rows per pass: float32 temporaries of about 64 K pixels x fy stay in cache, and an 8K panorama
+    # makes 16 passes for the threads to share (8K: 0.16 -> 0.06 s on 2 CPUs against 4 M-pixel passes)
+    step = max(1, LUT_PASS_PIXELS // (4 * w))
 
     def rows_of(k0):
         k1 = min(height, k0 + step)
