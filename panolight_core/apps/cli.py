@@ -189,7 +189,7 @@ def _add_estimate_options(p, default_estimator="auto"):
 
     p.add_argument("--outputs", type=estimate_settings.argparse_type(parse_outputs), default=tuple(OUTPUT_GROUPS),
                    metavar="GROUPS",
-                   help="what to write, comma-separated (default all): " + "; ".join(
+                   help="what to write: all (the default), or groups comma-separated: " + "; ".join(
                        f"{g}: {', '.join(files)}" for g, files in OUTPUT_GROUPS.items())
                    + " (lighting.usda needs usd-core; lighting is always written)")
     p.add_argument("--repair-nonfinite", action="store_true", help="replace NaN/Inf pixels instead of refusing")

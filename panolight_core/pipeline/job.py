@@ -28,12 +28,15 @@ OUTPUT_FILES = ("lighting.json", "hdr.exr", "radiance.exr", "irradiance.exr", "p
 
 
 def parse_outputs(text) -> tuple[str, ...]:
-    """'lighting,hdr' (or a sequence of group names) -> the OUTPUT_GROUPS chosen, in table order.
-    lighting is always written (it is the record the others belong to)."""
+    """'lighting,hdr' (or a sequence of group names; 'all' for every group) -> the OUTPUT_GROUPS chosen,
+    in table order. lighting is always written (it is the record the others belong to)."""
     names = [n.strip() for n in (text.split(",") if isinstance(text, str) else text) if n.strip()]
+    if names == ["all"]:
+        return tuple(OUTPUT_GROUPS)
     bad = [n for n in names if n not in OUTPUT_GROUPS]
     if bad or not names:
-        raise PanoLightError(f"--outputs takes a comma-separated list of {', '.join(OUTPUT_GROUPS)}, got {text!r}")
+        raise PanoLightError(f"--outputs takes 'all' or a comma-separated list of {', '.join(OUTPUT_GROUPS)}, "
+                             f"got {text!r}")
     return tuple(g for g in OUTPUT_GROUPS if g in names or g == "lighting")
 
 

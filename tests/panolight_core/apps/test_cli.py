@@ -270,7 +270,9 @@ def test_outputs_choose_the_groups_and_leave_no_mix_of_runs(tmp_path, capsys):
                                                      "preview.png", "radiance.exr"]
     with pytest.raises(SystemExit):
         main(["estimate", str(src), "-o", str(out), "--outputs", "lighting,thumbnails"])
-    assert "--outputs takes a comma-separated list of lighting, hdr, previews" in capsys.readouterr().err
+    assert "--outputs takes 'all' or a comma-separated list of lighting, hdr, previews" in capsys.readouterr().err
+    assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "all"]) == 0
+    assert (out / "hdr.exr").is_file() and (out / "preview.png").is_file()
 
 
 def test_an_hdri_that_would_overflow_alone_is_refused_and_leaves_no_folder(tmp_path, capsys):
