@@ -56,7 +56,8 @@ def run_train(args) -> int:
     res = train(args.config, args.data, args.out, epochs=args.epochs, ae_epochs=args.ae_epochs,
                 batch_size=args.batch_size, lr=args.lr, seed=args.seed, procedural=args.procedural,
                 val_procedural=args.val_procedural, cache=args.cache, max_minutes=args.max_minutes,
-                ae_from=args.ae_from, hdr=args.hdr, log=stderr_log(args.quiet))
+                ae_from=args.ae_from, hdr=args.hdr, hdr_copies=args.hdr_copies, hold_out=args.hold_out,
+                log=stderr_log(args.quiet))
     print(f"train: weights in {res['weights']}", file=sys.stderr)
     return 0
 
@@ -143,6 +144,18 @@ def register(sub) -> None:
     tr.set_defaults(func=run_train)
 
 
+def _fold(text: str) -> tuple[int, int]:
+    import argparse
+
+    try:
+        k, n = (int(v) for v in text.split("/"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a fold is K/N, e.g. 1/5; got {text!r}") from None
+    if not 1 <= k <= n or n < 2:
+        raise argparse.ArgumentTypeError(f"a fold K/N needs 1 <= K <= N and N >= 2; got {text!r}")
+    return k, n
+
+
 def add_train_arguments(tr) -> None:
     """The options of ``panolight train`` (also ``torchrun -m training.torchrun``)."""
     tr.add_argument("config", help="small | paper | ablation/VARIANT (e.g. ablation/full-prior) | a JSON config path")
@@ -150,6 +163,12 @@ def add_train_arguments(tr) -> None:
     tr.add_argument("--hdr", default=None, metavar="DIR",
                     help="a folder of real HDR panoramas (.exr/.hdr, e.g. Laval) added as training examples; "
                          "Blender's studio HDRIs are refused (they are the evaluation set)")
+    tr.add_argument("--hdr-copies", type=int, default=0, metavar="N",
+                    help="augmented views of each --hdr panorama (yaw, mirror, white balance, resolution, "
+                         "ev -3..3, tone curves, JPEG; the per-source model's camera); default 0: one plain view")
+    tr.add_argument("--hold-out", type=_fold, default=None, metavar="K/N",
+                    help="leave fold K of N of the --hdr scenes out of training and validation (the folds of "
+                         "'python -m training.source_energy cv'); score it with 'python -m training.neural_cv'")
     tr.add_argument("--procedural", type=int, default=4000,
                     help="procedural environments in the training set (default 4000)")
     tr.add_argument("--val-procedural", type=int, default=400, help="procedural validation environments (default 400)")

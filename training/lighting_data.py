@@ -83,12 +83,20 @@ def synthetic_examples(path, index: int, height: int, lmax: int, pool: np.ndarra
     return [coupled, relit]
 
 
-def hdr_example(path, index: int, height: int, lmax: int, seed: int) -> dict:
-    """A real HDR panorama seen by the camera (coupled: its lighting is its own SH)."""
+def hdr_example(path, index: int, height: int, lmax: int, seed: int, copy: int | None = None) -> dict:
+    """A real HDR panorama seen by the camera (coupled: its lighting is its own SH). copy (0, 1, ...):
+    one of several augmented views instead, through source_energy's camera (yaw, mirror, white balance,
+    resolution, ev -3..3, tone curves other than sRGB, JPEG quality): the data the per-source model
+    learns from, so the two are compared on the same footing."""
     from panolight_core.io import read_image
 
     hdr = np.maximum(read_image(path).astype(np.float64), 0.0)
-    return _coupled(hdr, np.random.default_rng([seed, index, 3]), height, lmax, "hdr")
+    if copy is None:
+        return _coupled(hdr, np.random.default_rng([seed, index, 3]), height, lmax, "hdr")
+    from training.source_energy import camera
+
+    ldr, exposed = camera(hdr, np.random.default_rng([seed, index, 4, copy]))
+    return _arrays(ldr, exposed, sh.project(exposed, lmax), height, "hdr", float("nan"))
 
 
 def _job(args):
@@ -97,6 +105,9 @@ def _job(args):
         return [procedural_example(a, height, lmax)]
     if kind == "hdr":
         return [hdr_example(a, b, height, lmax, seed)]
+    if kind == "hdr-augmented":
+        index, copy = b
+        return [hdr_example(a, index, height, lmax, seed, copy)]
     return synthetic_examples(a, b, height, lmax, pool, seed)
 
 
@@ -110,18 +121,22 @@ def _files(synth) -> list:
 
 
 def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64, lmax: int = 2, seed: int = 0,
-            workers: int | None = None, progress=None) -> Path:
+            workers: int | None = None, progress=None, hdr_copies: int = 0) -> Path:
     """Write the arrays of ``procedural`` procedural examples (seeds seed*10^7 + i) and of every sample
     of ``synth`` (a folder or a list of sample files; coupled + relit) and every panorama of ``hdr`` (a
-    list of .exr/.hdr files, relight_data.hdr_files) to ``out`` (.npz, uncompressed, no pickles).
-    Returns ``out``."""
+    list of .exr/.hdr files, relight_data.hdr_files; with ``hdr_copies`` that many augmented views of
+    each) to ``out`` (.npz, uncompressed, no pickles). Returns ``out``."""
     from training.relight_data import procedural_pool
 
     files = _files(synth)
     pool = procedural_pool(256, lmax, seed=10 ** 6 + seed) if files else None
     jobs = [("procedural", seed * 10 ** 7 + i, None, height, lmax, None, seed) for i in range(procedural)]
     jobs += [("synthetic", f, i, height, lmax, pool, seed) for i, f in enumerate(files)]
-    jobs += [("hdr", f, i, height, lmax, None, seed) for i, f in enumerate(hdr or [])]
+    if hdr_copies:
+        jobs += [("hdr-augmented", f, (i, c), height, lmax, None, seed) for i, f in enumerate(hdr or [])
+                 for c in range(hdr_copies)]
+    else:
+        jobs += [("hdr", f, i, height, lmax, None, seed) for i, f in enumerate(hdr or [])]
     if not jobs:
         raise ValueError("nothing to prepare: give procedural > 0, synthetic samples or HDR panoramas")
     examples = []
@@ -142,7 +157,7 @@ def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64,
               "image": np.array([examples[i]["image"] for i in geo], np.float16).reshape(-1, 3, height, 2 * height),
               "meta": np.array(json.dumps({"version": FORMAT_VERSION, "height": height, "lmax": lmax, "seed": seed,
                                            "procedural": procedural, "synthetic": len(files),
-                                           "hdr": len(hdr or [])}))}
+                                           "hdr": len(hdr or []), "hdr_copies": hdr_copies}))}
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.tmp{os.getpid()}.npz")
@@ -151,11 +166,12 @@ def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64,
     return out
 
 
-def cache_name(*, synth, procedural, height, lmax, seed, hdr=None) -> str:
+def cache_name(*, synth, procedural, height, lmax, seed, hdr=None, hdr_copies: int = 0) -> str:
     """A file name that changes whenever what ``prepare`` would write changes."""
     files = [Path(p).name for p in _files(synth)]
     key = json.dumps([FORMAT_VERSION, files, procedural, height, lmax, seed]
-                     + ([[str(Path(p).resolve()) for p in hdr]] if hdr else []))
+                     + ([[str(Path(p).resolve()) for p in hdr]] if hdr else [])
+                     + ([hdr_copies] if hdr_copies else []))
     return f"prepared-{hashlib.sha256(key.encode()).hexdigest()[:12]}.npz"
 
 

@@ -69,14 +69,18 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS) -> dict:
             **{f"learned (decision, wide regions q = {q:g})": decided(q) for q in WIDE_CONCENTRATIONS}}
 
 
+def scene_folds(count: int, folds: int = 5, seed: int = 0) -> list[np.ndarray]:
+    """Indices of ``count`` scenes (source_energy.scene_files order) in ``folds`` leave-scenes-out folds:
+    the assignment every cross-validation here uses (the per-source model's and the network's)."""
+    perm = np.random.default_rng(seed).permutation(count)
+    return [perm[i::folds] for i in range(folds)]
+
+
 def cross_validate(files, X, y, w, g, args, fit, load_hdr):
     """Leave-scenes-out folds over the region table (X, y, w, g: source_energy.build_table), scored by
     EVALUATION.md on each held-out scene. fit and load_hdr: source_energy's (passed in, so this module
     does not import the one that runs it)."""
-    n = len(files)
-    rng = np.random.default_rng(args.seed)
-    perm = rng.permutation(n)
-    folds = [perm[i::args.folds] for i in range(args.folds)]
+    folds = scene_folds(len(files), args.folds, args.seed)
     rows = []
     t0 = time.perf_counter()
     for k, test in enumerate(folds):

@@ -41,10 +41,24 @@ def _distributed():
     return 0, 1
 
 
-def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None):
+def held_out_scenes(hdr, fold) -> list[str]:
+    """The scene names (file stems) of fold (K, N) of the real HDRs in folder ``hdr``: the assignment of
+    ``source_energy cv`` (source_energy_cv.scene_folds), so a network and the per-source model are
+    scored on the same held-out scenes."""
+    from training.source_energy import scene_files
+    from training.source_energy_cv import scene_folds
+
+    k, n = fold
+    files = scene_files(Path(hdr))
+    return sorted(files[i].stem for i in scene_folds(len(files), n)[k - 1])
+
+
+def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None, hdr_copies=0, hold_out=None):
     """Prepare (or reuse) the cached train and validation arrays (procedural and synthetic parts cached
     apart, so more Mitsuba samples do not redo the procedural ones); the first 10 % of the synthetic
-    samples and of the HDR panoramas, and procedural seeds of their own, are held out."""
+    samples and of the HDR panoramas, and procedural seeds of their own, are held out. hold_out: fold
+    (K, N) of the real HDRs kept out of training and validation alike (held_out_scenes), for a
+    leave-scenes-out test."""
     from training.synth.store import list_samples
 
     files = list_samples(data) if data else []
@@ -55,7 +69,10 @@ def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None)
     from training.relight_data import hdr_files
 
     real = hdr_files(hdr) if hdr else []
-    n_val, n_val_hdr = len(files) // 10, len(real) // 10
+    if hold_out:
+        test = set(held_out_scenes(hdr, hold_out))
+        real = [f for f in real if f.stem not in test]
+    n_val, n_val_hdr = len(files) // 10, (max(1, len(real) // 10) if len(real) >= 2 else 0)
     h, lmax = cfg["input_height"], cfg["lmax"]
     out = []
     for name, fs, n_proc, hs, s in (("train", files[n_val:], procedural, real[n_val_hdr:], seed),
@@ -65,13 +82,20 @@ def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None)
             if not any(kw.values()):
                 continue
             kw = {"synth": None, "procedural": 0, "hdr": None, **kw}
+            if kw["hdr"]:
+                kw["hdr_copies"] = hdr_copies
             path = Path(cache) / lighting_data.cache_name(height=h, lmax=lmax, seed=s, **kw)
             if not path.is_file():
-                count = kw["procedural"] or len(kw["synth"] or kw["hdr"])
+                count = kw["procedural"] or len(kw["synth"] or kw["hdr"]) * max(1, kw.get("hdr_copies", 0))
                 log(f"preparing the {name} set's {count} {what} samples -> {path}")
                 lighting_data.prepare(path, height=h, lmax=lmax, seed=s, **kw,
                                       progress=_every(lambda d, n: log(f"  {name} {what}: {d}/{n}"), 250))
             parts.append(lighting_data.load(path))
+        if not parts:
+            from panolight_core.errors import PanoLightError
+
+            raise PanoLightError(f"the {name} set is empty: give --val-procedural, or more synthetic samples or "
+                                 f"HDR panoramas (a tenth of each is held out for validation)")
         out.append(lighting_data.concat(parts))
     return out
 
@@ -112,26 +136,33 @@ def _lighting_loss(model, b, weights):
 
 def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size: int = 16, lr: float | None = None,
           seed: int = 0, procedural: int = 4000, val_procedural: int = 400, cache=None, max_minutes=None,
-          ae_from=None, hdr=None, log=print) -> dict:
+          ae_from=None, hdr=None, hdr_copies: int = 0, hold_out=None, log=print) -> dict:
     """Train ``config`` (name, path or dict) on procedural environments plus the synthetic samples under
     ``data`` (may be None); write metrics.csv, checkpoint.pt and the exported weights to ``out``.
     cache: folder of the prepared arrays (default: ``data``, else ``out``). max_minutes: stop after the
     epoch that crosses this budget (the exported model is still the best validation epoch). ae_from: a
     model.safetensors whose autoencoder to start from (with ae_epochs=0: ablations of the lighting
     stage share one trained autoencoder, as the paper's two-stage training allows). hdr: a folder of
-    real HDR panoramas (Laval style) added as coupled examples; Blender's studio HDRIs are refused."""
+    real HDR panoramas (Laval style) added as coupled examples; Blender's studio HDRIs are refused.
+    hdr_copies: augmented views of each (source_energy's camera; 0: one plain view). hold_out: fold (K, N)
+    of those scenes left out entirely (written to OUT/held_out.json for training.neural_cv)."""
     cfg = load_config(config) if not isinstance(config, dict) else config
     rank, world = _distributed()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
+    extra = {"hdr_copies": hdr_copies, "hold_out": hold_out}
     if rank == 0:  # one process prepares the arrays, the others then read them
-        train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out, log, hdr)
+        if hold_out:
+            (out / "held_out.json").write_text(json.dumps({"fold": list(hold_out), "hdr": str(Path(hdr).resolve()),
+                                                           "scenes": held_out_scenes(hdr, hold_out)}, indent=1))
+        train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out, log, hdr,
+                                       **extra)
     if world > 1:
         torch.distributed.barrier()
     if rank != 0:
         train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out,
-                                       lambda m: None, hdr)
+                                       lambda m: None, hdr, **extra)
     net = LightingNet(cfg)
     if ae_from is not None:
         from safetensors.torch import load_file

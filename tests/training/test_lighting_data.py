@@ -67,3 +67,31 @@ def test_real_hdr_folders_become_coupled_examples_and_the_public_set_is_refused(
     assert np.isfinite(example["sh"]).all() and example["x"].shape == (7, 8, 16)
     with pytest.raises(PanoLightError, match="public evaluation set"):
         hdr_files(studio_hdri_dir())
+
+
+def test_augmented_views_and_held_out_scenes_never_reach_training(tmp_path):
+    from panolight_core.io import read_image, write_image
+    from training.models import load_config
+    from training.source_energy_cv import scene_folds
+    from training.synth.environments import environment
+    from training.train import _datasets, held_out_scenes
+
+    folder = tmp_path / "real"
+    folder.mkdir()
+    for i in range(10):
+        write_image(folder / f"scene{i}.exr", environment(200 + i, 32)[0].astype(np.float32))
+    test = held_out_scenes(folder, (2, 5))
+    files = sorted(folder.glob("*.exr"))  # no MANIFEST: scene_files lists the folder sorted
+    assert test == sorted(files[i].stem for i in scene_folds(10, 5)[1]) and len(test) == 2
+    cfg = {**load_config("small"), "input_height": 8}
+    train, val = _datasets(cfg, None, 0, 0, 0, tmp_path / "cache", lambda m: None, hdr=folder, hdr_copies=3,
+                           hold_out=(2, 5))
+    assert len(train["x"]) == 7 * 3 and len(val["x"]) == 1 * 3  # 8 scenes left: 7 train, 1 validation
+    held = {L.hdr_example(folder / f"{s}.exr", 0, 8, 2, 0, 0)["x"].tobytes() for s in test}
+    seen = {x.astype(np.float16).tobytes() for x in np.concatenate([train["x"], val["x"]])}
+    assert not held & seen  # no view of a held-out scene anywhere
+    a, b = (L.hdr_example(files[0], 0, 8, 2, 0, c) for c in (0, 1))
+    assert not np.array_equal(a["x"], b["x"])  # two views differ (yaw, camera)
+    np.testing.assert_array_equal(a["x"], L.hdr_example(files[0], 0, 8, 2, 0, 0)["x"])  # and are reproducible
+    hdr = read_image(files[0]).astype(np.float64)
+    assert np.isfinite(a["sh"]).all() and a["sh"][0].min() > 0 and hdr.max() > 0
