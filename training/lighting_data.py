@@ -23,6 +23,7 @@ import hashlib
 import json
 import os
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -44,9 +45,28 @@ def _camera_settings(rng) -> tuple[float, int | None]:
     return ev, (90 if rng.random() < JPEG_SHARE else None)
 
 
+@dataclass(frozen=True)
+class NetInput:
+    """What the network sees (panolight_core.estimators.nn.inputs): its height and whose guess it
+    corrects ("analytic", or "sources" with an optional per-source model file). Where an int height is
+    given, the analytic guess."""
+
+    height: int
+    guess: str = "analytic"
+    source_model: str | None = None
+
+    def __call__(self, ldr) -> np.ndarray:
+        return network_input(ldr, self.height, self.guess, self.source_model)
+
+
+def _net_input(height) -> NetInput:
+    return height if isinstance(height, NetInput) else NetInput(int(height))
+
+
 def _arrays(ldr, exposed, coeffs, height, kind, ev) -> dict:
-    return {"x": network_input(ldr, height).astype(np.float16),
-            "log_hdr": np.moveaxis(np.log1p(area_downsample(exposed, height)), -1, 0).astype(np.float16),
+    net = _net_input(height)
+    return {"x": net(ldr).astype(np.float16),
+            "log_hdr": np.moveaxis(np.log1p(area_downsample(exposed, net.height)), -1, 0).astype(np.float16),
             "sh": np.asarray(coeffs, np.float32), "kind": KINDS.index(kind), "ev": ev}
 
 
@@ -76,6 +96,7 @@ def synthetic_examples(path, index: int, height: int, lmax: int, pool: np.ndarra
     ldr, _, _, relit_exposed, used = make_pair(image, normals, mask, pool, rng, ev=ev, jpeg_quality=jpeg,
                                                details=True)
     relit = _arrays(ldr, relit_exposed, used, height, "relit", ev)
+    height = _net_input(height).height
     n_small = area_downsample(normals * mask[..., None], height)
     length = np.linalg.norm(n_small, axis=-1, keepdims=True)
     relit["normals"] = np.moveaxis(np.where(length > 0.5, n_small / np.maximum(length, 1e-12), 0.0), -1, 0)
@@ -121,22 +142,25 @@ def _files(synth) -> list:
 
 
 def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64, lmax: int = 2, seed: int = 0,
-            workers: int | None = None, progress=None, hdr_copies: int = 0) -> Path:
+            workers: int | None = None, progress=None, hdr_copies: int = 0, guess: str = "analytic",
+            source_model=None) -> Path:
     """Write the arrays of ``procedural`` procedural examples (seeds seed*10^7 + i) and of every sample
     of ``synth`` (a folder or a list of sample files; coupled + relit) and every panorama of ``hdr`` (a
     list of .exr/.hdr files, relight_data.hdr_files; with ``hdr_copies`` that many augmented views of
-    each) to ``out`` (.npz, uncompressed, no pickles). Returns ``out``."""
+    each) to ``out`` (.npz, uncompressed, no pickles). guess, source_model: the network input's guess
+    (NetInput). Returns ``out``."""
     from training.relight_data import procedural_pool
 
     files = _files(synth)
     pool = procedural_pool(256, lmax, seed=10 ** 6 + seed) if files else None
-    jobs = [("procedural", seed * 10 ** 7 + i, None, height, lmax, None, seed) for i in range(procedural)]
-    jobs += [("synthetic", f, i, height, lmax, pool, seed) for i, f in enumerate(files)]
+    net = NetInput(height, guess, None if source_model is None else str(source_model))
+    jobs = [("procedural", seed * 10 ** 7 + i, None, net, lmax, None, seed) for i in range(procedural)]
+    jobs += [("synthetic", f, i, net, lmax, pool, seed) for i, f in enumerate(files)]
     if hdr_copies:
-        jobs += [("hdr-augmented", f, (i, c), height, lmax, None, seed) for i, f in enumerate(hdr or [])
+        jobs += [("hdr-augmented", f, (i, c), net, lmax, None, seed) for i, f in enumerate(hdr or [])
                  for c in range(hdr_copies)]
     else:
-        jobs += [("hdr", f, i, height, lmax, None, seed) for i, f in enumerate(hdr or [])]
+        jobs += [("hdr", f, i, net, lmax, None, seed) for i, f in enumerate(hdr or [])]
     if not jobs:
         raise ValueError("nothing to prepare: give procedural > 0, synthetic samples or HDR panoramas")
     examples = []
@@ -157,7 +181,7 @@ def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64,
               "image": np.array([examples[i]["image"] for i in geo], np.float16).reshape(-1, 3, height, 2 * height),
               "meta": np.array(json.dumps({"version": FORMAT_VERSION, "height": height, "lmax": lmax, "seed": seed,
                                            "procedural": procedural, "synthetic": len(files),
-                                           "hdr": len(hdr or []), "hdr_copies": hdr_copies}))}
+                                           "hdr": len(hdr or []), "hdr_copies": hdr_copies, "guess": guess}))}
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.tmp{os.getpid()}.npz")
@@ -166,12 +190,15 @@ def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64,
     return out
 
 
-def cache_name(*, synth, procedural, height, lmax, seed, hdr=None, hdr_copies: int = 0) -> str:
+def cache_name(*, synth, procedural, height, lmax, seed, hdr=None, hdr_copies: int = 0, guess: str = "analytic",
+               source_model=None) -> str:
     """A file name that changes whenever what ``prepare`` would write changes."""
     files = [Path(p).name for p in _files(synth)]
     key = json.dumps([FORMAT_VERSION, files, procedural, height, lmax, seed]
                      + ([[str(Path(p).resolve()) for p in hdr]] if hdr else [])
-                     + ([hdr_copies] if hdr_copies else []))
+                     + ([hdr_copies] if hdr_copies else [])
+                     + ([guess, hashlib.sha256(Path(source_model).read_bytes()).hexdigest() if source_model else None]
+                        if guess != "analytic" else []))
     return f"prepared-{hashlib.sha256(key.encode()).hexdigest()[:12]}.npz"
 
 

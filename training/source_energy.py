@@ -213,8 +213,18 @@ def main(argv=None) -> int:
                          "expected-error decision is off (default 0.5; the estimator decides per scene)")
     ap.add_argument("--folds", type=int, default=5)
     ap.add_argument("--out", default=None)
+    ap.add_argument("--hold-out", default=None, metavar="K/N",
+                    help="ship: leave fold K of N of the scenes out (the folds of cv), for a network trained "
+                         "with the same --hold-out that corrects this model (guess 'sources')")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
+    if args.hold_out:
+        from training.commands import _fold
+        from training.source_energy_cv import scene_folds
+
+        k, n = _fold(args.hold_out)
+        test = set(scene_folds(len(files), n, 0)[k - 1])
+        files = [f for i, f in enumerate(files) if i not in test]
     print(f"source energy: {len(files)} scenes x {args.augment} cameras")
     X, y, s, g = build_table(files, args.augment, args.seed)
     w = sample_weight(s)

@@ -84,6 +84,8 @@ def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None,
             kw = {"synth": None, "procedural": 0, "hdr": None, **kw}
             if kw["hdr"]:
                 kw["hdr_copies"] = hdr_copies
+            if cfg.get("guess", "analytic") != "analytic":
+                kw.update(guess=cfg["guess"], source_model=cfg.get("source_model"))
             path = Path(cache) / lighting_data.cache_name(height=h, lmax=lmax, seed=s, **kw)
             if not path.is_file():
                 count = kw["procedural"] or len(kw["synth"] or kw["hdr"]) * max(1, kw.get("hdr_copies", 0))

@@ -58,7 +58,8 @@ def predict(model: Model, ldr: np.ndarray, lmax: int) -> tuple[np.ndarray, np.nd
 
     Bands up to the model's order come from the lighting encoder; higher bands (lmax above it) from the
     projection of the autoencoder's HDR map, so any order can be asked for."""
-    x = network_input(ldr, model.config["input_height"])
+    x = network_input(ldr, model.config["input_height"], model.config.get("guess", "analytic"),
+                      model.config.get("source_model"))
     coeffs, hdr = forward(model.weights, model.config, x[None])
     hdr = np.moveaxis(hdr[0].astype(np.float64), 0, -1)
     out = sh.project(hdr, lmax).astype(np.float64)

@@ -34,3 +34,31 @@ def test_small_panoramas_are_upsampled_to_the_network_size(rng):
     x = network_input(ldr, 32)
     assert x.shape == (7, 32, 64)
     np.testing.assert_allclose(x[:4, ::4, ::4], network_input(ldr, 8)[:4], atol=1e-6)
+
+
+def test_the_sources_guess_is_the_per_source_work_map_the_network_corrects():
+    from panolight_core import sh
+    from panolight_core.camera.resample import area_downsample
+    from panolight_core.estimators import sources
+
+    h = 128
+    d = np.array([0.4, 0.2, 0.89])
+    d /= np.linalg.norm(d)
+    t = np.degrees(np.arccos(np.clip(sh.pixel_directions(h, 2 * h) @ d, -1, 1)))
+    hdr = 0.1 + 3.0 * np.maximum(t, 0.5)[..., None] ** -2.0 * np.ones(3)  # a sun with glare, clipped inside
+    from panolight_core.camera import hdr_to_ldr
+
+    ldr = hdr_to_ldr(hdr, scale=1.0)
+    x = network_input(ldr, 64, guess="sources")
+    lin = srgb_to_linear(x[:3].astype(np.float64))
+    a = x[3].astype(np.float64)
+    guessed = lin + a * (np.exp(x[4:].astype(np.float64)) - BASE_EXCESS)  # what an untrained network outputs
+    rec = sources.recover(ldr)
+    assert rec.regions.count >= 1
+    want = area_downsample(rec.work, 64)
+    clipped = a > 0
+    np.testing.assert_allclose(np.moveaxis(guessed, 0, -1)[clipped], want[clipped], rtol=1e-4)
+    np.testing.assert_allclose(np.moveaxis(guessed, 0, -1)[~clipped], want[~clipped], rtol=1e-4, atol=1e-4)
+    assert not np.allclose(x[4:], network_input(ldr, 64)[4:])  # not the analytic guess
+    with pytest.raises(ValueError, match="guess must be"):
+        network_input(ldr, 64, guess="oracle")
