@@ -18,6 +18,8 @@ import json
 import sys
 from pathlib import Path
 
+from training.commands import _fold
+
 VARIANTS = ("full", "only-photo", "no-photo", "only-dense")
 PAPER = {("full", False): 0.0229, ("only-photo", False): 0.0297, ("no-photo", False): 0.0334,
          ("only-dense", False): 0.0423, ("full", True): 0.0101, ("only-photo", True): 0.0116,
@@ -29,9 +31,11 @@ def names() -> list[str]:
 
 
 def run(ae, out, *, data=None, cache=None, epochs: int = 4, procedural: int = 4000, val_procedural: int = 400,
-        only=None, log=print) -> list[dict]:
+        only=None, hdr=None, hdr_copies: int = 0, hold_out=None, log=print) -> list[dict]:
     """Train (or resume) every variant under ``out``; returns one row per variant with its validation
-    scores (last epoch) and weights path."""
+    scores (last epoch) and weights path. hdr, hdr_copies, hold_out: real HDR training data as ``train``
+    takes it (the issue's real-lighting ablation: train with --hold-out, then score the variants on
+    the held-out scenes with training.neural_cv)."""
     from training.train import train
 
     rows = []
@@ -39,7 +43,8 @@ def run(ae, out, *, data=None, cache=None, epochs: int = 4, procedural: int = 40
         run_dir = Path(out) / name
         log(f"== {name}")
         train(f"ablation/{name}", data, run_dir, epochs=epochs, ae_epochs=0, procedural=procedural,
-              val_procedural=val_procedural, cache=cache, ae_from=ae, log=log)
+              val_procedural=val_procedural, cache=cache, ae_from=ae, hdr=hdr, hdr_copies=hdr_copies,
+              hold_out=hold_out, log=log)
         last = list(csv.DictReader(open(run_dir / "metrics.csv")))[-1]
         rows.append({"variant": name, "weights": str(run_dir / "model.safetensors"),
                      **{k: float(last[k]) for k in ("val_m_rmse", "val_irr_rmse", "seconds")}})
@@ -84,12 +89,18 @@ def main(argv=None) -> int:
     ap.add_argument("--cache", default=None, help="prepared-array cache folder")
     ap.add_argument("--epochs", type=int, default=4, help="lighting-stage epochs per variant (default 4)")
     ap.add_argument("--procedural", type=int, default=4000)
+    ap.add_argument("--val-procedural", type=int, default=400)
+    ap.add_argument("--hdr", default=None, metavar="DIR", help="real HDR panoramas added as training examples")
+    ap.add_argument("--hdr-copies", type=int, default=0, metavar="N", help="augmented views of each (see train)")
+    ap.add_argument("--hold-out", type=_fold, default=None, metavar="K/N",
+                    help="leave fold K of N of the --hdr scenes out (score them with training.neural_cv)")
     ap.add_argument("--only", nargs="+", choices=names(), default=None, help="train only these variants")
     ap.add_argument("--table", default=None, help="write the markdown table (and .json beside it) here")
     ap.add_argument("--no-public", action="store_true", help="skip the public-set scores")
     args = ap.parse_args(argv)
     rows = run(args.ae, args.out, data=args.data, cache=args.cache, epochs=args.epochs, procedural=args.procedural,
-               only=args.only, log=lambda m: print(m, file=sys.stderr, flush=True))
+               val_procedural=args.val_procedural, only=args.only, hdr=args.hdr, hdr_copies=args.hdr_copies,
+               hold_out=args.hold_out, log=lambda m: print(m, file=sys.stderr, flush=True))
     result = None if args.no_public else score_public(rows, log=lambda m: print(m, file=sys.stderr, flush=True))
     table = markdown(rows, result)
     print(table)

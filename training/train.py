@@ -9,7 +9,9 @@ training/losses.py; scale-normalised per sample). Adam with the config's "lr" (t
 Each epoch: progress lines, validation (loss, m-RMSE and irr-RMSE of the predicted lighting), a row in
 OUT/metrics.csv, and OUT/checkpoint.pt (reloaded with torch.load(weights_only=True) to resume).
 OUT/model.safetensors + OUT/config.json hold the weights of the lighting epoch with the best validation
-m-RMSE (early stopping; written when it improves) for torch-free inference.
+m-RMSE (early stopping; written when it improves) for torch-free inference. The autoencoder is frozen at
+its own best validation epoch (restored before the lighting stage, or exported when only it trains): a
+late autoencoder epoch that diverges costs nothing.
 Run under ``torchrun --nproc_per_node N -m training.torchrun`` it trains data-parallel (DDP: gloo on CPU, nccl on GPU).
 """
 from __future__ import annotations
@@ -173,18 +175,28 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
         net.ae.load_state_dict(ae)
     opt = torch.optim.Adam(net.parameters(), lr=lr if lr is not None else cfg.get("lr", 1e-4))
     start, ckpt = 0, out / "checkpoint.pt"
+    ae_best = None  # (validation m-RMSE, state) of the autoencoder's best epoch: the lighting stage starts from it
     if ckpt.is_file():
         state = torch.load(ckpt, weights_only=True)
         net.load_state_dict(state["model"])
         opt.load_state_dict(state["optimizer"])
         start = int(state["epoch"]) + 1
+        if "ae_best" in state:
+            ae_best = (float(state["ae_best_score"]), state["ae_best"])
         log(f"resuming from {ckpt} at epoch {start}")
+
+    def restore_best_autoencoder():
+        if ae_best is not None:
+            net.ae.load_state_dict(ae_best[1])
+            log(f"autoencoder: its best epoch restored (validation m-RMSE {ae_best[0]:.3f})")
     n = len(train_arr["sh"])
     history, t_start = [], time.perf_counter()
     best = min((float(r["val_m_rmse"]) for r in _read_rows(out / "metrics.csv") if r["stage"] == "lighting"),
                default=math.inf)
     for epoch in range(start, epochs):
         stage = "ae" if epoch < ae_epochs else "lighting"
+        if stage == "lighting" and epoch == ae_epochs:  # the autoencoder is frozen from here: its best epoch
+            restore_best_autoencoder()
         for p in net.ae.parameters():
             p.requires_grad_(stage == "ae")
         # DDP syncs the parameters that train in this stage (built after freezing, so frozen ones are left out)
@@ -206,10 +218,13 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
         row = {"epoch": epoch + 1, "stage": stage, "train_loss": float(np.mean(losses)),
                "seconds": time.perf_counter() - t0, **validate(net, val_arr, stage, cfg)}
         history.append(row)
+        if stage == "ae" and (ae_best is None or row["val_m_rmse_dense"] < ae_best[0]):
+            ae_best = (row["val_m_rmse_dense"], {k: v.detach().clone() for k, v in net.ae.state_dict().items()})
         if rank == 0:
             _log_row(out / "metrics.csv", row)
-            torch.save({"model": net.state_dict(), "optimizer": opt.state_dict(), "epoch": epoch, "config": cfg},
-                       out / "checkpoint.tmp")
+            extra = {"ae_best": ae_best[1], "ae_best_score": ae_best[0]} if ae_best is not None else {}
+            torch.save({"model": net.state_dict(), "optimizer": opt.state_dict(), "epoch": epoch, "config": cfg,
+                        **extra}, out / "checkpoint.tmp")
             os.replace(out / "checkpoint.tmp", ckpt)
             if stage == "lighting" and row["val_m_rmse"] < best:  # early stopping: keep the best epoch
                 best = row["val_m_rmse"]
@@ -221,7 +236,8 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
         if max_minutes is not None and (time.perf_counter() - t_start) / 60 > max_minutes:
             log(f"stopping after epoch {epoch + 1}: the {max_minutes} minute budget is spent")
             break
-    if rank == 0 and not math.isfinite(best):  # no lighting epoch ran (autoencoder only): export as is
+    if rank == 0 and not math.isfinite(best):  # no lighting epoch ran (autoencoder only): its best epoch
+        restore_best_autoencoder()
         export(net, cfg, out)
     return {"history": history, "weights": str(out / "model.safetensors")}
 

@@ -62,3 +62,26 @@ def test_data_parallel_under_torchrun(data, tmp_path):
     assert r.returncode == 0, r.stderr[-3000:]
     assert (tmp_path / "ddp" / "model.safetensors").is_file()
     assert len(list(csv.DictReader(open(tmp_path / "ddp" / "metrics.csv")))) == 2
+
+
+def test_the_autoencoder_is_frozen_at_its_best_validation_epoch(data, tmp_path, monkeypatch):
+    scores = iter([0.5, 0.9, 0.7])  # the second autoencoder epoch validates worse: the first is kept
+    real = T.validate
+
+    def validate(net, arr, stage, cfg, **kw):
+        row = real(net, arr, stage, cfg, **kw)
+        return {**row, "val_m_rmse": row["val_m_rmse"], "val_m_rmse_dense": next(scores)}
+
+    monkeypatch.setattr(T, "validate", validate)
+    out = tmp_path / "run"
+    said = []
+    T.train(_cfg(), data, out, epochs=2, ae_epochs=2, batch_size=2, procedural=6, val_procedural=2,
+            cache=tmp_path / "cache", log=said.append)
+    assert any("best epoch restored (validation m-RMSE 0.500)" in s for s in said)
+    state = torch.load(out / "checkpoint.pt", weights_only=True)
+    weights, _ = load_safetensors(out / "model.safetensors")
+    last = {k[3:]: v for k, v in state["model"].items() if k.startswith("ae.")}
+    kept = {k[3:]: v for k, v in weights.items() if k.startswith("ae.")}
+    assert set(kept) == set(state["ae_best"]) and state["ae_best_score"] == 0.5
+    assert all(np.array_equal(kept[k], state["ae_best"][k].numpy()) for k in kept)  # exported: the best epoch
+    assert any(not np.array_equal(kept[k], last[k].numpy()) for k in kept)  # not the last one
