@@ -11,7 +11,9 @@ OUT/metrics.csv, and OUT/checkpoint.pt (reloaded with torch.load(weights_only=Tr
 OUT/model.safetensors + OUT/config.json hold the weights of the lighting epoch with the best validation
 m-RMSE (early stopping; written when it improves) for torch-free inference. The autoencoder is frozen at
 its own best validation epoch (restored before the lighting stage, or exported when only it trains): a
-late autoencoder epoch that diverges costs nothing.
+late autoencoder epoch that diverges costs nothing. Both stages' starting points (the input's guess;
+the encoder with its residual at zero) are validated too and can be what is kept: a network never
+ships worse on validation than the estimator it corrects.
 Run under ``torchrun --nproc_per_node N -m training.torchrun`` it trains data-parallel (DDP: gloo on CPU, nccl on GPU).
 """
 from __future__ import annotations
@@ -193,10 +195,22 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
     history, t_start = [], time.perf_counter()
     best = min((float(r["val_m_rmse"]) for r in _read_rows(out / "metrics.csv") if r["stage"] == "lighting"),
                default=math.inf)
+    def clone(module):
+        return {k: v.detach().clone() for k, v in module.state_dict().items()}
+
+    if start == 0 and ae_epochs > 0:  # the starting point is a candidate too: the input's guess, untrained
+        row0 = validate(net, val_arr, "ae", cfg)
+        ae_best = (row0["val_m_rmse_dense"], clone(net.ae))
+        log(f"epoch 0: the autoencoder as it starts, val m-RMSE {row0['val_m_rmse_dense']:.3f}")
     for epoch in range(start, epochs):
         stage = "ae" if epoch < ae_epochs else "lighting"
         if stage == "lighting" and epoch == ae_epochs:  # the autoencoder is frozen from here: its best epoch
             restore_best_autoencoder()
+            row0 = validate(net, val_arr, "lighting", cfg)  # the encoder as it starts (its residual head: 0)
+            if rank == 0 and row0["val_m_rmse"] < best:
+                best = row0["val_m_rmse"]
+                export(net, cfg, out)
+                log(f"lighting epoch 0: the encoder as it starts, val m-RMSE {best:.3f}, exported")
         for p in net.ae.parameters():
             p.requires_grad_(stage == "ae")
         # DDP syncs the parameters that train in this stage (built after freezing, so frozen ones are left out)
@@ -219,7 +233,7 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
                "seconds": time.perf_counter() - t0, **validate(net, val_arr, stage, cfg)}
         history.append(row)
         if stage == "ae" and (ae_best is None or row["val_m_rmse_dense"] < ae_best[0]):
-            ae_best = (row["val_m_rmse_dense"], {k: v.detach().clone() for k, v in net.ae.state_dict().items()})
+            ae_best = (row["val_m_rmse_dense"], clone(net.ae))
         if rank == 0:
             _log_row(out / "metrics.csv", row)
             extra = {"ae_best": ae_best[1], "ae_best_score": ae_best[0]} if ae_best is not None else {}

@@ -65,7 +65,7 @@ def test_data_parallel_under_torchrun(data, tmp_path):
 
 
 def test_the_autoencoder_is_frozen_at_its_best_validation_epoch(data, tmp_path, monkeypatch):
-    scores = iter([0.5, 0.9, 0.7])  # the second autoencoder epoch validates worse: the first is kept
+    scores = iter([0.8, 0.5, 0.9])  # untrained, epoch 1, epoch 2: the first epoch is kept
     real = T.validate
 
     def validate(net, arr, stage, cfg, **kw):
@@ -85,3 +85,4 @@ def test_the_autoencoder_is_frozen_at_its_best_validation_epoch(data, tmp_path, 
     assert set(kept) == set(state["ae_best"]) and state["ae_best_score"] == 0.5
     assert all(np.array_equal(kept[k], state["ae_best"][k].numpy()) for k in kept)  # exported: the best epoch
     assert any(not np.array_equal(kept[k], last[k].numpy()) for k in kept)  # not the last one
+    assert any("epoch 0: the autoencoder as it starts, val m-RMSE 0.800" in s for s in said)
