@@ -65,7 +65,7 @@ def score_public(rows: list[dict], log=print) -> dict:
 
 
 def markdown(rows: list[dict], result: dict | None = None) -> str:
-    out = ["| variant | prior | held-out synthetic m-RMSE | irr-RMSE | public set m-RMSE (ev 0) | irr-RMSE | "
+    out = ["| variant | prior | validation m-RMSE (last epoch) | irr-RMSE | public set m-RMSE (ev 0) | irr-RMSE | "
            "paper (Laval, m-RMSE without /mean) |", "|---|---|---:|---:|---:|---:|---:|"]
     for r in rows:
         v, p = r["variant"].rsplit("-", 1)
