@@ -120,8 +120,6 @@ def file_pixels(image):
         inp.close()
 
 
-
-
 def ours(collection, name: str):
     """PanoLight's own datablock of a kind: the one carrying its tag (renamed or not), preferring ``name``.
     A user's datablock that merely has the name is never returned."""

@@ -62,8 +62,25 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS) -> dict:
                 sources.WIDE_CONCENTRATION = keep
         return run
 
+    def coarse(rows, clipped_excess):
+        """The shipped rule's work map averaged to ``rows`` (the network's 64: what a network correcting the
+        per-source model starts from), plus ``clipped_excess`` x the any-channel clipped fraction."""
+        def run(ldr):
+            from panolight_core.camera.resample import area_downsample
+            from panolight_core.estimators.highlights import ldr_work_maps
+
+            work = sources.recover(ldr, model).work
+            work = area_downsample(work, rows) if work.shape[0] > rows else work
+            if clipped_excess:
+                work = work + clipped_excess * ldr_work_maps(ldr, work.shape[0])[1][..., None]
+            return work
+        return run
+
     return {"naive": None,
             "analytic": lambda ldr: recover_highlights(ldr, 64)[0],
+            "sources at 64 rows": coarse(64, 0.0),
+            "sources + 0.05 clipped": coarse(sources.WORK_HEIGHT, 0.05),
+            "sources at 64 rows + 0.05 clipped (the untrained network)": coarse(64, 0.05),
             "power-law regions": lambda ldr: sources.recover(ldr, log_ratio_fn=sources.power_law_log_ratio).work,
             **{variant_label(c): learned(c) for c in shrinks},
             **{f"learned (decision, wide regions q = {q:g})": decided(q) for q in WIDE_CONCENTRATIONS}}

@@ -61,6 +61,7 @@ class HdrRows:
             H, W = pixels.shape[:2]
             h = rec.work.shape[0]
             self.blocks = row_blocks(H, W, max(1, H // h) if H % h == 0 else 1)
+
             def regions_pixels(rows):  # the per-source regions' pixels
                 c = clipped_mask(pixels[rows[0]:rows[1]], all_channels=True)
                 ys, xs = np.nonzero(c)
