@@ -18,7 +18,7 @@ import json
 import sys
 from pathlib import Path
 
-from training.commands import _fold
+from training.source_energy_cv import parse_fold
 
 VARIANTS = ("full", "only-photo", "no-photo", "only-dense")
 PAPER = {("full", False): 0.0229, ("only-photo", False): 0.0297, ("no-photo", False): 0.0334,
@@ -92,7 +92,7 @@ def main(argv=None) -> int:
     ap.add_argument("--val-procedural", type=int, default=400)
     ap.add_argument("--hdr", default=None, metavar="DIR", help="real HDR panoramas added as training examples")
     ap.add_argument("--hdr-copies", type=int, default=0, metavar="N", help="augmented views of each (see train)")
-    ap.add_argument("--hold-out", type=_fold, default=None, metavar="K/N",
+    ap.add_argument("--hold-out", type=parse_fold, default=None, metavar="K/N",
                     help="leave fold K of N of the --hdr scenes out (score them with training.neural_cv)")
     ap.add_argument("--only", nargs="+", choices=names(), default=None, help="train only these variants")
     ap.add_argument("--table", default=None, help="write the markdown table (and .json beside it) here")

@@ -145,15 +145,9 @@ def register(sub) -> None:
 
 
 def _fold(text: str) -> tuple[int, int]:
-    import argparse
+    from training.source_energy_cv import parse_fold  # (imported when a fold is given, not for --help)
 
-    try:
-        k, n = (int(v) for v in text.split("/"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a fold is K/N, e.g. 1/5; got {text!r}") from None
-    if not 1 <= k <= n or n < 2:
-        raise argparse.ArgumentTypeError(f"a fold K/N needs 1 <= K <= N and N >= 2; got {text!r}")
-    return k, n
+    return parse_fold(text)
 
 
 def add_train_arguments(tr) -> None:

@@ -219,10 +219,9 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
     if args.hold_out:
-        from training.commands import _fold
-        from training.source_energy_cv import scene_folds
+        from training.source_energy_cv import parse_fold, scene_folds
 
-        k, n = _fold(args.hold_out)
+        k, n = parse_fold(args.hold_out)
         test = set(scene_folds(len(files), n, 0)[k - 1])
         files = [f for i, f in enumerate(files) if i not in test]
     print(f"source energy: {len(files)} scenes x {args.augment} cameras")

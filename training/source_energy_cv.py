@@ -86,6 +86,19 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS) -> dict:
             **{f"learned (decision, wide regions q = {q:g})": decided(q) for q in WIDE_CONCENTRATIONS}}
 
 
+def parse_fold(text: str) -> tuple[int, int]:
+    """'K/N' (fold K of N, from 1) -> (K, N); an argparse type (ArgumentTypeError otherwise)."""
+    import argparse
+
+    try:
+        k, n = (int(v) for v in str(text).split("/"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a fold is K/N, e.g. 1/5; got {text!r}") from None
+    if not 1 <= k <= n or n < 2:
+        raise argparse.ArgumentTypeError(f"a fold K/N needs 1 <= K <= N and N >= 2; got {text!r}")
+    return k, n
+
+
 def scene_folds(count: int, folds: int = 5, seed: int = 0) -> list[np.ndarray]:
     """Indices of ``count`` scenes (source_energy.scene_files order) in ``folds`` leave-scenes-out folds:
     the assignment every cross-validation here uses (the per-source model's and the network's)."""
