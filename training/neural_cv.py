@@ -8,6 +8,10 @@ docs/source_energy_cv.json: a model that did not see them either).
 
     python -m training.neural_cv --weights real=runs/real/model.safetensors [--weights other=...]
            [--cv docs/source_energy_cv.json] [--out docs/neural_cv.json]
+    python -m training.neural_cv --merge runs/f1/cv.json ... runs/f5/cv.json --out docs/neural_cv.json
+
+``--merge`` joins the folds' results (each scene scored once, by the run that never saw it) into one
+cross-validation table over every scene.
 """
 from __future__ import annotations
 
@@ -39,7 +43,9 @@ def held_out(weights: Path) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--weights", type=_weights, action="append", required=True, metavar="NAME=PATH",
+    ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
+                    help="join the results of several folds (written by this command) instead of scoring")
+    ap.add_argument("--weights", type=_weights, action="append", default=[], metavar="NAME=PATH",
                     help="a run trained with --hdr DIR --hold-out K/N (its held_out.json names the scenes)")
     ap.add_argument("--also", type=_weights, action="append", default=[], metavar="NAME=PATH",
                     help="a model trained on no real HDR at all (the shipped one), scored on the same scenes")
@@ -47,11 +53,14 @@ def main(argv=None) -> int:
                     help="the per-source model's cross-validation rows (python -m training.source_energy cv)")
     ap.add_argument("--out", default="docs/neural_cv.json")
     args = ap.parse_args(argv)
+    if args.merge:
+        return _merge(args)
+    if not args.weights:
+        ap.error("give --weights NAME=PATH (a run trained with --hold-out), or --merge")
 
     from panolight_core.estimators import neural_estimator
-    from training.accuracy_report import table
     from training.source_energy import load_hdr
-    from training.source_energy_cv import EVS, DECIDED, score_scene
+    from training.source_energy_cv import score_scene
 
     runs = [(name, path, held_out(path)) for name, path in args.weights]
     scenes, hdr = runs[0][2]["scenes"], Path(runs[0][2]["hdr"])
@@ -69,6 +78,17 @@ def main(argv=None) -> int:
             raise PanoLightError(f"{hdr}: scene {scene} of the held-out fold is missing")
         rows += [dict(r, scene=scene) for r in score_scene(load_hdr(files[0]), variants)]
         print(f"{i}/{len(scenes)} {scene} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
+    return _report(args, rows, scenes, {"fold": runs[0][2]["fold"],
+                                        "runs": {name: str(path) for name, path, _ in runs},
+                                        "also": {name: str(path) for name, path in args.also}})
+
+
+def _report(args, rows, scenes, meta) -> int:
+    """Add the per-source model's cross-validated rows for ``scenes``, print the table, write --out."""
+    from training.accuracy_report import table
+    from training.source_energy_cv import DECIDED, EVS
+
+    rows = [r for r in rows if r["estimator"] != CV_LABEL]
     cv_path = Path(args.cv)
     if cv_path.is_file():
         cv = json.loads(cv_path.read_text(encoding="utf-8"))
@@ -78,12 +98,22 @@ def main(argv=None) -> int:
     print("\n".join(table(rows, names, EVS)))
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"rows": rows, "scenes": scenes, "fold": runs[0][2]["fold"],
-                               "runs": {name: str(path) for name, path, _ in runs},
-                               "also": {name: str(path) for name, path in args.also}}, indent=1) + "\n",
-                   encoding="utf-8")
+    out.write_text(json.dumps({"rows": rows, "scenes": scenes, **meta}, indent=1) + "\n", encoding="utf-8")
     print(f"wrote {out}", file=sys.stderr)
     return 0
+
+
+def _merge(args) -> int:
+    rows, scenes, folds = [], [], []
+    for path in args.merge:
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+        twice = set(doc["scenes"]) & set(scenes)
+        if twice:
+            raise PanoLightError(f"{path}: scenes already scored by another fold: {', '.join(sorted(twice))}")
+        rows += doc["rows"]
+        scenes += doc["scenes"]
+        folds.append({"fold": doc.get("fold"), "runs": doc.get("runs", {}), "also": doc.get("also", {})})
+    return _report(args, rows, scenes, {"folds": folds})
 
 
 if __name__ == "__main__":

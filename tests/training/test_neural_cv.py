@@ -32,5 +32,10 @@ def test_a_held_out_run_is_scored_on_its_scenes_beside_naive(tmp_path):
     assert sorted({(r["estimator"], r["ev"]) for r in rows}) == sorted(
         (e, ev) for e in ("mine", "naive") for ev in (-2.0, 0.0, 2.0))
     assert all(np.isfinite(r["m_rmse"]) and r["m_rmse"] >= 0 for r in rows)
+    merged = tmp_path / "merged.json"
+    assert neural_cv.main(["--merge", str(out), "--cv", str(tmp_path / "none.json"), "--out", str(merged)]) == 0
+    assert json.loads(merged.read_text())["rows"] == rows
+    with pytest.raises(PanoLightError, match="already scored by another fold"):
+        neural_cv.main(["--merge", str(out), str(out), "--out", str(merged)])
     with pytest.raises(PanoLightError, match="no held_out.json"):
         neural_cv.main(["--weights", "x=panolight_core/models/small.safetensors", "--out", str(out)])
