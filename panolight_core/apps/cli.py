@@ -93,12 +93,12 @@ class _exr_threads:
     loaders) must not inherit a library thread pool, which hangs in the child."""
 
     def __enter__(self):
-        import os
-
         import OpenEXR
 
+        from .. import threads
+
         self.before = OpenEXR.global_thread_count()
-        OpenEXR.set_global_thread_count(os.cpu_count() or 1)
+        OpenEXR.set_global_thread_count(threads.cpus())
 
     def __exit__(self, *exc):
         import OpenEXR
