@@ -40,6 +40,7 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
 from panolight_core.errors import PanoLightError
 from panolight_core.io import read_image
 from panolight_core.camera.resample import area_downsample
+from training.source_energy_cv import fold_files, parse_fold
 
 DEFAULT_HDRI = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hdri"
 GBT = dict(n_estimators=250, max_depth=3, learning_rate=0.05, subsample=0.8, min_samples_leaf=15)
@@ -213,17 +214,14 @@ def main(argv=None) -> int:
                          "expected-error decision is off (default 0.5; the estimator decides per scene)")
     ap.add_argument("--folds", type=int, default=5)
     ap.add_argument("--out", default=None)
-    ap.add_argument("--hold-out", default=None, metavar="K/N",
+    ap.add_argument("--hold-out", type=parse_fold, default=None, metavar="K/N",
                     help="ship: leave fold K of N of the scenes out (the folds of cv), for a network trained "
                          "with the same --hold-out that corrects this model (guess 'sources')")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
     if args.hold_out:
-        from training.source_energy_cv import parse_fold, scene_folds
-
-        k, n = parse_fold(args.hold_out)
-        test = set(scene_folds(len(files), n, 0)[k - 1])
-        files = [f for i, f in enumerate(files) if i not in test]
+        test = fold_files(files, args.hold_out)
+        files = [f for f in files if f not in test]
     print(f"source energy: {len(files)} scenes x {args.augment} cameras")
     X, y, s, g = build_table(files, args.augment, args.seed)
     w = sample_weight(s)

@@ -106,6 +106,13 @@ def scene_folds(count: int, folds: int = 5, seed: int = 0) -> list[np.ndarray]:
     return [perm[i::folds] for i in range(folds)]
 
 
+def fold_files(files, fold) -> list:
+    """The files (source_energy.scene_files order) of fold (K, N): the scenes a run with ``--hold-out K/N``
+    leaves out."""
+    k, n = fold
+    return [files[i] for i in sorted(scene_folds(len(files), n)[k - 1])]
+
+
 def cross_validate(files, X, y, w, g, args, fit, load_hdr):
     """Leave-scenes-out folds over the region table (X, y, w, g: source_energy.build_table), scored by
     EVALUATION.md on each held-out scene. fit and load_hdr: source_energy's (passed in, so this module

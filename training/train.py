@@ -50,11 +50,9 @@ def held_out_scenes(hdr, fold) -> list[str]:
     ``source_energy cv`` (source_energy_cv.scene_folds), so a network and the per-source model are
     scored on the same held-out scenes."""
     from training.source_energy import scene_files
-    from training.source_energy_cv import scene_folds
+    from training.source_energy_cv import fold_files
 
-    k, n = fold
-    files = scene_files(Path(hdr))
-    return sorted(files[i].stem for i in scene_folds(len(files), n)[k - 1])
+    return sorted(f.stem for f in fold_files(scene_files(Path(hdr)), fold))
 
 
 def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None, hdr_copies=0, hold_out=None):
