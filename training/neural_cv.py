@@ -59,8 +59,8 @@ def main(argv=None) -> int:
         ap.error("give --weights NAME=PATH (a run trained with --hold-out), or --merge")
 
     from panolight_core.estimators import neural_estimator
-    from training.source_energy import load_hdr
-    from training.source_energy_cv import score_scene
+    from training.source_energy import load_hdr, scene_files
+    from training.source_energy_cv import fold_files, score_scene
 
     runs = [(name, path, held_out(path)) for name, path in args.weights]
     scenes, hdr = runs[0][2]["scenes"], Path(runs[0][2]["hdr"])
@@ -71,13 +71,14 @@ def main(argv=None) -> int:
     for name, path in [(n, p) for n, p, _ in runs] + args.also:
         run = neural_estimator(path, name)
         variants[name] = lambda ldr, run=run: run(ldr, 2).radiance
+    files = fold_files(scene_files(hdr), tuple(runs[0][2]["fold"]))
+    if sorted(f.stem for f in files) != sorted(scenes):
+        raise PanoLightError(f"{hdr}: its scenes have changed since {runs[0][1]} was trained (its held-out "
+                             f"fold is now other scenes)")
     rows, t0 = [], time.perf_counter()
-    for i, scene in enumerate(scenes, 1):
-        files = [p for p in hdr.iterdir() if p.stem == scene]
-        if not files:
-            raise PanoLightError(f"{hdr}: scene {scene} of the held-out fold is missing")
-        rows += [dict(r, scene=scene) for r in score_scene(load_hdr(files[0]), variants)]
-        print(f"{i}/{len(scenes)} {scene} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
+    for i, f in enumerate(files, 1):
+        rows += [dict(r, scene=f.stem) for r in score_scene(load_hdr(f), variants)]
+        print(f"{i}/{len(files)} {f.stem} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
     return _report(args, rows, scenes, {"fold": runs[0][2]["fold"],
                                         "runs": {name: str(path) for name, path, _ in runs},
                                         "also": {name: str(path) for name, path in args.also}})
