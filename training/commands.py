@@ -57,7 +57,7 @@ def run_train(args) -> int:
                 batch_size=args.batch_size, lr=args.lr, seed=args.seed, procedural=args.procedural,
                 val_procedural=args.val_procedural, cache=args.cache, max_minutes=args.max_minutes,
                 ae_from=args.ae_from, hdr=args.hdr, hdr_copies=args.hdr_copies, hold_out=args.hold_out,
-                log=stderr_log(args.quiet))
+                relight_pool=args.relight_pool, log=stderr_log(args.quiet))
     print(f"train: weights in {res['weights']}", file=sys.stderr)
     return 0
 
@@ -163,6 +163,10 @@ def add_train_arguments(tr) -> None:
     tr.add_argument("--hold-out", type=_fold, default=None, metavar="K/N",
                     help="leave fold K of N of the --hdr scenes out of training and validation (the folds of "
                          "'python -m training.source_energy cv'); score it with 'python -m training.neural_cv'")
+    tr.add_argument("--relight-pool", choices=("procedural", "hdr"), default="procedural",
+                    help="lightings that relight the --data samples (paper Eq. 5): 256 procedural environments "
+                         "(default), or the --hdr panoramas of the same split, 8 yaws each and mirrored, as the "
+                         "paper relights with Laval (a held-out fold lights nothing)")
     tr.add_argument("--procedural", type=int, default=4000,
                     help="procedural environments in the training set (default 4000)")
     tr.add_argument("--val-procedural", type=int, default=400, help="procedural validation environments (default 400)")

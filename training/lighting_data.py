@@ -143,16 +143,20 @@ def _files(synth) -> list:
 
 def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64, lmax: int = 2, seed: int = 0,
             workers: int | None = None, progress=None, hdr_copies: int = 0, guess: str = "analytic",
-            source_model=None) -> Path:
+            source_model=None, pool_hdr=None) -> Path:
     """Write the arrays of ``procedural`` procedural examples (seeds seed*10^7 + i) and of every sample
     of ``synth`` (a folder or a list of sample files; coupled + relit) and every panorama of ``hdr`` (a
     list of .exr/.hdr files, relight_data.hdr_files; with ``hdr_copies`` that many augmented views of
     each) to ``out`` (.npz, uncompressed, no pickles). guess, source_model: the network input's guess
-    (NetInput). Returns ``out``."""
-    from training.relight_data import procedural_pool
+    (NetInput). pool_hdr: real HDR panoramas whose lightings (relight_data.hdr_pool: 8 yaws, mirrored)
+    relight the synthetic samples (Eq. 5, as the paper relights with Laval); default: 256 procedural
+    environments. Returns ``out``."""
+    from training.relight_data import hdr_pool, procedural_pool
 
     files = _files(synth)
-    pool = procedural_pool(256, lmax, seed=10 ** 6 + seed) if files else None
+    pool = None
+    if files:
+        pool = hdr_pool(pool_hdr, lmax) if pool_hdr else procedural_pool(256, lmax, seed=10 ** 6 + seed)
     net = NetInput(height, guess, None if source_model is None else str(source_model))
     jobs = [("procedural", seed * 10 ** 7 + i, None, net, lmax, None, seed) for i in range(procedural)]
     jobs += [("synthetic", f, i, net, lmax, pool, seed) for i, f in enumerate(files)]
@@ -181,7 +185,9 @@ def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64,
               "image": np.array([examples[i]["image"] for i in geo], np.float16).reshape(-1, 3, height, 2 * height),
               "meta": np.array(json.dumps({"version": FORMAT_VERSION, "height": height, "lmax": lmax, "seed": seed,
                                            "procedural": procedural, "synthetic": len(files),
-                                           "hdr": len(hdr or []), "hdr_copies": hdr_copies, "guess": guess}))}
+                                           "hdr": len(hdr or []), "hdr_copies": hdr_copies, "guess": guess,
+                                           "relight_pool": [Path(p).name for p in pool_hdr] if pool_hdr
+                                           else "procedural"}))}
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.tmp{os.getpid()}.npz")
@@ -191,14 +197,15 @@ def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64,
 
 
 def cache_name(*, synth, procedural, height, lmax, seed, hdr=None, hdr_copies: int = 0, guess: str = "analytic",
-               source_model=None) -> str:
+               source_model=None, pool_hdr=None) -> str:
     """A file name that changes whenever what ``prepare`` would write changes."""
     files = [Path(p).name for p in _files(synth)]
     key = json.dumps([FORMAT_VERSION, files, procedural, height, lmax, seed]
                      + ([[str(Path(p).resolve()) for p in hdr]] if hdr else [])
                      + ([hdr_copies] if hdr_copies else [])
                      + ([guess, hashlib.sha256(Path(source_model).read_bytes()).hexdigest() if source_model else None]
-                        if guess != "analytic" else []))
+                        if guess != "analytic" else [])
+                     + ([["pool", *(str(Path(p).resolve()) for p in pool_hdr)]] if pool_hdr and synth else []))
     return f"prepared-{hashlib.sha256(key.encode()).hexdigest()[:12]}.npz"
 
 

@@ -12,6 +12,7 @@ panoramas (Laval style); Blender's studio HDRIs are refused, they are the public
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -126,6 +127,37 @@ def hdr_files(root) -> list[Path]:
     if not files:
         raise PanoLightError(f"{root}: no .exr or .hdr panoramas")
     return files
+
+
+def hdr_pool(files, lmax: int = 2, yaws: int = 8, mirror: bool = True, height: int = 128) -> np.ndarray:
+    """(len(files) x yaws x (2 if mirror), K, 3) SH of real HDR panoramas as a relighting pool: each one
+    area-averaged to ``height`` rows, then turned about the up axis by yaws equal steps (whole columns, so
+    exact) and mirrored left-right (paper: Laval lightings with rotation augmentation). Refuses the public set."""
+    from panolight_core.camera.resample import area_downsample
+    from panolight_core.io import read_image
+
+    public = set()
+    try:
+        from panolight_core.data import studio_hdri_dir
+
+        public = {p.resolve() for p in studio_hdri_dir().glob("*")}
+    except PanoLightError:
+        pass
+    out = []
+    for f in files:
+        if Path(f).resolve() in public:
+            raise PanoLightError(f"{f}: a Blender studio HDRI, the public evaluation set; never train on it")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            p = np.maximum(read_image(f).astype(np.float64), 0.0)
+        p = area_downsample(p, min(height, p.shape[0]))
+        for flip in ((False, True) if mirror else (False,)):
+            q = p[:, ::-1] if flip else p
+            for k in range(yaws):
+                out.append(sh.project(np.roll(q, (k * q.shape[1]) // yaws, axis=1), lmax))
+    if not out:
+        raise PanoLightError("an HDR relighting pool needs at least one panorama")
+    return np.stack(out)
 
 
 def folder_pool(root, lmax: int = 2) -> np.ndarray:

@@ -55,12 +55,15 @@ def held_out_scenes(hdr, fold) -> list[str]:
     return sorted(f.stem for f in fold_files(scene_files(Path(hdr)), fold))
 
 
-def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None, hdr_copies=0, hold_out=None):
+def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None, hdr_copies=0, hold_out=None,
+              relight_pool="procedural"):
     """Prepare (or reuse) the cached train and validation arrays (procedural and synthetic parts cached
     apart, so more Mitsuba samples do not redo the procedural ones); the first 10 % of the synthetic
     samples and of the HDR panoramas, and procedural seeds of their own, are held out. hold_out: fold
     (K, N) of the real HDRs kept out of training and validation alike (held_out_scenes), for a
-    leave-scenes-out test."""
+    leave-scenes-out test. relight_pool: "hdr" relights the synthetic samples (Eq. 5) with the lightings of
+    the real HDRs of their own split (training samples with training scenes, validation with validation
+    scenes; a held-out fold with neither); "procedural": 256 procedural environments."""
     from training.synth.store import list_samples
 
     files = list_samples(data) if data else []
@@ -69,7 +72,12 @@ def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None,
 
         raise PanoLightError(f"{data}: no synthetic samples (write some with 'panolight synth --out {data}')")
     from training.relight_data import hdr_files
+    from panolight_core.errors import PanoLightError
 
+    if relight_pool not in ("procedural", "hdr"):
+        raise PanoLightError(f"relight pool {relight_pool!r}: choose procedural or hdr")
+    if relight_pool == "hdr" and not (hdr and files):
+        raise PanoLightError("--relight-pool hdr relights the --data samples with the --hdr panoramas: give both")
     real = hdr_files(hdr) if hdr else []
     if hold_out:
         test = set(held_out_scenes(hdr, hold_out))
@@ -86,6 +94,11 @@ def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None,
             kw = {"synth": None, "procedural": 0, "hdr": None, **kw}
             if kw["hdr"]:
                 kw["hdr_copies"] = hdr_copies
+            if kw["synth"] and relight_pool == "hdr":
+                if not hs:
+                    raise PanoLightError(f"--relight-pool hdr: the {name} split has no HDR panorama to relight "
+                                         f"its synthetic samples with (give at least two --hdr panoramas)")
+                kw["pool_hdr"] = hs
             if cfg.get("guess", "analytic") != "analytic":
                 kw.update(guess=cfg["guess"], source_model=cfg.get("source_model"))
             path = Path(cache) / lighting_data.cache_name(height=h, lmax=lmax, seed=s, **kw)
@@ -140,7 +153,8 @@ def _lighting_loss(model, b, weights):
 
 def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size: int = 16, lr: float | None = None,
           seed: int = 0, procedural: int = 4000, val_procedural: int = 400, cache=None, max_minutes=None,
-          ae_from=None, hdr=None, hdr_copies: int = 0, hold_out=None, log=print) -> dict:
+          ae_from=None, hdr=None, hdr_copies: int = 0, hold_out=None, relight_pool: str = "procedural",
+          log=print) -> dict:
     """Train ``config`` (name, path or dict) on procedural environments plus the synthetic samples under
     ``data`` (may be None); write metrics.csv, checkpoint.pt and the exported weights to ``out``.
     cache: folder of the prepared arrays (default: ``data``, else ``out``). max_minutes: stop after the
@@ -149,13 +163,14 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
     stage share one trained autoencoder, as the paper's two-stage training allows). hdr: a folder of
     real HDR panoramas (Laval style) added as coupled examples; Blender's studio HDRIs are refused.
     hdr_copies: augmented views of each (source_energy's camera; 0: one plain view). hold_out: fold (K, N)
-    of those scenes left out entirely (written to OUT/held_out.json for training.neural_cv)."""
+    of those scenes left out entirely (written to OUT/held_out.json for training.neural_cv). relight_pool:
+    "hdr" relights the synthetic samples with the real HDRs' lightings (_datasets)."""
     cfg = load_config(config) if not isinstance(config, dict) else config
     rank, world = _distributed()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(seed)
-    extra = {"hdr_copies": hdr_copies, "hold_out": hold_out}
+    extra = {"hdr_copies": hdr_copies, "hold_out": hold_out, "relight_pool": relight_pool}
     if rank == 0:  # one process prepares the arrays, the others then read them
         if hold_out:
             (out / "held_out.json").write_text(json.dumps({"fold": list(hold_out), "hdr": str(Path(hdr).resolve()),

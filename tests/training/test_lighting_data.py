@@ -95,3 +95,58 @@ def test_augmented_views_and_held_out_scenes_never_reach_training(tmp_path):
     np.testing.assert_array_equal(a["x"], L.hdr_example(files[0], 0, 8, 2, 0, 0)["x"])  # and are reproducible
     hdr = read_image(files[0]).astype(np.float64)
     assert np.isfinite(a["sh"]).all() and a["sh"][0].min() > 0 and hdr.max() > 0
+
+
+def test_an_hdr_relighting_pool_is_each_panorama_turned_and_mirrored_and_refuses_the_public_set(tmp_path):
+    from panolight_core.data import studio_hdri
+    from panolight_core.errors import PanoLightError
+    from panolight_core.io import write_image
+    from panolight_core.sh.rotation import rotate_z
+    from training.relight_data import hdr_pool
+    from training.synth.environments import environment
+
+    path = tmp_path / "sky.exr"
+    write_image(path, environment(7, 32)[0].astype(np.float32))
+    pool = hdr_pool([path], lmax=2, yaws=4)
+    assert pool.shape == (8, 9, 3)
+    # whole-column turns are exact rotations about the up axis: entry k is entry 0 turned by k quarter turns
+    for k in range(1, 4):
+        turned = [rotate_z(pool[0], s * k * np.pi / 2) for s in (1, -1)]
+        assert min(np.abs(t - pool[k]).max() for t in turned) < 1e-6 * np.abs(pool[0]).max()
+    np.testing.assert_allclose(pool[4][[0, 2, 6]], pool[0][[0, 2, 6]], rtol=1e-6)  # mirroring keeps m = 0
+    assert not np.allclose(pool[4], pool[0])
+    with pytest.raises(PanoLightError, match="public evaluation set"):
+        hdr_pool([studio_hdri("forest")])
+
+
+def test_the_hdr_relighting_pool_of_each_split_holds_only_its_own_scenes(synth, tmp_path, monkeypatch):
+    from panolight_core.errors import PanoLightError
+    from panolight_core.io import write_image
+    from training.models import load_config
+    from training.synth.environments import environment
+    from training.train import _datasets, held_out_scenes
+
+    folder = tmp_path / "real"
+    folder.mkdir()
+    for i in range(10):
+        write_image(folder / f"scene{i}.exr", environment(300 + i, 32)[0].astype(np.float32))
+    calls = []
+
+    def fake_prepare(path, **kw):
+        calls.append(kw)
+        real_prepare(path, **kw)
+        return path
+
+    real_prepare = L.prepare
+    monkeypatch.setattr(L, "prepare", fake_prepare)
+    cfg = {**load_config("small"), "input_height": 8}
+    _datasets(cfg, synth, 0, 0, 0, tmp_path / "cache", lambda m: None, hdr=folder, hold_out=(1, 5),
+              relight_pool="hdr")
+    pools = [{p.stem for p in kw["pool_hdr"]} for kw in calls if kw.get("synth")]
+    train_hdr, val_hdr = ({p.stem for p in kw["hdr"]} for kw in calls if kw.get("hdr"))
+    assert len(pools) == 1 and pools[0] == train_hdr  # six samples: all train (a tenth, 0, validates)
+    assert not pools[0] & val_hdr and not pools[0] & set(held_out_scenes(folder, (1, 5)))
+    metas = [L.load(p)["meta"] for p in (tmp_path / "cache").glob("*.npz")]
+    assert [sorted(m["relight_pool"]) for m in metas if m["synthetic"]] == [sorted(f"{s}.exr" for s in train_hdr)]
+    with pytest.raises(PanoLightError, match="give both"):
+        _datasets(cfg, synth, 0, 0, 0, tmp_path / "cache", lambda m: None, relight_pool="hdr")
