@@ -11,7 +11,8 @@ docs/source_energy_cv.json: a model that did not see them either).
     python -m training.neural_cv --merge runs/f1/cv.json ... runs/f5/cv.json --out docs/neural_cv.json
 
 ``--merge`` joins the folds' results (each scene scored once, by the run that never saw it) into one
-cross-validation table over every scene.
+cross-validation table over every scene; it also joins an earlier merged table with a new run's folds
+(the baselines they share must agree exactly).
 """
 from __future__ import annotations
 
@@ -105,15 +106,25 @@ def _report(args, rows, scenes, meta) -> int:
 
 
 def _merge(args) -> int:
-    rows, scenes, folds = [], [], []
+    """Join fold files, or merged files of other runs on the same scenes (more estimators): a (scene,
+    estimator, ev) scored by two files must have the same scores (the baselines are), or it is refused."""
+    rows, scenes, folds, seen = [], [], [], {}
     for path in args.merge:
         doc = json.loads(Path(path).read_text(encoding="utf-8"))
-        twice = set(doc["scenes"]) & set(scenes)
-        if twice:
-            raise PanoLightError(f"{path}: scenes already scored by another fold: {', '.join(sorted(twice))}")
-        rows += doc["rows"]
-        scenes += doc["scenes"]
-        folds.append({"fold": doc.get("fold"), "runs": doc.get("runs", {}), "also": doc.get("also", {})})
+        for r in doc["rows"]:
+            if r["estimator"] == CV_LABEL:
+                continue
+            key = (r["scene"], r["estimator"], r["ev"])
+            if key in seen:
+                if (seen[key]["m_rmse"], seen[key]["irr_rmse"]) != (r["m_rmse"], r["irr_rmse"]):
+                    raise PanoLightError(f"{path}: {r['scene']} ({r['estimator']}, ev {r['ev']:+g}) already scored "
+                                         f"differently by another file")
+                continue
+            seen[key] = r
+            rows.append(r)
+        scenes += [s for s in doc["scenes"] if s not in scenes]
+        folds += doc["folds"] if "folds" in doc else [{"fold": doc.get("fold"), "runs": doc.get("runs", {}),
+                                                       "also": doc.get("also", {})}]
     return _report(args, rows, scenes, {"folds": folds})
 
 

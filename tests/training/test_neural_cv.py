@@ -35,7 +35,14 @@ def test_a_held_out_run_is_scored_on_its_scenes_beside_naive(tmp_path):
     merged = tmp_path / "merged.json"
     assert neural_cv.main(["--merge", str(out), "--cv", str(tmp_path / "none.json"), "--out", str(merged)]) == 0
     assert json.loads(merged.read_text())["rows"] == rows
-    with pytest.raises(PanoLightError, match="already scored by another fold"):
-        neural_cv.main(["--merge", str(out), str(out), "--out", str(merged)])
+    # the same file twice adds nothing (identical scores); a run scored differently is refused
+    assert neural_cv.main(["--merge", str(out), str(out), "--cv", str(tmp_path / "none.json"), "--out",
+                           str(merged)]) == 0
+    assert json.loads(merged.read_text())["rows"] == rows
+    other = json.loads(out.read_text())
+    other["rows"][0]["m_rmse"] += 0.5
+    (tmp_path / "other.json").write_text(json.dumps(other))
+    with pytest.raises(PanoLightError, match="already scored differently"):
+        neural_cv.main(["--merge", str(out), str(tmp_path / "other.json"), "--out", str(merged)])
     with pytest.raises(PanoLightError, match="no held_out.json"):
         neural_cv.main(["--weights", "x=panolight_core/models/small.safetensors", "--out", str(out)])
