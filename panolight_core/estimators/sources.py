@@ -471,13 +471,14 @@ class Recovery:
 
 def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None,
             height: int = WORK_HEIGHT, decide: bool = True, tolerance: float | None = None,
-            min_median_ratio: float | None = None) -> Recovery:
+            min_median_ratio: float | None = None, maps=None) -> Recovery:
     """Recover the clipped energy of a uint8 sRGB panorama with the learned model (default: the shipped
     one) or ``log_ratio_fn(regions) -> (mu, sigma, reported)`` (alternatives and oracles in evaluation).
 
     decide: report the energies ``choose_shrink`` picks (the expected-error optimum under the metric);
-    False: the model's fixed rule, log r = mu - shrink sigma^2."""
-    rad, frac, frac_all = work_maps(ldr, height)
+    False: the model's fixed rule, log r = mu - shrink sigma^2. maps: ``work_maps(ldr, height)`` when the
+    caller already has them (the learned estimator's input at this height), so they are made once."""
+    rad, frac, frac_all = work_maps(ldr, height) if maps is None else maps
     regions = region_features(rad, frac, frac_all)
     decision = None
     if log_ratio_fn is not None:

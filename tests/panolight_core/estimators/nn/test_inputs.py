@@ -36,7 +36,8 @@ def test_small_panoramas_are_upsampled_to_the_network_size(rng):
     np.testing.assert_allclose(x[:4, ::4, ::4], network_input(ldr, 8)[:4], atol=1e-6)
 
 
-def test_the_sources_guess_is_the_per_source_work_map_the_network_corrects():
+@pytest.mark.parametrize("net", [64, 128])  # 128: the per-source model's own height, its work maps shared
+def test_the_sources_guess_is_the_per_source_work_map_the_network_corrects(net):
     from panolight_core import sh
     from panolight_core.camera.resample import area_downsample
     from panolight_core.estimators import sources
@@ -49,16 +50,17 @@ def test_the_sources_guess_is_the_per_source_work_map_the_network_corrects():
     from panolight_core.camera import hdr_to_ldr
 
     ldr = hdr_to_ldr(hdr, scale=1.0)
-    x = network_input(ldr, 64, guess="sources")
+    ldr = np.repeat(np.repeat(ldr, 2, axis=0), 2, axis=1)  # 256 rows: both network heights average pixels
+    x = network_input(ldr, net, guess="sources")
     lin = srgb_to_linear(x[:3].astype(np.float64))
     a = x[3].astype(np.float64)
     guessed = lin + a * (np.exp(x[4:].astype(np.float64)) - BASE_EXCESS)  # what an untrained network outputs
     rec = sources.recover(ldr)
     assert rec.regions.count >= 1
-    want = area_downsample(rec.work, 64)
+    want = area_downsample(rec.work, net) if net < rec.work.shape[0] else rec.work
     clipped = a > 0
     np.testing.assert_allclose(np.moveaxis(guessed, 0, -1)[clipped], want[clipped], rtol=1e-4)
     np.testing.assert_allclose(np.moveaxis(guessed, 0, -1)[~clipped], want[~clipped], rtol=1e-4, atol=1e-4)
-    assert not np.allclose(x[4:], network_input(ldr, 64)[4:])  # not the analytic guess
+    assert not np.allclose(x[4:], network_input(ldr, net)[4:])  # not the analytic guess
     with pytest.raises(ValueError, match="guess must be"):
         network_input(ldr, 64, guess="oracle")
