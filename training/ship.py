@@ -19,8 +19,11 @@ MODELS = Path(__file__).resolve().parent.parent / "panolight_core" / "models"
 
 
 def card(run: Path, name: str, *, evaluation=None, train_command: str = "", data_note: str = "",
-         baseline: str = "") -> str:
+         baseline: str = "", real_data: str = "", extra: str = "") -> str:
+    """The model card (markdown). real_data: a sentence on the real HDR panoramas it was trained on
+    (empty: synthetic data only); extra: markdown appended before the limits (e.g. cross-validation)."""
     cfg = json.loads((run / "config.json").read_text())
+    sources_guess = cfg.get("guess", "analytic") == "sources"
     rows = list(csv.DictReader(open(run / "metrics.csv")))
     weights = run / "model.safetensors"
     sha = hashlib.sha256(weights.read_bytes()).hexdigest()
@@ -33,14 +36,17 @@ def card(run: Path, name: str, *, evaluation=None, train_command: str = "", data
            f"- config: `{json.dumps(cfg)}`",
            f"- training: {len(rows)} epochs, {seconds / 60:.0f} min of training steps on this project's 2-core CPU machine"
            + (f"; command: `{train_command}`" if train_command else ""),
-           "- data: procedural HDR environments (CIE skies with a sun, rooms with lamps and windows), Mitsuba-"
-           "rendered synthetic panoramas and their relit versions (paper Eq. 5), all made by this repository; "
+           "- data: " + (f"{real_data} Also " if real_data else "")
+           + "procedural HDR environments (CIE skies with a sun, rooms with lamps and windows), Mitsuba-"
+           "rendered synthetic panoramas and their relit versions (paper Eq. 5), made by this repository; "
            "never Blender's studio HDRIs (the public evaluation set)." + (f" {data_note}" if data_note else ""),
-           "- input: any 2:1 8-bit panorama, reduced to the network's {h} x {w} (colour, clipped fraction and "
-           "the physical highlight model's guess, panolight_core/estimators/nn/inputs.py); "
-           "output: SH radiance in the LDR's linear units (1 = clip level), Blender world frame.".format(
-               h=cfg["input_height"], w=2 * cfg["input_height"]), "",
-           "## Training curve (held-out synthetic validation)", ""] + ([baseline, ""] if baseline else []) + [
+           f"- input: any 2:1 8-bit panorama, reduced to the network's {cfg['input_height']} x "
+           f"{2 * cfg['input_height']} (colour, clipped fraction and "
+           + ("the per-source energy model's recovered excess (models/sources.safetensors): the network is a "
+              "correction of the default estimator" if sources_guess else "the physical highlight model's guess")
+           + ", panolight_core/estimators/nn/inputs.py); "
+           "output: SH radiance in the LDR's linear units (1 = clip level), Blender world frame.", "",
+           "## Training curve (held-out validation" + ("" if real_data else ", synthetic") + ")", ""] + ([baseline, ""] if baseline else []) + [
            "| epoch | stage | train loss | val loss | val m-RMSE | val irr-RMSE | seconds |",
            "|---:|---|---:|---:|---:|---:|---:|"]
     for r in rows:
@@ -53,8 +59,12 @@ def card(run: Path, name: str, *, evaluation=None, train_command: str = "", data
         for s in res["summary"].values():
             out.append(f"| {s['estimator']} | {s['ev']:+g} | {s['mean_m_rmse']:.3f} | {s['mean_irr_rmse']:.3f} | "
                        f"{s['median_ms']:.1f} |")
+    if extra:
+        out += ["", extra.rstrip()]
     out += ["", "## Limits", "",
-            "- Trained on synthetic scenes only; real photographs differ (sensor noise, tone curves, lens flare).",
+            ("- Real lighting from a few dozen scenes; a kind of scene they lack gets the synthetic prior."
+             if real_data else
+             "- Trained on synthetic scenes only; real photographs differ (sensor noise, tone curves, lens flare)."),
             "- A clipped light's true intensity is not in the pixels: the network can only learn a prior for it.",
             "- Bands above the model's order come from the autoencoder's HDR map, not the encoder."]
     return "\n".join(out) + "\n"
@@ -62,6 +72,12 @@ def card(run: Path, name: str, *, evaluation=None, train_command: str = "", data
 
 def ship(run, name: str = "small", **kw) -> tuple[Path, Path]:
     run = Path(run)
+    cfg = json.loads((run / "config.json").read_text())
+    if cfg.get("source_model"):
+        from panolight_core.errors import PanoLightError
+
+        raise PanoLightError(f"{run}: the network corrects the per-source model {cfg['source_model']}, a file that "
+                             f"does not ship; train it on the shipped one (a config without \"source_model\")")
     MODELS.mkdir(exist_ok=True)
     weights = MODELS / f"{name}.safetensors"
     shutil.copyfile(run / "model.safetensors", weights)
@@ -79,9 +95,13 @@ def main(argv=None) -> int:
     ap.add_argument("--train-command", default="")
     ap.add_argument("--data-note", default="")
     ap.add_argument("--baseline", default="", help="a sentence on what the validation numbers compare with")
+    ap.add_argument("--real-data", default="", help="a sentence on the real HDR panoramas it was trained on")
+    ap.add_argument("--extra", default=None, metavar="MARKDOWN_FILE",
+                    help="a markdown file appended to the card before its limits (e.g. the cross-validation)")
     args = ap.parse_args(argv)
+    extra = Path(args.extra).read_text(encoding="utf-8") if args.extra else ""
     paths = ship(args.run, args.name, evaluation=args.eval, train_command=args.train_command, data_note=args.data_note,
-                 baseline=args.baseline)
+                 baseline=args.baseline, real_data=args.real_data, extra=extra)
     print("wrote " + ", ".join(map(str, paths)))
     return 0
 

@@ -44,7 +44,7 @@ def main(argv=None):
             path = Path(tmp) / f"{scene}.jpg"
             write_srgb8(path, hdr_to_ldr(big, 0), quality=90)
             files.append(path)
-        names = tuple(n for n in available() if n != "neural")  # the network has bench_neural.py
+        names = tuple(available())  # bench_neural.py has the network's forward pass alone
         times = {n: [] for n in names + tuple(f"{n} + model" for n in names) + ("decode only",)}
         for f in files:  # warm-up
             for n in names:
