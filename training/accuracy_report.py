@@ -135,6 +135,8 @@ def main(argv=None) -> int:
     ap.add_argument("--eval", default="docs/eval/eval.json", help="panolight eval's JSON (public set)")
     ap.add_argument("--cv", default="docs/source_energy_cv.json", help="source_energy cv's JSON (50 real HDRs)")
     ap.add_argument("--estimator", default="sources", help="the estimator the bars are checked for")
+    ap.add_argument("--neural-cv", default="docs/neural_cv.json",
+                    help="training.neural_cv's merged JSON (the networks, leave-scenes-out over the 50)")
     ap.add_argument("--out", default="docs/accuracy.md")
     args = ap.parse_args(argv)
     public = json.loads(Path(args.eval).read_text())
@@ -166,6 +168,18 @@ def main(argv=None) -> int:
     folds = cv.get("folds")
     if folds:
         lines += ["Folds: " + "; ".join(f"{i + 1}: " + ", ".join(f) for i, f in enumerate(folds)), ""]
+    ncv = Path(args.neural_cv)
+    if ncv.is_file():
+        nrows = json.loads(ncv.read_text())["rows"]
+        names = list(dict.fromkeys(r["estimator"] for r in nrows))
+        lines += ["## The learned estimators in the same cross-validation", "",
+                  "The paper's networks trained five times, each without one fold's scenes, scored on them the same "
+                  "way (`python -m training.neural_cv`, [learned.md](learned.md#trained-on-real-lighting)): "
+                  "`eq5-hdr-pool-128` is the recipe of the shipped `neural` (a correction of the per-source model, "
+                  "256 x 128 input, Eq. 5 relighting with the real HDRs); `analytic-guess` and `sources-guess` are the "
+                  "first real-data runs (128 x 64 input, no Eq. 5 data); `sources (cross-validated)` repeats the "
+                  "per-source rows above.", "",
+                  *table(nrows, names, (-2.0, 0.0, 2.0)), ""]
     lines += ["## Tried and not kept", "",
               "Changes to the per-source model scored by the same five folds (cells: mean / median m-RMSE and "
               "mean irr-RMSE as ratios to naive, then wins of 50). The injected sources lower the means by 0.01-0.02 "
