@@ -1,7 +1,7 @@
-"""Latency of the learned estimator's networks (random weights are fine for timing): the shipped
-``small`` configuration against the ``paper``-size one, torch and numpy paths, one LDR panorama at each
+"""Latency of the learned estimator's networks (random weights are fine for timing): the ``small``
+configuration and the shipped one (its config from models/small.safetensors) against the ``paper``-size one, torch and numpy paths, one LDR panorama at each
 configuration's input size, medians of repeated runs in one process; then the whole numpy estimate
-(input reduction + physical highlight guess + network) on a 1024 x 512 LDR, against the analytic one.
+(input reduction + the guess + network) on a 1024 x 512 LDR, against the analytic and per-source ones.
 
     python -m training.benchmarks.bench_neural [--repeats 7]
 """
@@ -38,9 +38,13 @@ def main(argv=None):
     print(f"# learned-estimator latency ({torch.get_num_threads()} torch threads), batch 1\n")
     print("| config | input | parameters | MB (float32) | torch ms | numpy ms |")
     print("|---|---|---:|---:|---:|---:|")
-    for name in ("small", "paper"):
-        cfg = load_config(name)
-        net = LightingNet(cfg).eval()
+    from panolight_core.estimators.nn.estimator import load_model
+
+    shipped = load_model().config
+    configs = {"small": load_config("small"), f"shipped ({shipped.get('name', '?')})": shipped,
+               "paper": load_config("paper")}
+    for name, cfg in configs.items():
+        net = LightingNet({k: v for k, v in cfg.items() if k != "source_model"}).eval()
         h = cfg["input_height"]
         x = torch.rand(1, CHANNELS, h, 2 * h)
         weights = {k: v.detach().numpy() for k, v in net.state_dict().items()}
@@ -50,8 +54,10 @@ def main(argv=None):
         n = sum(p.numel() for p in net.parameters())
         rows[name] = (t_torch, t_np)
         print(f"| {name} | {2 * h}x{h} | {n:,} | {n * 4 / 2 ** 20:.1f} | {t_torch:.1f} | {t_np:.1f} |")
-    s, p = rows["small"], rows["paper"]
-    print(f"\nsmall vs paper: {p[0] / s[0]:.0f}x faster with torch, {p[1] / s[1]:.0f}x faster with numpy")
+    p = rows["paper"]
+    for name in list(configs)[:2]:
+        s = rows[name]
+        print(f"\n{name} vs paper: {p[0] / s[0]:.0f}x faster with torch, {p[1] / s[1]:.0f}x faster with numpy")
     from panolight_core.camera import hdr_to_ldr
     from panolight_core.data import studio_hdri
     from panolight_core.estimators import available, estimate
@@ -59,7 +65,7 @@ def main(argv=None):
 
     ldr = hdr_to_ldr(np.maximum(read_image(studio_hdri("city")).astype(np.float64), 0.0), 0.0, 90)
     print("\n| whole estimate, 1024x512 LDR in memory | median ms |\n|---|---:|")
-    for name in [n for n in ("analytic", "neural") if n in available()]:
+    for name in [n for n in ("analytic", "sources", "neural") if n in available()]:
         rows[f"estimate-{name}"] = median_ms(lambda: estimate(ldr, 2, name), args.repeats)
         print(f"| {name} | {rows[f'estimate-{name}']:.1f} |")
     return rows
