@@ -81,3 +81,26 @@ def test_extreme_panoramas_give_finite_lighting():
         c = estimate(ldr, 2, "neural").coeffs
         assert np.isfinite(c).all()
     assert abs(estimate(black, 2, "neural").coeffs).max() < 1.0  # nothing seen, nothing invented
+
+
+def test_the_shipped_weights_give_torch_s_numbers_in_numpy():
+    torch = pytest.importorskip("torch")
+    from safetensors.torch import load_file
+
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.estimators.nn.inputs import network_input
+    from panolight_core.estimators.nn.model import forward
+    from training.models import LightingNet
+
+    model = E.load_model()
+    net = LightingNet(model.config).eval()
+    net.load_state_dict(load_file(str(E.DEFAULT_WEIGHTS)))
+    h = model.config["input_height"]
+    sky = np.full((h, 2 * h, 3), 0.3)
+    sky[h // 5:h // 5 + 3, h // 2:h // 2 + 3] = 500.0  # a clipped sun
+    x = network_input(hdr_to_ldr(sky, scale=1.0), h, model.config.get("guess", "analytic"))
+    with torch.no_grad():
+        ref, ref_hdr = net(torch.from_numpy(x[None]))
+    got, got_hdr = forward(model.weights, model.config, x[None])
+    np.testing.assert_allclose(got, ref.numpy(), rtol=1e-4, atol=1e-4)
+    np.testing.assert_allclose(got_hdr, ref_hdr.numpy(), rtol=1e-4, atol=1e-4)
