@@ -112,16 +112,22 @@ def procedural_pool(count: int = 256, lmax: int = 2, seed: int = 10 ** 6, height
     return np.stack([sh.project(environment(seed + i, height)[0], lmax) for i in range(count)])
 
 
-def hdr_files(root) -> list[Path]:
-    """Every .exr/.hdr panorama under a folder, sorted. Refuses the public set (Blender's studio HDRIs)."""
+def _is_public(path) -> bool:
+    """Whether a file or folder is (inside) Blender's studio-HDRI folder, the public evaluation set."""
     from panolight_core.data import studio_hdri_dir
 
-    root = Path(root).resolve()
     try:
         public = studio_hdri_dir().resolve()
     except PanoLightError:
-        public = None
-    if public is not None and (root == public or public in root.parents):
+        return False
+    path = Path(path).resolve()
+    return path == public or public in path.parents
+
+
+def hdr_files(root) -> list[Path]:
+    """Every .exr/.hdr panorama under a folder, sorted. Refuses the public set (Blender's studio HDRIs)."""
+    root = Path(root).resolve()
+    if _is_public(root):
         raise PanoLightError(f"{root}: these are Blender's studio HDRIs, the public evaluation set; never train on them")
     files = sorted(p for p in root.rglob("*") if p.suffix.lower() in (".exr", ".hdr"))
     if not files:
@@ -136,16 +142,9 @@ def hdr_pool(files, lmax: int = 2, yaws: int = 8, mirror: bool = True, height: i
     from panolight_core.camera.resample import area_downsample
     from panolight_core.io import read_image
 
-    public = set()
-    try:
-        from panolight_core.data import studio_hdri_dir
-
-        public = {p.resolve() for p in studio_hdri_dir().glob("*")}
-    except PanoLightError:
-        pass
     out = []
     for f in files:
-        if Path(f).resolve() in public:
+        if _is_public(f):
             raise PanoLightError(f"{f}: a Blender studio HDRI, the public evaluation set; never train on it")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

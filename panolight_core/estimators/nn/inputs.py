@@ -46,11 +46,12 @@ def network_input(ldr: np.ndarray, height: int, guess: str = "analytic", source_
         cols = np.arange(2 * height) * ldr.shape[1] // (2 * height)
         ldr = ldr[rows][:, cols]
     maps = None
-    if guess == "sources" and min(height, ldr.shape[0]) == min(_sources().WORK_HEIGHT, ldr.shape[0]):
-        maps = _sources().work_maps(ldr, height)  # the per-source model's own work maps: made once
-        lin, frac = maps[0], maps[1]
-    else:
-        lin, frac = ldr_work_maps(ldr, height)
+    if guess == "sources":
+        from .. import sources
+
+        if height == min(sources.WORK_HEIGHT, ldr.shape[0]):  # the per-source model's own work maps: made once
+            maps = sources.work_maps(ldr, height)
+    lin, frac = maps[:2] if maps is not None else ldr_work_maps(ldr, height)
     if guess == "sources":
         recovered = lin + _source_excess(ldr, height, source_model, maps)
     else:
@@ -61,19 +62,13 @@ def network_input(ldr: np.ndarray, height: int, guess: str = "analytic", source_
     return np.ascontiguousarray(np.moveaxis(x, -1, 0), dtype=np.float32)
 
 
-def _sources():
-    from .. import sources
-
-    return sources
-
-
 def _source_excess(ldr: np.ndarray, height: int, source_model, maps=None) -> np.ndarray:
     """(height, 2 height, 3) the per-source estimator's recovered excess over the plain linear map, area
     averaged from its own work map (which it computes at its own resolution) to the network's; maps:
     its work maps when the network's height is theirs (sources.recover)."""
+    from .. import sources
     from ...camera.resample import area_downsample
 
-    sources = _sources()
     model = sources.load_source_model(source_model) if source_model else None
     rec = sources.recover(ldr, model, maps=maps)
     excess = np.maximum(rec.work - rec.base, 0.0)
