@@ -65,3 +65,43 @@ def angle_deg(a, b) -> float:
     a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     c = float(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)))
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+
+
+SOURCE_CONE_DEG = 5.0  # EVALUATION.md: the dominant source's energy is measured within 5 degrees
+DOMINANT_SHARE = 0.15  # ... and a scene has one when at least 15 % of its luminance energy lies there
+
+
+def cone_energy(hdr: np.ndarray, direction, cone_deg: float = SOURCE_CONE_DEG) -> float:
+    """Luminance energy (luminance x pixel solid angle, sr) of an equirect (H, W, 3) map within
+    ``cone_deg`` of the unit ``direction`` (Blender world frame)."""
+    lum = luminance(np.asarray(hdr, dtype=np.float64))
+    h, w = lum.shape
+    cos = sh.pixel_directions(h, w) @ np.asarray(direction, dtype=np.float64)
+    inside = cos >= math.cos(math.radians(cone_deg))
+    return float((lum * sh.pixel_solid_angles(h, w))[inside].sum())
+
+
+def dominant_source(hdr: np.ndarray) -> dict:
+    """EVALUATION.md's dominant compact source of a ground-truth HDR (H, W, 3): its direction (unit
+    vector), its cone energy (within SOURCE_CONE_DEG), that energy's share of the map's luminance energy,
+    and whether the scene has one (share >= DOMINANT_SHARE)."""
+    lum = luminance(np.asarray(hdr, dtype=np.float64))
+    d = dominant_light_direction(hdr)
+    e = cone_energy(hdr, d)
+    total = float((lum * sh.pixel_solid_angles(*lum.shape)).sum())
+    share = e / total if total > 0 else 0.0
+    return {"direction": d, "energy": e, "share": share, "dominant": share >= DOMINANT_SHARE}
+
+
+def source_energy_ratio(truth: np.ndarray, estimate: np.ndarray, direction) -> float:
+    """EVALUATION.md's energy ratio r = s E_est(cone) / E_true(cone) of the source at the TRUE
+    ``direction``, both maps (H, W, 3) at the same resolution (the truth and ``hdr.exr``), s = median
+    luminance of the truth / median luminance of the estimate (over pixels; 1 if the latter is not
+    positive). 1 is exact; 0.02 a vanished sun; 5 a blinding one."""
+    t, q = np.asarray(truth, dtype=np.float64), np.asarray(estimate, dtype=np.float64)
+    if t.shape != q.shape:
+        raise ValueError(f"the truth {t.shape} and the estimate {q.shape} must have the same resolution")
+    med_q = float(np.median(luminance(q)))
+    s = float(np.median(luminance(t))) / med_q if med_q > 0 else 1.0
+    e_true = cone_energy(t, direction)
+    return s * cone_energy(q, direction) / e_true if e_true > 0 else math.inf

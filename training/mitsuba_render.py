@@ -388,7 +388,8 @@ def load_input(path, lmax="auto", from_ldr=None):
         k = auto_exposure(truth, from_ldr, robust=True)
         px, truth, hdr = hdr_to_ldr(truth, from_ldr, 90, scale=k), truth * k, False
     est = estimate(px, 8, "auto")
-    model = fit_model(est.radiance, lmax=lmax, light_threshold=None if hdr else CLIP_LEVEL)
+    model = fit_model(est.radiance, lmax=lmax, light_threshold=None if hdr else CLIP_LEVEL, known_lights=est.lights,
+                      exclude=est.light_exclusions)
     pano = px if hdr else ldr_to_linear(px)
     label = p.stem if truth is None else f"{p.stem} JPEG ev {from_ldr:+g}"
     return model.coeffs, model.lights, np.asarray(pano, dtype=np.float64), label, truth

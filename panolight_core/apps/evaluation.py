@@ -29,7 +29,7 @@ from ..data import STUDIO_HDRIS, studio_hdri
 from ..errors import PanoLightWarning
 from ..estimators import available, estimate
 from ..io import read_image
-from ..pipeline import fit_radiance
+from ..pipeline import fit_estimate
 
 SUN_SCENES = ("city", "courtyard", "forest", "sunrise", "sunset")
 BASELINES = ("ambient", "naive")
@@ -99,7 +99,7 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                     t = time.perf_counter()
                     est = estimate(ldr, lmax, name)
                     if name not in BASELINES:  # what panolight estimate writes by default
-                        model = fit_radiance(est.radiance, hdr_input=False)
+                        model = fit_estimate(est, hdr_input=False)
                     times.append(time.perf_counter() - t)
                 if name in BASELINES:
                     coeffs, share, d = est.coeffs, None, estimated_direction(est.coeffs)

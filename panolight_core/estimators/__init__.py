@@ -9,6 +9,9 @@ float32 linear radiance for HDR (and 16-bit) files.
             physical power-law model of ``highlights``, projection of the recovered map.
 - sources:  per-source energy (``sources``): every clipped region gets the energy a model learned from
             real HDR panoramas predicts for it (the expected-error optimum of its predicted ratio).
+- keylight: ``sources`` plus explicit key lights: each clipped region that holds a compact sun or lamp
+            becomes one light at its centroid, weighed by a clear-sky fit or the per-source model
+            (``keylight``; experimental: docs/keylight.md has what it gains and what it costs).
 - neural:   the paper's learned estimator (LDR -> HDR autoencoder -> lighting encoder) with the shipped
             weights (panolight_core/models), numpy only; HDR inputs are projected exactly.
 - auto:     the best estimator available (see ``resolve``).
@@ -34,7 +37,8 @@ class Estimate:
     """An estimate: coefficients (K, 3) float64 radiance SH, the estimator and what it found.
 
     radiance: the linear equirect map the coefficients are the projection of (the input itself for HDR,
-    the recovered work map for the analytic LDR path); the adaptive model fits lights to it.
+    the recovered work map for the analytic LDR path), less the explicit ``lights`` the estimator found
+    itself (the per-source estimator's key lights); the adaptive model fits the rest to it.
     """
 
     coeffs: np.ndarray
@@ -42,6 +46,8 @@ class Estimate:
     info: dict = field(default_factory=dict)
     radiance: np.ndarray | None = None
     recovery: object | None = None  # sources.Recovery for the per-source estimator (hdr.exr is made from it)
+    lights: list = field(default_factory=list)  # explicit key lights (lighting-file dicts) not in ``radiance``
+    light_exclusions: list = field(default_factory=list)  # (direction, radius rad): no second light there
 
     @property
     def lmax(self) -> int:
@@ -75,16 +81,22 @@ def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
                     {"input": "ldr", "work_height": work, "clipped_regions": blobs}, recovered)
 
 
-def per_source(pixels: np.ndarray, lmax: int) -> Estimate:
+def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False) -> Estimate:
+    name = "keylight" if key_lights else "sources"
     if pixels.dtype != np.uint8:
-        return _exact_hdr(pixels, lmax, "sources")
+        return _exact_hdr(pixels, lmax, name)
     from . import sources
 
     model = sources.load_source_model()
-    rec = sources.recover(pixels, model)
-    return Estimate(sh.project(rec.work, lmax), "sources",
+    rec = sources.recover(pixels, model, key_lights=key_lights)
+    return Estimate(sh.project(rec.work, lmax), name,
                     {"input": "ldr", "work_height": rec.frac.shape[0], "model": model.path.name,
-                     "decision": rec.decision, "clipped_regions": rec.region_info()}, rec.work, rec)
+                     "decision": rec.decision, "clipped_regions": rec.region_info()}, rec.diffuse, rec,
+                    rec.lights(), rec.key_exclusions())
+
+
+def per_source_key_lights(pixels: np.ndarray, lmax: int) -> Estimate:
+    return per_source(pixels, lmax, key_lights=True)
 
 
 def neural_estimator(weights=None, label: str = "neural"):
@@ -137,6 +149,8 @@ _REGISTRY = {
     "analytic": Entry(analytic, "Analytic", "sRGB to linear with power-law highlight recovery; exact for HDR"),
     "sources": Entry(per_source, "Per-source energy", "Each clipped sun, lamp or window gets the energy a model "
                      "learned from real HDR panoramas predicts; exact for HDR"),
+    "keylight": Entry(per_source_key_lights, "Per-source + key lights", "Per-source energy, and each clipped "
+                      "region holding a compact sun or lamp made one explicit light (experimental; exact for HDR)"),
     "neural": Entry(neural_estimator(), "Neural", "The paper's network (numpy; no torch needed)"),
 }
 BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these

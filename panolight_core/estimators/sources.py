@@ -28,7 +28,7 @@ frame (CONVENTIONS.md).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -319,13 +319,16 @@ def load_source_model(path=MODEL_PATH) -> SourceModel:
 
 # --- recovery ---------------------------------------------------------------------------------------
 
-def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray) -> np.ndarray:
+def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray, keys=()) -> np.ndarray:
     """Work map with each region's excess (r - 1) x held added to its cells by ``Regions.share``, in
-    the region's colour. Returns a new (h, w, 3) map."""
+    the region's colour, less the energy of the region's key light (``keys``), which is not in the map.
+    Returns a new (h, w, 3) map."""
     out = np.array(rad, dtype=np.float64, copy=True)
     if regions.count == 0:
         return out
     excess = (np.exp(np.asarray(log_ratio, dtype=np.float64)) - 1.0) * regions.held
+    for k in keys:
+        excess[k.region] = max(excess[k.region] - k.energy, 0.0)
     m = regions.labels >= 0
     lab = regions.labels[m]
     omega = sh.pixel_solid_angles(*regions.labels.shape)
@@ -334,7 +337,7 @@ def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray) -> np
 
 
 def fill_full_resolution(linear: np.ndarray, clipped: np.ndarray, excess: np.ndarray,
-                         centres=(), exponents=(), labels=None) -> np.ndarray:
+                         centres=(), exponents=(), labels=None, points=()) -> np.ndarray:
     """Full-resolution HDR: ``linear`` (H, W, 3) plus the work map's ``excess`` (h, w, 3) put back into
     the clipped pixels (``clipped`` (H, W) bool). Returns float32 (H, W, 3). (``FullResolutionFill``
     does the same by row blocks, for panoramas with no room for a second copy.)
@@ -345,9 +348,10 @@ def fill_full_resolution(linear: np.ndarray, clipped: np.ndarray, excess: np.nda
     an even fill for a flat one (a window). Energy is exact in full-resolution solid angles; only its
     placement within the region differs from the work map. Other cells: their clipped pixels (all of
     the cell where none clipped) share the cell's excess evenly, so the cell's pixel mean gains exactly
-    its excess."""
+    its excess. points: key lights (unit direction, RGB energy), each added at its exact direction.
+    """
     out = np.array(linear, dtype=np.float32, copy=True)
-    fill = FullResolutionFill(np.nonzero(clipped), clipped.shape, excess, centres, exponents, labels)
+    fill = FullResolutionFill(np.nonzero(clipped), clipped.shape, excess, centres, exponents, labels, points)
     fill.apply(out, 0, clipped)
     return out
 
@@ -356,7 +360,7 @@ class FullResolutionFill:
     """``fill_full_resolution`` split into a plan, made from the clipped pixels' coordinates (ys, xs) of an
     (H, W) panorama, and ``apply`` to any row block of the linearised panorama, in place."""
 
-    def __init__(self, clipped_yx, shape, excess: np.ndarray, centres=(), exponents=(), labels=None):
+    def __init__(self, clipped_yx, shape, excess: np.ndarray, centres=(), exponents=(), labels=None, points=()):
         H, W = shape
         h, w = excess.shape[:2]
         self.clipped_yx_cache = clipped_yx
@@ -364,6 +368,7 @@ class FullResolutionFill:
         has = excess.max(axis=-1) > 0
         self.pixels = None  # (ys, xs, add (n, 3) float32) for region pixels
         self.cells = []  # (r0, r1, c0, c1, excess (3,) float32) of the other cells
+        self.points = self._splats(points)  # (ys, xs, add (n, 3) float32) of the key lights
         if not has.any():
             return
         in_region = np.zeros((h, w), bool) if labels is None else (labels >= 0) & (labels < len(centres))
@@ -394,9 +399,33 @@ class FullResolutionFill:
         for y, x in zip(*np.nonzero(has & ~in_region)):
             self.cells.append((row0[y], row1[y], col0[x], col1[x], excess[y, x].astype(np.float32)))
 
+    def _splats(self, points):
+        """Key lights (unit direction (3,), RGB energy (3,)) as pixel additions: each energy split over the
+        2 x 2 pixels around its direction by bilinear weights (their weighted centre is the direction),
+        divided by each pixel's solid angle, so the panorama gains exactly the light's energy there."""
+        H, W = self.shape
+        ys, xs, adds = [], [], []
+        omega = sh.row_solid_angles(H, W)
+        for d, rgb in points:
+            y, x = sh.grid.pixel_coordinates(np.asarray(d, dtype=np.float64)[None], H, W)
+            y = float(np.clip(y[0], 0.0, H - 1.0))
+            y0, x0 = min(int(math.floor(y)), H - 2) if H > 1 else 0, int(math.floor(x[0]))
+            fy, fx = y - y0, x[0] - x0
+            for dy, wy in ((0, 1.0 - fy), (1, fy)):
+                for dx, wx in ((0, 1.0 - fx), (1, fx)):
+                    if wy * wx > 0 and y0 + dy < H:
+                        ys.append(y0 + dy)
+                        xs.append((x0 + dx) % W)
+                        adds.append(np.asarray(rgb, dtype=np.float64) * wy * wx / omega[y0 + dy])
+        if not ys:
+            return None
+        return np.array(ys), np.array(xs), np.array(adds, dtype=np.float32)
+
     def peak(self) -> float:
         """An upper bound of the energy ``apply`` adds to any one pixel (per channel, linear units)."""
         top = float(self.pixels[2].max()) if self.pixels is not None and self.pixels[2].size else 0.0
+        if self.points is not None:
+            top += float(self.points[2].sum(axis=0).max())
         if self.cells:
             ys, xs = self.clipped_yx_cache
             (H, W), (h, w) = self.shape, self.work_shape
@@ -411,10 +440,11 @@ class FullResolutionFill:
         """Add the recovered energy to rows r0 .. r0 + len(block) of the panorama: ``block`` float32
         (n, W, 3) linear, in place; ``clipped_block`` (n, W) bool, those rows' clipped pixels."""
         r1 = r0 + block.shape[0]
-        if self.pixels is not None:
-            ys, xs, add = self.pixels
-            sel = (ys >= r0) & (ys < r1)
-            block[ys[sel] - r0, xs[sel]] += add[sel]
+        for found in (self.pixels, self.points):
+            if found is not None:
+                ys, xs, add = found
+                sel = (ys >= r0) & (ys < r1)
+                np.add.at(block, (ys[sel] - r0, xs[sel]), add[sel])
         for c_r0, c_r1, c0, c1, exc in self.cells:
             if c_r1 <= r0 or c_r0 >= r1:
                 continue
@@ -450,6 +480,37 @@ class Recovery:
     sigma: np.ndarray
     log_ratio: np.ndarray
     decision: dict | None = None
+    keys: list = field(default_factory=list)  # keylight.KeyLight: the compact sources, as explicit lights
+
+    def key_deposits(self) -> np.ndarray:
+        """(h, w, 3) the key lights' energy as ``work`` holds it: each in the cell holding its direction."""
+        out = np.zeros_like(self.work)
+        h, w = out.shape[:2]
+        omega = sh.pixel_solid_angles(h, w)
+        for k in self.keys:
+            y, x = sh.grid.pixel_at(k.direction, h, w)
+            out[y, x] += k.energy * k.color / omega[y, x]
+        return out
+
+    @property
+    def diffuse(self) -> np.ndarray:
+        """``work`` without the key lights: what the SH part of the lighting model is fitted to."""
+        return self.work - self.key_deposits() if self.keys else self.work
+
+    def key_points(self) -> list:
+        """(unit direction (3,), RGB energy (3,)) of each key light, for the full-resolution HDRI."""
+        return [(k.direction, k.energy * k.color) for k in self.keys]
+
+    def lights(self) -> list[dict]:
+        """The key lights as lighting-file light dicts, brightest first."""
+        return [k.as_light() for k in sorted(self.keys, key=lambda k: -k.energy)]
+
+    def key_exclusions(self) -> list:
+        """(direction (3,), angular radius in radians) of each key light's region: the lighting model takes
+        no second light there (one light per physical source)."""
+        cell = math.pi / self.work.shape[0]
+        return [(self.regions.centre[k.region], math.sqrt(self.regions.clipped_sr[k.region] / math.pi) + 2 * cell)
+                for k in self.keys]
 
     def region_info(self) -> list[dict]:
         """Per region, for lighting.json: direction, clipped solid angle (sr), held and recovered energy
@@ -471,13 +532,15 @@ class Recovery:
 
 def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None,
             height: int = WORK_HEIGHT, decide: bool = True, tolerance: float | None = None,
-            min_median_ratio: float | None = None, maps=None) -> Recovery:
+            min_median_ratio: float | None = None, maps=None, key_lights: bool = False) -> Recovery:
     """Recover the clipped energy of a uint8 sRGB panorama with the learned model (default: the shipped
     one) or ``log_ratio_fn(regions) -> (mu, sigma, reported)`` (alternatives and oracles in evaluation).
 
     decide: report the energies ``choose_shrink`` picks (the expected-error optimum under the metric);
     False: the model's fixed rule, log r = mu - shrink sigma^2. maps: ``work_maps(ldr, height)`` when the
-    caller already has them (the learned estimator's input at this height), so they are made once."""
+    caller already has them (the learned estimator's input at this height), so they are made once.
+    key_lights: make the regions that hold a compact key source explicit lights (``keylight``); each such
+    region's fill keeps only what its decided energy holds beyond its light's."""
     rad, frac, frac_all = work_maps(ldr, height) if maps is None else maps
     regions = region_features(rad, frac, frac_all)
     decision = None
@@ -490,7 +553,16 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
                                         min_median_ratio=min_median_ratio)
             reported = np.zeros_like(mu) if math.isinf(c) else np.maximum(mu - c * sigma ** 2, 0.0)
             decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
-    return Recovery(fill_regions(rad, regions, reported), rad, frac_all, regions, mu, sigma, reported, decision)
+    keys = []
+    if key_lights and log_ratio_fn is None and regions.count:
+        from .keylight import find_key_lights
+
+        keys = find_key_lights(rad, frac, frac_all, regions, mu, sigma, reported)
+    work = fill_regions(rad, regions, reported, keys)
+    rec = Recovery(work, rad, frac_all, regions, mu, sigma, reported, decision, keys)
+    if keys:
+        rec.work = work + rec.key_deposits()
+    return rec
 
 
 def power_law_log_ratio(regions: Regions):

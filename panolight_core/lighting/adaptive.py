@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import sh
-from .lights import extract_lights, light_coeffs, light_irradiance
+from ..camera.color import LUMINANCE_WEIGHTS
+from .lights import MAX_LIGHTS, extract_lights, light_coeffs, light_irradiance
 from .order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE, select_order
 
 IRRADIANCE_RINGING = 0.01  # negative irradiance beyond 1 % of the mean irradiance shows on diffuse surfaces
@@ -74,7 +75,7 @@ def ringing(coeffs: np.ndarray, lights=()) -> dict:
 def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", tolerance: float = DEFAULT_TOLERANCE,
               max_order: int = DEFAULT_MAX_ORDER, irradiance_ringing: float = IRRADIANCE_RINGING,
               radiance_ringing: float | None = None, deringing: str = "auto",
-              light_threshold: float | None = None) -> LightingModel:
+              light_threshold: float | None = None, known_lights=(), exclude=()) -> LightingModel:
     """Fit lights + SH to a linear (H, W, 3) radiance map.
 
     lights: extract explicit lights (False: SH only). lmax: "auto" (smallest order 0..max_order whose
@@ -86,12 +87,24 @@ def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", toleran
     windows rings in radiance at every useful order, and windowing it costs 2-10x in irradiance
     accuracy on the Blender HDRIs). "none" disables it; a window family name forces that window.
     light_threshold: see lights.extract_lights (the clip level for LDR-derived maps).
+    known_lights: lights found before (an estimator's key lights), whose energy is not in ``radiance``: they
+    come first, and no light is extracted within ``exclude`` ((direction, radius) pairs). With lights=False
+    they are projected into the SH part instead.
     """
+    known_lights = [dict(light) for light in known_lights]
     t0 = time.perf_counter()
     info: dict = {"mode": "lights+sh" if lights else "sh"}
     if lights:
-        found, residual, linfo = extract_lights(radiance, threshold=light_threshold)
-        info["lights"] = {"count": len(found), "energy_fraction": round(linfo["energy_fraction_in_lights"], 6)}
+        extracted, residual, linfo = extract_lights(radiance, threshold=light_threshold, exclude=exclude,
+                                                    max_lights=MAX_LIGHTS - len(known_lights))
+        found = known_lights + extracted
+        known_e = sum(light["intensity"] for light in known_lights)
+        total = known_e + float((sh.pixel_solid_angles(*residual.shape[:2])[..., None] * residual).sum(axis=(0, 1))
+                                @ LUMINANCE_WEIGHTS) + sum(light["intensity"] for light in extracted)
+        info["lights"] = {"count": len(found), "energy_fraction": round(
+            (known_e + sum(light["intensity"] for light in extracted)) / total if total > 0 else 0.0, 6)}
+        if known_lights:
+            info["lights"]["key_lights"] = len(known_lights)
         if not found:
             info["lights"]["why_none"] = linfo.get("reason")
     else:
@@ -99,6 +112,8 @@ def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", toleran
     auto = lmax == "auto"
     order = max_order if auto else int(lmax)
     coeffs = sh.project(residual, order).astype(np.float64)
+    if known_lights and not lights:  # a fixed SH recipe holds the key lights in its coefficients
+        coeffs = coeffs + light_coeffs(known_lights, order)
     if auto:
         chosen, errs = select_order(coeffs, tolerance, _lights_mean_irradiance(found))
         coeffs = coeffs[:(chosen + 1) ** 2]

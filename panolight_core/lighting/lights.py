@@ -75,7 +75,8 @@ def _peak_direction(full: np.ndarray, core: np.ndarray) -> np.ndarray | None:
 
 def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int = MAX_LIGHTS,
                    peak_ratio: float = PEAK_RATIO, max_radius_deg: float = MAX_RADIUS_DEG,
-                   min_irradiance_share: float = MIN_IRRADIANCE_SHARE, threshold: float | None = None):
+                   min_irradiance_share: float = MIN_IRRADIANCE_SHARE, threshold: float | None = None,
+                   exclude=()):
     """Split a linear (H, W, 3) equirect map into lights and a residual map.
 
     Sources are found brightest first: from the brightest unused pixel above ``peak_ratio`` x the median
@@ -86,6 +87,8 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
     without them, info with the energy fraction in lights and, when none was taken, the reason.
     threshold: the luminance a candidate must exceed, instead of peak_ratio x the median (for an LDR's
     recovered map: the clip level, since clipped regions are exactly where its sources are).
+    exclude: (unit direction, angular radius in radians) pairs where no light is taken (a source an
+    estimator already made a light of: one light per physical source).
     """
     full = np.asarray(radiance)
     rad = area_downsample(full, work_height)
@@ -104,8 +107,10 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
     base = threshold if threshold is not None else (peak_ratio * median if median > 0 else 0.0)
     max_radius = math.radians(max_radius_deg)
     used = np.zeros((h, w), dtype=bool)
+    for d, radius in exclude:
+        used |= dirs @ np.asarray(d, dtype=np.float64) >= math.cos(radius)
     lights, residual, reasons = [], rad.copy(), []
-    for _ in range(4 * max_lights):
+    for _ in range(4 * max(max_lights, 0)):
         if len(lights) == max_lights:
             break
         avail = (lum > base) & ~used

@@ -6,6 +6,6 @@ job.py        run_estimate(file, folder, settings): read, estimate, write the ou
 hdri.py       the full-resolution HDR panorama with its clipped sources filled (hdr.exr)
 preview.py    the input | SH radiance | lit sphere preview
 """
-from .estimate import Result, estimate_lighting, fit_pixels, fit_radiance  # noqa: F401
+from .estimate import Result, estimate_lighting, fit_estimate, fit_pixels, fit_radiance  # noqa: F401
 from .job import OUTPUT_FILES, run_estimate  # noqa: F401
 from .settings import Settings  # noqa: F401

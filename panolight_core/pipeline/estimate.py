@@ -29,20 +29,29 @@ def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model:
     check_choice("model", model, MODELS)
     lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
     est = estimate(pixels, DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax), estimator)
-    return fit_radiance(est.radiance, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
+    return fit_estimate(est, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
                         tolerance=tolerance, deringing=deringing), est
 
 
+def fit_estimate(est, *, hdr_input: bool, **kw) -> LightingModel:
+    """``fit_radiance`` of an ``estimators.Estimate``: its radiance map plus the key lights it found itself."""
+    return fit_radiance(est.radiance, hdr_input=hdr_input, known_lights=est.lights,
+                        exclude=est.light_exclusions, **kw)
+
+
 def fit_radiance(radiance: np.ndarray, *, hdr_input: bool, lmax="auto", model: str = "auto",
-                 tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None) -> LightingModel:
+                 tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None, known_lights=(),
+                 exclude=()) -> LightingModel:
     """The lighting model of an estimator's linear radiance map (the second half of ``fit_pixels``; the
     evaluation scores estimates with it). hdr_input: the map is an HDR file's (lights above the median,
-    not above the LDR clip level). lmax: "auto" or an int (as a string or int)."""
+    not above the LDR clip level). lmax: "auto" or an int (as a string or int). known_lights: lights the
+    estimator found itself, not in ``radiance`` (a fixed SH recipe, model "sh", projects them into its SH);
+    exclude: (direction, radius) where no further light is taken (``lighting.adaptive.fit_model``)."""
     lmax = str(lmax)
     order = DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax)
     return fit_model(radiance, lights=model == "auto", lmax=lmax, tolerance=tolerance, max_order=order,
                      deringing=deringing or ("auto" if model == "auto" else "none"),
-                     light_threshold=None if hdr_input else CLIP_LEVEL)
+                     light_threshold=None if hdr_input else CLIP_LEVEL, known_lights=known_lights, exclude=exclude)
 
 
 @dataclass

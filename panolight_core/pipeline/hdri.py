@@ -71,8 +71,9 @@ class HdrRows:
             self.clipped = [c for c, _, _ in found]
             ys = np.concatenate([y for _, y, _ in found])
             xs = np.concatenate([x for _, _, x in found])
-            self.fill = FullResolutionFill((ys, xs), (H, W), np.maximum(rec.work - rec.base, 0.0),
-                                           rec.regions.centre, rec.regions.shape_exponents(), rec.regions.labels)
+            self.fill = FullResolutionFill((ys, xs), (H, W), np.maximum(rec.diffuse - rec.base, 0.0),
+                                           rec.regions.centre, rec.regions.shape_exponents(), rec.regions.labels,
+                                           rec.key_points())
             self._peak = float(SRGB8_TO_LINEAR[int(pixels.max(initial=0))]) + self.fill.peak()
         else:
             self.full = hdr_panorama(pixels, est)

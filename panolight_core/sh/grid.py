@@ -57,6 +57,21 @@ def directions_at(rows, cols, height: int, width: int) -> np.ndarray:
     return np.stack([-st * np.cos(2 * np.pi * u), st * np.sin(2 * np.pi * u), np.cos(theta)], axis=-1)
 
 
+def pixel_coordinates(directions, height: int, width: int):
+    """The inverse of ``directions_at``: continuous (rows, cols) of unit ``directions`` (..., 3) in an H x W
+    equirect image, pixel centres at integers (row 0.0 is the top row's centre; cols in [-0.5, W - 0.5))."""
+    d = np.asarray(directions, dtype=np.float64)
+    u = np.mod(0.5 - np.arctan2(d[..., 1], d[..., 0]) / (2 * np.pi), 1.0)
+    theta = np.arccos(np.clip(d[..., 2] / np.linalg.norm(d, axis=-1), -1.0, 1.0))
+    return theta / np.pi * height - 0.5, u * width - 0.5
+
+
+def pixel_at(direction, height: int, width: int) -> tuple[int, int]:
+    """(row, col) of the pixel of an H x W equirect image that holds the unit ``direction`` (3,)."""
+    y, x = pixel_coordinates(np.asarray(direction, dtype=np.float64)[None], height, width)
+    return int(np.clip(np.floor(y[0] + 0.5), 0, height - 1)), int(np.floor(x[0] + 0.5)) % width
+
+
 def row_solid_angles(height: int, width: int) -> np.ndarray:
     """(H,) exact solid angle of one pixel in each row: (cos(pi y/H) - cos(pi (y+1)/H)) 2 pi / W."""
     height, width = check_grid(height, width)

@@ -73,3 +73,24 @@ def test_baselines_reproduce_evaluation_md(scene):
     amb[0] = q[0]
     assert round(metrics.m_rmse(gt, q), 2) == NAIVE[scene]
     assert round(metrics.m_rmse(gt, amb), 2) == AMBIENT[scene]
+
+
+def test_dominant_source_and_its_energy_ratio():
+    h, w = 64, 128
+    img = np.full((h, w, 3), 0.2)
+    d = sh.pixel_directions(h, w)
+    om = sh.pixel_solid_angles(h, w)
+    sun = np.array([0.5, 0.5, 0.70710678])
+    core = d @ sun > np.cos(np.radians(2.0))
+    img[core] += 2.0 / om[core].sum()  # energy 2 within 2 degrees; the sky holds 0.2 x 4 pi = 2.5
+    ds = metrics.dominant_source(img)
+    assert metrics.angle_deg(ds["direction"], sun) < 1.5 and ds["dominant"]
+    assert 0.4 < ds["share"] < 0.5
+    assert metrics.source_energy_ratio(img, img, ds["direction"]) == pytest.approx(1.0)
+    dim = img.copy()
+    dim[core] = 0.2 + (img[core] - 0.2) * 0.02  # the sun all but vanished
+    assert metrics.source_energy_ratio(img, dim, ds["direction"]) < 0.05
+    assert metrics.source_energy_ratio(img, 3.0 * img, ds["direction"]) == pytest.approx(1.0)  # median-scaled
+    assert not metrics.dominant_source(np.full((h, w, 3), 0.2) + 0.01 * d[..., 2:3])["dominant"]
+    with pytest.raises(ValueError, match="same resolution"):
+        metrics.source_energy_ratio(img, img[::2, ::2], sun)

@@ -16,3 +16,17 @@ def test_directions_at_equals_the_pixel_directions_grid(shape):
     d = sh.grid.directions_at(np.array([h / 2 - 0.5]), np.array([w / 2 - 0.5]), h, w)
     np.testing.assert_allclose(d, [[1.0, 0.0, 0.0]], atol=1e-12)  # the image centre looks along +X
     np.testing.assert_allclose(np.linalg.norm(sh.grid.directions_at(rows, cols, h, w), axis=-1), 1.0, atol=1e-15)
+
+
+def test_pixel_coordinates_invert_directions_at():
+    from panolight_core.sh import grid
+
+    h, w = 37, 74
+    y, x = grid.pixel_coordinates(grid.pixel_directions(h, w), h, w)
+    np.testing.assert_allclose(y, np.broadcast_to(np.arange(h)[:, None], (h, w)), atol=1e-9)
+    np.testing.assert_allclose(x, np.broadcast_to(np.arange(w)[None, :], (h, w)), atol=1e-9)
+    rows, cols = np.array([0.25, 10.7, 36.0]), np.array([0.0, 33.3, 73.4])
+    y, x = grid.pixel_coordinates(grid.directions_at(rows, cols, h, w), h, w)
+    np.testing.assert_allclose(y, rows, atol=1e-9)
+    np.testing.assert_allclose(x, cols, atol=1e-9)
+    assert grid.pixel_at(grid.directions_at(5, 70, h, w), h, w) == (5, 70)

@@ -1,0 +1,122 @@
+"""The key light: the compact source (a sun, a lamp) inside a clipped region, and what it weighs.
+
+An auto-exposing camera clips a wide patch of bright sky or wall around a sun or lamp, and the
+per-source model's even fill of that patch is no shadow-casting light. ``find_key_lights`` takes each
+region that holds at least KEY_SHARE of the scene's predicted energy and makes it one explicit light:
+
+- where: the region's clipped-area centroid. Measured on the real HDRs at ev 0 (docs/keylight.md), it
+  beat a glare-law fit of the unclipped ring, a clear-sky fit with the sun's position free, and a
+  circle fitted to the region's sky-side boundary (median 3.4 degrees against 3.2-11).
+- how much: for a sun in a clear sky, the Hosek-Wilkie fit of the visible sky (``sky``) weighs the solar
+  disk in camera units, times SKY_CORRECTION, the median of true / physical over the real HDRs'
+  un-clipped suns (``training/keylight_cv.py``, by scene); otherwise (a lamp, a veiled sun, a cloudy
+  sky) the per-source model's mean prediction for the region, unshrunk: the decision rule still governs
+  the region's diffuse fill, but it no longer makes the key light vanish.
+- shape and colour: a sun is a 0.53 degree disk in the fitted sun's colour (a sunset stays warm); a lamp
+  takes the size of its clipped core and the colour of its glare (the unclipped ring), unless that ring
+  is blue sky.
+Work maps: (h, 2h, 3) linear, clip units (1 = white), Blender world frame (CONVENTIONS.md).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import sh
+from ..camera.color import LUMINANCE_WEIGHTS
+from . import sky as clear_sky
+
+SUN_DIAMETER_DEG = 0.53  # the sun's angular diameter seen from the earth
+KEY_SHARE = 0.1  # a region whose predicted energy is at least this share of the scene's holds a key light
+MAX_KEYS = 3
+SKY_CORRECTION = 2.25  # true / physical sun energy: the median over 25 real suns (training/keylight_cv.py; folds 2.05-2.81)
+LAMP_MIN_DIAMETER_DEG = 1.0
+
+
+@dataclass
+class KeyLight:
+    """A key light: unit direction (3,), luminance energy (clip units x sr), colour (luminance 1), angular
+    diameter (radians), its 68 % energy range, the region it came from and how it was weighed."""
+
+    direction: np.ndarray
+    energy: float
+    color: np.ndarray
+    angle: float
+    energy_68: tuple
+    region: int
+    method: str
+
+    def as_light(self) -> dict:
+        """A lighting-file light dict (energy as intensity)."""
+        return {"type": "sun" if math.degrees(self.angle) <= 5.0 else "area",
+                "direction": [float(v) for v in self.direction], "peak_direction": [float(v) for v in self.direction],
+                "color": [float(v) for v in self.color], "intensity": float(self.energy), "angle": float(self.angle),
+                "energy_68": [float(v) for v in self.energy_68], "source": self.method}
+
+
+def _ring_color(rad, frac_any, labels, region, direction, extent_cos) -> np.ndarray:
+    """Colour (luminance 1) of the unclipped cells just outside a region, near its source: its glare."""
+    h, w = labels.shape
+    dirs = sh.pixel_directions(h, w)
+    near = (dirs @ direction > extent_cos) & (labels != region) & (frac_any == 0)
+    if near.sum() < 2:
+        return np.ones(3)
+    om = sh.pixel_solid_angles(h, w)[near]
+    rgb = (rad[near] * om[:, None]).sum(0)
+    y = float(rgb @ LUMINANCE_WEIGHTS)
+    return rgb / y if y > 0 else np.ones(3)
+
+
+def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, rule: str | None = None) -> list[KeyLight]:
+    """Key lights of a work map's clipped regions (``sources.Regions``) given the per-source model's
+    (mu, sigma) per region (natural log of the energy ratio): the regions holding at least KEY_SHARE of the
+    scene's predicted energy, largest first, at most MAX_KEYS, each located and weighed (module doc)."""
+    if regions.count == 0:
+        return []
+    h, w = regions.labels.shape
+    omega = sh.pixel_solid_angles(h, w)
+    lum = rad @ LUMINANCE_WEIGHTS
+    predicted = regions.held * np.exp(mu)
+    scene = float((lum * omega).sum()) + float((predicted - regions.held).sum())
+    keys = []
+    cell = math.pi / h
+    for i in np.argsort(-predicted):
+        if len(keys) == MAX_KEYS or predicted[i] < KEY_SHARE * scene:
+            break
+        direction = regions.centre[i]
+        learned = (math.exp(mu[i]) - 1.0) * regions.held[i]
+        lo, hi = (math.exp(max(mu[i] - sigma[i], 0.0)) - 1.0) * regions.held[i], \
+            (math.exp(mu[i] + sigma[i]) - 1.0) * regions.held[i]
+        fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
+        extent_cos = math.cos(math.acos(float(np.clip(regions.centre[i] @ direction, -1, 1)))
+                              + math.sqrt(regions.clipped_sr[i] / math.pi) + 3 * cell)
+        decided = (math.exp(reported[i]) - 1.0) * regions.held[i] if reported is not None else learned
+        if fit is not None and fit.clear:
+            energy = SKY_CORRECTION * fit.sun_energy
+            color = fit.sun_rgb / max(fit.sun_energy, 1e-30)
+            lo, hi = energy / SKY_SPREAD, energy * SKY_SPREAD
+            method, angle = f"clear-sky fit (turbidity {fit.turbidity:g})", math.radians(SUN_DIAMETER_DEG)
+        else:
+            energy = learned
+            ring = _ring_color(rad, frac_any, regions.labels, int(i), direction, extent_cos)
+            # a blue ring is sky around a sun, not the source's own glare: keep the camera's white then
+            color = ring if ring[2] <= ring[0] else np.ones(3)
+            method = "per-source model"
+            # a lamp (or a veiled sun) as wide as a third of its clipped core
+            angle = max(math.radians(LAMP_MIN_DIAMETER_DEG), 2.0 * math.sqrt(regions.clipped_sr[i] / math.pi) / 3.0)
+        rule = rule or ENERGY_RULE
+        if rule == "decided":
+            energy = decided
+        elif rule == "capped":
+            energy = min(energy, max(decided, learned))
+        if not energy > 0:
+            continue
+        keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),
+                             float(angle), (float(lo), float(hi)), int(i), method))
+    return keys
+
+
+ENERGY_RULE = "capped"  # decided | capped | physical: docs/keylight.md
+SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)

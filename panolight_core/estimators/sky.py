@@ -1,0 +1,172 @@
+"""A physical clear sky: Hosek-Wilkie sky and solar radiance from one atmosphere, tabulated from Mitsuba
+3.9's ``sunsky`` emitter (``training/sky_table.py``) into ``models/sky.safetensors`` and read with numpy alone.
+
+``fit_clear_sky`` fits the model to the unclipped sky of a linear work map (camera units: 1 = the clip
+level) with the sun at a given direction: a scale and a turbidity. Because the sky and the sun come from
+one atmosphere, the fitted scale gives the sun's energy in the same camera units (``SkyFit.sun_energy``):
+what an 8-bit photo's clipped sun cannot show, weighed from the sky it does show. Directions are unit
+vectors in the Blender world frame (Z up).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from .. import sh
+from ..camera.color import LUMINANCE_WEIGHTS
+from ..errors import PanoLightError
+
+MODEL_PATH = Path(__file__).resolve().parents[1] / "models" / "sky.safetensors"
+MIN_SKY_ELEVATION_DEG = 3.0  # sky pixels used in the fit: above this elevation (the horizon is mostly occluded)
+OCCLUDER_LOG = -0.7  # a pixel this far (natural log) below the fitted sky is an occluder (tree, building, cloud shadow)
+CLEAR_RMS = 0.35  # the cloudiness gate: a fit whose sky residual is above this (natural log RMS) is not a clear sky
+MIN_SKY_SR = 0.3  # ... nor one resting on less visible sky than this (sr)
+
+
+@dataclass(frozen=True)
+class SkyTable:
+    """sky (E, T, NTHETA, NPHI, 3) RGB radiance at view zenith theta (0..90 degrees) and azimuth from the sun
+    phi (0..180 degrees) for sun elevations ``elevations`` and turbidities ``turbidities``; sun (E, T, 3)
+    the solar disk's RGB energy (radiance x sr), in Mitsuba's units."""
+
+    sky: np.ndarray
+    sun: np.ndarray
+    elevations: np.ndarray
+    turbidities: np.ndarray
+
+    @staticmethod
+    def _bracket(grid: np.ndarray, v: float):
+        v = float(np.clip(v, grid[0], grid[-1]))
+        i = int(np.clip(np.searchsorted(grid, v) - 1, 0, grid.size - 2))
+        return i, (v - grid[i]) / (grid[i + 1] - grid[i])
+
+    def _at_elevation(self, table: np.ndarray, elevation_deg: float) -> np.ndarray:
+        i, f = self._bracket(self.elevations, elevation_deg)
+        return (1.0 - f) * table[i] + f * table[i + 1]
+
+    def sky_radiance(self, dirs: np.ndarray, sun: np.ndarray) -> np.ndarray:
+        """(T, N, 3) sky radiance for every table turbidity at unit directions ``dirs`` (N, 3) with the sun
+        at unit ``sun`` (3,); 0 below the horizon."""
+        sun = np.asarray(sun, dtype=np.float64)
+        elev = math.degrees(math.asin(float(np.clip(sun[2], -1.0, 1.0))))
+        tab = self._at_elevation(self.sky, elev)  # (T, NTHETA, NPHI, 3)
+        nt, nph = tab.shape[1:3]
+        d = np.asarray(dirs, dtype=np.float64)
+        theta = np.degrees(np.arccos(np.clip(d[:, 2], -1.0, 1.0)))
+        phi = np.degrees(np.abs(np.arctan2(d[:, 1], d[:, 0]) - math.atan2(sun[1], sun[0])))
+        phi = np.where(phi > 180.0, 360.0 - phi, phi)
+        x = np.clip(theta / 90.0 * (nt - 1), 0.0, nt - 1 - 1e-9)
+        y = np.clip(phi / 180.0 * (nph - 1), 0.0, nph - 1 - 1e-9)
+        x0, y0 = x.astype(int), y.astype(int)
+        fx, fy = (x - x0)[None, :, None], (y - y0)[None, :, None]
+        out = ((1 - fx) * (1 - fy) * tab[:, x0, y0] + fx * (1 - fy) * tab[:, x0 + 1, y0]
+               + (1 - fx) * fy * tab[:, x0, y0 + 1] + fx * fy * tab[:, x0 + 1, y0 + 1])
+        return np.where((d[:, 2] > 0)[None, :, None], out, 0.0)
+
+    def sun_energy(self, elevation_deg: float) -> np.ndarray:
+        """(T, 3) the solar disk's RGB energy at this elevation for every table turbidity."""
+        return self._at_elevation(self.sun, elevation_deg)
+
+
+@lru_cache(maxsize=2)
+def load_sky_table(path=MODEL_PATH) -> SkyTable:
+    """The tabulated clear sky in ``path`` (safetensors, no pickle); PanoLightError naming the file."""
+    from .nn.safetensors_np import load_safetensors
+
+    path = Path(path)
+    if not path.is_file():
+        raise PanoLightError(f"{path}: the clear-sky table is missing from this installation")
+    t, _ = load_safetensors(path)
+    try:
+        table = SkyTable(t["sky"].astype(np.float64), t["sun"].astype(np.float64),
+                         t["elevations"].astype(np.float64), t["turbidities"].astype(np.float64))
+    except KeyError as exc:
+        raise PanoLightError(f"{path}: not a PanoLight clear-sky table (missing tensor {exc.args[0]})") from None
+    e, n = table.elevations.size, table.turbidities.size
+    if table.sky.ndim != 5 or table.sky.shape[:2] != (e, n) or table.sun.shape != (e, n, 3):
+        raise PanoLightError(f"{path}: clear-sky table tensors have inconsistent shapes")
+    return table
+
+
+@dataclass(frozen=True)
+class SkyFit:
+    """A clear-sky fit: scale (camera units per Mitsuba unit), turbidity, the sky residual's RMS (natural
+    log, over the sky pixels kept), the solid angle of sky it rests on (sr), the sun's RGB energy in camera
+    units (radiance x sr, in the model's colour: re-balancing it by the sky's observed colour made five
+    real suns' colours worse, docs/keylight.md) and whether the sky is clear enough to trust it (the cloudiness gate)."""
+
+    scale: float
+    turbidity: float
+    rms: float
+    sky_sr: float
+    sun_rgb: np.ndarray
+    clear: bool
+
+    @property
+    def sun_energy(self) -> float:
+        """The sun's luminance energy in camera units (luminance x sr)."""
+        return float(self.sun_rgb @ LUMINANCE_WEIGHTS)
+
+
+def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun, table: SkyTable | None = None
+                  ) -> SkyFit | None:
+    """Fit the clear sky to a linear work map ``rad`` (h, 2h, 3) with the sun at unit ``sun``.
+
+    usable (h, w) bool: cells whose value is measured (no channel clipped); clipped (h, w) bool: cells
+    clipped in every channel, which the fitted sky must reach (a censored observation: its radiance is at
+    least the clip level). For each table turbidity the scale is the solid-angle weighted mean log ratio
+    of the sky cells above MIN_SKY_ELEVATION_DEG, after dropping occluders (cells more than OCCLUDER_LOG
+    below the sky); the turbidity of lowest residual (plus the clipped cells' shortfall) wins. None when
+    the sun is below the horizon or no sky is visible."""
+    table = table or load_sky_table()
+    sun = np.asarray(sun, dtype=np.float64)
+    if sun[2] <= 0:
+        return None
+    h, w = usable.shape
+    dirs = sh.pixel_directions(h, w)
+    omega = sh.pixel_solid_angles(h, w)
+    upper = dirs[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG))
+    lum = rad @ LUMINANCE_WEIGHTS
+    obs = upper & usable & (lum > 1e-4)
+    cen = upper & clipped
+    if obs.sum() < 16:
+        return None
+    d_obs, d_cen = dirs[obs], dirs[cen]
+    w_obs, w_cen = omega[obs], omega[cen]
+    log_obs = np.log(lum[obs])
+    model = table.sky_radiance(np.concatenate([d_obs, d_cen]), sun) @ LUMINANCE_WEIGHTS  # (T, N)
+    log_model = np.log(np.maximum(model, 1e-12))
+    lm_obs, lm_cen = log_model[:, :obs.sum()], log_model[:, obs.sum():]
+    best = None
+    for j in range(table.turbidities.size):
+        r = log_obs - lm_obs[j]
+        keep = np.ones(r.shape, bool)
+        for _ in range(3):  # the sky is the upper envelope: occluders sit below it
+            s = float((r * w_obs)[keep].sum() / w_obs[keep].sum())
+            keep = r - s > OCCLUDER_LOG
+            if not keep.any():
+                break
+        if not keep.any():
+            continue
+        s = float((r * w_obs)[keep].sum() / w_obs[keep].sum())
+        res = r[keep] - s
+        rms = math.sqrt(float((res ** 2 * w_obs[keep]).sum() / w_obs[keep].sum()))
+        short = 0.0
+        if cen.any():  # clipped sky the model leaves below the clip level
+            gap = np.minimum(lm_cen[j] + s, 0.0)
+            short = math.sqrt(float((gap ** 2 * w_cen).sum() / w_cen.sum()))
+        score = rms + short
+        if best is None or score < best[0]:
+            best = (score, j, s, rms, float(w_obs[keep].sum()))
+    if best is None:
+        return None
+    _, j, s, rms, sky_sr = best
+    scale = math.exp(s)
+    elev = math.degrees(math.asin(float(sun[2])))
+    sun_rgb = scale * table.sun_energy(elev)[j]
+    return SkyFit(scale, float(table.turbidities[j]), rms, sky_sr, sun_rgb,
+                  clear=rms <= CLEAR_RMS and sky_sr >= MIN_SKY_SR)

@@ -1,0 +1,88 @@
+import math
+
+import numpy as np
+import pytest
+
+from panolight_core import metrics, sh
+from panolight_core.camera import clipped_mask, hdr_to_ldr, ldr_to_linear
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
+from panolight_core.estimators import estimate, sources
+from panolight_core.pipeline.estimate import estimate_lighting
+from panolight_core.pipeline.settings import Settings
+
+
+def _lamps(directions, color=(1.0, 1.0, 1.0), h=256, energy=3.0, glare=0.05):
+    """A dim room (radiance 0.1) with compact lamps of ``energy`` (radiance x sr) each and a glare halo
+    falling as 1 / angle^2, all in ``color``."""
+    d = sh.pixel_directions(h, 2 * h)
+    om = sh.pixel_solid_angles(h, 2 * h)
+    img = np.full((h, 2 * h, 3), 0.1)
+    c = np.asarray(color, dtype=np.float64)
+    for v in directions:
+        v = np.asarray(v, dtype=np.float64) / np.linalg.norm(v)
+        ang = np.arccos(np.clip(d @ v, -1, 1))
+        core = ang < math.radians(3.0)
+        img[core] += energy / om[core].sum() * c
+        img += (glare * np.minimum(math.radians(3.0) / np.maximum(ang, 1e-6), 1.0) ** 2)[..., None] * c
+    return img
+
+
+def _key_model(ldr):
+    return estimate_lighting(ldr, Settings(estimator="keylight"))
+
+
+def test_a_warm_lamp_keeps_its_hue():
+    sodium = (1.0, 0.55, 0.12)
+    ldr = hdr_to_ldr(_lamps([(0.2, 0.5, 0.8)], color=sodium), 0.0)
+    res = _key_model(ldr)
+    keys = res.estimate.recovery.keys
+    assert keys, "the lamp became no key light"
+    col = np.asarray(res.model.lights[0]["color"])
+    assert col[0] > col[1] > col[2] and col[0] / col[2] > 1.4  # warm, not the clipped core's white
+    assert float(col @ LUMINANCE_WEIGHTS) == pytest.approx(1.0)
+
+
+def test_two_identical_lamps_are_two_lights_treated_alike():
+    a, b = np.array([0.6, 0.3, 0.74]), np.array([-0.6, -0.3, 0.74])
+    ldr = hdr_to_ldr(_lamps([a, b]), 0.0)
+    res = _key_model(ldr)
+    lights = res.model.lights
+    near = [min(metrics.angle_deg(light["direction"], v) for v in (a, b)) for light in lights]
+    assert all(x < 3.0 for x in near), "a light away from both lamps"
+    per_lamp = [[light for light in lights if metrics.angle_deg(light["direction"], v) < 3.0] for v in (a, b)]
+    assert [len(p) for p in per_lamp] == [1, 1], "one light per physical source"
+    e = [p[0]["intensity"] for p in per_lamp]
+    assert max(e) / min(e) < 1.1
+
+
+def test_energy_bookkeeping_between_the_lights_and_the_hdri():
+    ldr = hdr_to_ldr(_lamps([(0.3, -0.2, 0.93)]), 0.0)
+    res = _key_model(ldr)
+    rec = res.estimate.recovery
+    key = rec.keys[0]
+    hdr = res.hdr_panorama(ldr)
+    without = sources.fill_full_resolution(
+        ldr_to_linear(ldr), clipped_mask(ldr, all_channels=True),
+        np.maximum(rec.diffuse - rec.base, 0.0), rec.regions.centre, rec.regions.shape_exponents(), rec.regions.labels)
+    om = sh.pixel_solid_angles(*hdr.shape[:2])[..., None]
+    added = ((hdr - without) * om).sum(axis=(0, 1))
+    np.testing.assert_allclose(added, key.energy * key.color, rtol=1e-4)  # the light's energy, exactly, at its place
+    d = sh.pixel_directions(*hdr.shape[:2])
+    lum = (hdr - without) @ LUMINANCE_WEIGHTS
+    centroid = (d * lum[..., None]).sum(axis=(0, 1))
+    assert metrics.angle_deg(centroid, key.direction) < 0.05
+    light = next(l for l in res.model.lights if metrics.angle_deg(l["direction"], key.direction) < 1e-6)
+    assert light["intensity"] == pytest.approx(key.energy)
+    # the HDRI's projection and lighting.json's model describe the same light (lmax 2, lights as disks)
+    got, want = sh.project(hdr.astype(np.float64), 2), res.model.project(2)
+    assert np.abs(got - want).max() < 0.05 * np.abs(want).max()
+
+
+def test_off_by_default_and_sources_unchanged():
+    ldr = hdr_to_ldr(_lamps([(0.3, -0.2, 0.93)]), 0.0)
+    plain = estimate(ldr, 2, "sources")
+    assert plain.lights == [] and plain.recovery.keys == []
+    keyed = estimate(ldr, 2, "keylight")
+    assert len(keyed.lights) == 1
+    # the key light carries the per-source model's mean energy, never less than the decided fill it replaces
+    assert float(keyed.coeffs[0] @ LUMINANCE_WEIGHTS) >= float(plain.coeffs[0] @ LUMINANCE_WEIGHTS) - 1e-9

@@ -1,0 +1,86 @@
+import math
+
+import numpy as np
+import pytest
+
+from panolight_core import sh
+from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
+from panolight_core.errors import PanoLightError
+from panolight_core.estimators import sky, sources
+
+
+def _sun(elev_deg, az=1.0):
+    e = math.radians(elev_deg)
+    return np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
+
+
+def _clear_sky_ldr(elev=40.0, turbidity=3.0, h=256, clip_deg=20.0):
+    """An 8-bit camera picture of the tabulated sky over a grey ground, exposed so that the sky clips out
+    to clip_deg from the sun (a ~40 degree patch). Returns (ldr, sun, exposure k, true sun energy)."""
+    t = sky.load_sky_table()
+    j = int(np.argmin(abs(t.turbidities - turbidity)))
+    s = _sun(elev)
+    d = sh.pixel_directions(h, 2 * h)
+    rad = t.sky_radiance(d.reshape(-1, 3), s)[j].reshape(h, 2 * h, 3)
+    rad[d[..., 2] <= 0] = 0.02
+    ring = (abs(np.degrees(np.arccos(np.clip(d @ s, -1, 1))) - clip_deg) < 1.0) & (d[..., 2] > 0)
+    k = 1.0 / float(np.median(rad[ring] @ LUMINANCE_WEIGHTS))
+    ldr = np.round(linear_to_srgb(np.clip(k * rad, 0, 1)) * 255).astype(np.uint8)
+    return ldr, s, k, k * float(t.sun_energy(elev)[j] @ LUMINANCE_WEIGHTS), t.turbidities[j]
+
+
+@pytest.mark.parametrize("elev, turbidity", [(10.0, 2.0), (40.0, 3.0), (72.0, 6.5)])
+def test_table_matches_mitsuba_sunsky(elev, turbidity):
+    mi = pytest.importorskip("mitsuba")
+    mi.set_variant("scalar_rgb")
+    t = sky.load_sky_table()
+    i, j = int(np.argmin(abs(t.elevations - elev))), int(np.argmin(abs(t.turbidities - turbidity)))
+    e = float(t.elevations[i])
+    s = _sun(e, 0.3)
+    em = mi.load_dict({"type": "sunsky", "sun_direction": s.tolist(), "turbidity": float(t.turbidities[j]),
+                       "albedo": 0.3})
+    si = mi.SurfaceInteraction3f()
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(40, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 0.05
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d = d[np.degrees(np.arccos(d @ s)) > 5.0]  # the interpolated table is smooth away from the sun
+    ours = t.sky_radiance(d, s)[j]
+    theirs = []
+    for v in d:
+        si.wi = mi.Vector3f(*(-v))
+        theirs.append(np.asarray(em.eval(si)))
+    np.testing.assert_allclose(ours, np.array(theirs), rtol=0.08)
+    si.wi = mi.Vector3f(*(-s))
+    disk = np.asarray(em.eval(si)) * 2 * math.pi * (1 - math.cos(math.radians(0.5358 / 2)))
+    np.testing.assert_allclose(t.sun_energy(e)[j], disk, rtol=0.02)
+
+
+def test_clear_sky_fit_weighs_a_sun_inside_a_40_degree_clipped_patch():
+    ldr, s, k, true_sun, turbidity = _clear_sky_ldr()
+    rad, frac_any, frac_all = sources.work_maps(ldr)
+    assert math.degrees(math.sqrt(float((sh.pixel_solid_angles(*frac_all.shape) * (frac_all > 0)).sum()) / math.pi)) > 15
+    fit = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
+    assert fit.clear and fit.turbidity == pytest.approx(turbidity)
+    assert 1 / 1.25 < fit.sun_energy / true_sun < 1.25
+    assert fit.sun_rgb[0] > fit.sun_rgb[2]  # a 40 degree sun through the atmosphere is warmer than white
+
+
+def test_cloudiness_gate_refuses_a_broken_sky():
+    ldr, s, _, _, _ = _clear_sky_ldr()
+    rng = np.random.default_rng(1)
+    field = np.kron(rng.uniform(0.15, 1.0, size=(16, 32)), np.ones((16, 16)))  # patches of 11 degrees
+    clouds = np.clip(ldr * field[..., None], 0, 255).astype(np.uint8)
+    rad, frac_any, frac_all = sources.work_maps(clouds)
+    fit = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
+    assert fit is not None and not fit.clear
+
+
+def test_no_fit_for_a_sun_below_the_horizon_and_a_bad_table_is_named(tmp_path):
+    ldr, s, _, _, _ = _clear_sky_ldr()
+    rad, frac_any, frac_all = sources.work_maps(ldr)
+    assert sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s * [1, 1, -1]) is None
+    bad = tmp_path / "sky.safetensors"
+    bad.write_bytes(b"\x02\x00\x00\x00\x00\x00\x00\x00{}")
+    with pytest.raises(PanoLightError, match="sky.safetensors.*missing tensor"):
+        sky.load_sky_table.__wrapped__(bad)
