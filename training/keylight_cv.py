@@ -62,7 +62,7 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight") -> 
         physical = None
         if sky_key is not None and metrics.angle_deg(sky_key.direction, ds["direction"]) <= 10.0:
             k = auto_exposure(hdr, ev)
-            physical = sky_key.energy / keylight.SKY_CORRECTION / (ds["energy"] * k)
+            physical = sky_key.physical / keylight.SKY_CORRECTION / (ds["energy"] * k)
         rows.append({"scene": path.stem, "ev": ev, "clipped_truth": clipped, "share": round(ds["share"], 4),
                      "angle_deg": round(angle, 3), "ratio": metrics.source_energy_ratio(hdr, est_hdr, ds["direction"]),
                      "lights": len(lights), "key_method": key.get("source") if key else None,

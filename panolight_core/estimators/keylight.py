@@ -47,6 +47,7 @@ class KeyLight:
     energy_68: tuple
     region: int
     method: str
+    physical: float | None = None  # the clear-sky fit's energy x SKY_CORRECTION, before ENERGY_RULE
 
     def as_light(self) -> dict:
         """A lighting-file light dict (energy as intensity)."""
@@ -93,8 +94,9 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         extent_cos = math.cos(math.acos(float(np.clip(regions.centre[i] @ direction, -1, 1)))
                               + math.sqrt(regions.clipped_sr[i] / math.pi) + 3 * cell)
         decided = (math.exp(reported[i]) - 1.0) * regions.held[i] if reported is not None else learned
+        physical = None
         if fit is not None and fit.clear:
-            energy = SKY_CORRECTION * fit.sun_energy
+            energy = physical = SKY_CORRECTION * fit.sun_energy
             color = fit.sun_rgb / max(fit.sun_energy, 1e-30)
             lo, hi = energy / SKY_SPREAD, energy * SKY_SPREAD
             method, angle = f"clear-sky fit (turbidity {fit.turbidity:g})", math.radians(SUN_DIAMETER_DEG)
@@ -114,7 +116,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         if not energy > 0:
             continue
         keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),
-                             float(angle), (float(lo), float(hi)), int(i), method))
+                             float(angle), (float(lo), float(hi)), int(i), method, physical))
     return keys
 
 
