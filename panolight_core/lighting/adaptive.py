@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import sh
-from ..camera.color import LUMINANCE_WEIGHTS
 from .lights import MAX_LIGHTS, extract_lights, light_coeffs, light_irradiance
 from .order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE, select_order
 
@@ -98,11 +97,11 @@ def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", toleran
         extracted, residual, linfo = extract_lights(radiance, threshold=light_threshold, exclude=exclude,
                                                     max_lights=MAX_LIGHTS - len(known_lights))
         found = known_lights + extracted
-        known_e = sum(light["intensity"] for light in known_lights)
-        total = known_e + float((sh.pixel_solid_angles(*residual.shape[:2])[..., None] * residual).sum(axis=(0, 1))
-                                @ LUMINANCE_WEIGHTS) + sum(light["intensity"] for light in extracted)
-        info["lights"] = {"count": len(found), "energy_fraction": round(
-            (known_e + sum(light["intensity"] for light in extracted)) / total if total > 0 else 0.0, 6)}
+        fraction = linfo["energy_fraction_in_lights"]
+        if known_lights:  # their energy is not in the map: add it to both sides
+            known_e, total = sum(light["intensity"] for light in known_lights), linfo["map_energy"]
+            fraction = (known_e + fraction * total) / (known_e + total) if known_e + total > 0 else 0.0
+        info["lights"] = {"count": len(found), "energy_fraction": round(fraction, 6)}
         if known_lights:
             info["lights"]["key_lights"] = len(known_lights)
         if not found:

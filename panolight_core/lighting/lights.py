@@ -84,7 +84,8 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
     sqrt(10) until the region holding the peak is at most ``max_radius_deg`` wide (a sun inside bright
     sky keeps its core; the sky stays in the map). Returns (lights, residual, info): lights as
     lighting-file dicts (brightest first), residual the (work_height, 2 work_height, 3) float64 map
-    without them, info with the energy fraction in lights and, when none was taken, the reason.
+    without them, info with the map's luminance energy (radiance x sr), the fraction of it in lights and,
+    when none was taken, the reason.
     threshold: the luminance a candidate must exceed, instead of peak_ratio x the median (for an LDR's
     recovered map: the clip level, since clipped regions are exactly where its sources are).
     exclude: (unit direction, angular radius in radians) pairs where no light is taken (a source an
@@ -99,7 +100,7 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
     dirs = sh.pixel_directions(h, w)
     lum = rad @ LUMINANCE_WEIGHTS
     total = float((lum * omega).sum())
-    info = {"energy_fraction_in_lights": 0.0}
+    info = {"energy_fraction_in_lights": 0.0, "map_energy": total}
     if total <= 0:
         info["reason"] = "the map is black: there is no light to extract"
         return [], rad, info
