@@ -32,7 +32,9 @@ SUN_DIAMETER_DEG = 0.53  # the sun's angular diameter seen from the earth
 KEY_SHARE = 0.1  # a region whose predicted energy is at least this share of the scene's holds a key light
 MAX_KEYS = 3
 SKY_CORRECTION = 2.25  # true / physical sun energy: the median over 25 real suns (training/keylight_cv.py; folds 2.05-2.81)
+SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)
 LAMP_MIN_DIAMETER_DEG = 1.0
+ENERGY_RULE = "capped"  # decided | capped | physical: docs/keylight.md
 
 
 @dataclass
@@ -83,6 +85,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     scene = float((lum * omega).sum()) + float((predicted - regions.held).sum())
     keys = []
     cell = math.pi / h
+    rule = rule or ENERGY_RULE
     for i in np.argsort(-predicted):
         if len(keys) == MAX_KEYS or predicted[i] < KEY_SHARE * scene:
             break
@@ -91,8 +94,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         lo, hi = (math.exp(max(mu[i] - sigma[i], 0.0)) - 1.0) * regions.held[i], \
             (math.exp(mu[i] + sigma[i]) - 1.0) * regions.held[i]
         fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
-        extent_cos = math.cos(math.acos(float(np.clip(regions.centre[i] @ direction, -1, 1)))
-                              + math.sqrt(regions.clipped_sr[i] / math.pi) + 3 * cell)
+        extent_cos = math.cos(math.sqrt(regions.clipped_sr[i] / math.pi) + 3 * cell)  # the region's ring
         decided = (math.exp(reported[i]) - 1.0) * regions.held[i] if reported is not None else learned
         physical = None
         if fit is not None and fit.clear:
@@ -108,7 +110,6 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
             method = "per-source model"
             # a lamp (or a veiled sun) as wide as a third of its clipped core
             angle = max(math.radians(LAMP_MIN_DIAMETER_DEG), 2.0 * math.sqrt(regions.clipped_sr[i] / math.pi) / 3.0)
-        rule = rule or ENERGY_RULE
         if rule == "decided":
             energy = decided
         elif rule == "capped":
@@ -119,6 +120,3 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
                              float(angle), (float(lo), float(hi)), int(i), method, physical))
     return keys
 
-
-ENERGY_RULE = "capped"  # decided | capped | physical: docs/keylight.md
-SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)

@@ -75,12 +75,10 @@ class SkyTable:
 @lru_cache(maxsize=2)
 def load_sky_table(path=MODEL_PATH) -> SkyTable:
     """The tabulated clear sky in ``path`` (safetensors, no pickle); PanoLightError naming the file."""
-    from .nn.safetensors_np import load_safetensors
+    from .nn.safetensors_np import load_shipped
 
     path = Path(path)
-    if not path.is_file():
-        raise PanoLightError(f"{path}: the clear-sky table is missing from this installation")
-    t, _ = load_safetensors(path)
+    t, _ = load_shipped(path, "clear-sky table")
     try:
         table = SkyTable(t["sky"].astype(np.float64), t["sun"].astype(np.float64),
                          t["elevations"].astype(np.float64), t["turbidities"].astype(np.float64))

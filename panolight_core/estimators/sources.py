@@ -303,12 +303,10 @@ def load_source_model(path=MODEL_PATH) -> SourceModel:
     """The source-energy model in ``path`` (safetensors, no pickle); PanoLightError naming the file."""
     import json
 
-    from .nn.safetensors_np import load_safetensors
+    from .nn.safetensors_np import load_shipped
 
     path = Path(path)
-    if not path.is_file():
-        raise PanoLightError(f"{path}: the source-energy model is missing from this installation")
-    tensors, meta = load_safetensors(path)
+    tensors, meta = load_shipped(path, "source-energy model")
     feats = tuple(json.loads(meta.get("features", "[]")))
     if feats != FEATURES:
         raise PanoLightError(f"{path}: the model was trained on other features than this PanoLight computes "
@@ -481,21 +479,11 @@ class Recovery:
     log_ratio: np.ndarray
     decision: dict | None = None
     keys: list = field(default_factory=list)  # keylight.KeyLight: the compact sources, as explicit lights
+    diffuse: np.ndarray | None = None  # ``work`` without the key lights (what the SH part is fitted to)
 
-    def key_deposits(self) -> np.ndarray:
-        """(h, w, 3) the key lights' energy as ``work`` holds it: each in the cell holding its direction."""
-        out = np.zeros_like(self.work)
-        h, w = out.shape[:2]
-        omega = sh.pixel_solid_angles(h, w)
-        for k in self.keys:
-            y, x = sh.grid.pixel_at(k.direction, h, w)
-            out[y, x] += k.energy * k.color / omega[y, x]
-        return out
-
-    @property
-    def diffuse(self) -> np.ndarray:
-        """``work`` without the key lights: what the SH part of the lighting model is fitted to."""
-        return self.work - self.key_deposits() if self.keys else self.work
+    def __post_init__(self):
+        if self.diffuse is None:
+            self.diffuse = self.work
 
     def key_points(self) -> list:
         """(unit direction (3,), RGB energy (3,)) of each key light, for the full-resolution HDRI."""
@@ -509,8 +497,7 @@ class Recovery:
         """(direction (3,), angular radius in radians) of each key light's region: the lighting model takes
         no second light there (one light per physical source)."""
         cell = math.pi / self.work.shape[0]
-        return [(self.regions.centre[k.region], math.sqrt(self.regions.clipped_sr[k.region] / math.pi) + 2 * cell)
-                for k in self.keys]
+        return [(k.direction, math.sqrt(self.regions.clipped_sr[k.region] / math.pi) + 2 * cell) for k in self.keys]
 
     def region_info(self) -> list[dict]:
         """Per region, for lighting.json: direction, clipped solid angle (sr), held and recovered energy
@@ -558,11 +545,19 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
         from .keylight import find_key_lights
 
         keys = find_key_lights(rad, frac, frac_all, regions, mu, sigma, reported)
-    work = fill_regions(rad, regions, reported, keys)
-    rec = Recovery(work, rad, frac_all, regions, mu, sigma, reported, decision, keys)
-    if keys:
-        rec.work = work + rec.key_deposits()
-    return rec
+    diffuse = fill_regions(rad, regions, reported, keys)
+    work = diffuse + _key_deposits(keys, diffuse.shape) if keys else diffuse
+    return Recovery(work, rad, frac_all, regions, mu, sigma, reported, decision, keys, diffuse)
+
+
+def _key_deposits(keys, shape) -> np.ndarray:
+    """(h, w, 3) the key lights' energy as ``Recovery.work`` holds it: each in the cell holding its direction."""
+    out = np.zeros(shape)
+    omega = sh.pixel_solid_angles(*shape[:2])
+    for k in keys:
+        y, x = sh.grid.pixel_at(k.direction, *shape[:2])
+        out[y, x] += k.energy * k.color / omega[y, x]
+    return out
 
 
 def power_law_log_ratio(regions: Regions):

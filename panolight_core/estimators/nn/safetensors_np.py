@@ -63,3 +63,12 @@ def load_safetensors(path) -> tuple[dict[str, np.ndarray], dict]:
             raise PanoLightError(f"{p}: tensor {name!r} is truncated or its offsets are inconsistent")
         tensors[name] = np.frombuffer(body[begin:end], dtype=dtype).reshape(shape).copy()
     return tensors, meta
+
+
+def load_shipped(path, what: str) -> tuple[dict[str, np.ndarray], dict]:
+    """``load_safetensors`` of a file PanoLight ships in panolight_core/models/ (``what`` names it in the
+    error when the installation lacks it)."""
+    p = Path(path)
+    if not p.is_file():
+        raise PanoLightError(f"{p}: the {what} is missing from this installation")
+    return load_safetensors(p)
