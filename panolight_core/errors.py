@@ -1,6 +1,10 @@
 """Exceptions and warnings of PanoLight: every message names the file (if any) and the problem."""
 from __future__ import annotations
 
+import re
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+
 
 class PanoLightError(Exception):
     """Base class of PanoLight's own errors (caught by the CLI and reported without a traceback)."""
@@ -26,3 +30,9 @@ class LightingFileError(PanoLightError, ValueError):
 
 class PanoLightWarning(UserWarning):
     """Input was repaired (clamped negatives, replaced NaN/Inf, ...): the message says what."""
+
+
+def printable(text) -> str:
+    """``text`` safe to print on a terminal, on one line: control characters (a file name's escape
+    sequences, newlines) written as ``\\xNN``."""
+    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", str(text))

@@ -8,16 +8,19 @@ import sys
 import time
 from pathlib import Path
 
-from ..errors import PanoLightError
-from ..io.atomic import atomic_path, pid_alive
+from ..errors import PanoLightError, printable
+from ..io.atomic import atomic_path, folder_lock, pid_alive
+from ..io.ownership import digest
 
 EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
 
 
-def collect_inputs(paths, list_file=None, recursive: bool = False) -> list[Path]:
+def collect_inputs(paths, list_file=None, recursive: bool = False, exclude=None) -> list[Path]:
     """Files named directly, panoramas found in named folders (by extension), and lines of ``list_file``
     (blank lines and '#' comments skipped). Sorted and de-duplicated, so every copy of a sharded job
-    sees the same order. Missing entries are kept: they are reported as failures, not dropped."""
+    sees the same order. Missing entries are kept: they are reported as failures, not dropped. Nothing
+    at or under ``exclude`` (the output folder) is ever an input: a batch never reads its own outputs
+    (skipped files are said in a PanoLightWarning)."""
     found = []
     entries = [Path(p) for p in paths]
     if list_file is not None:
@@ -42,7 +45,19 @@ def collect_inputs(paths, list_file=None, recursive: bool = False) -> list[Path]
             found += [f for f in p.glob(pattern) if f.suffix.lower() in EXTENSIONS and _is_file(f)]
         else:
             found.append(p)
-    return sorted({_resolved(f) for f in found}, key=str)
+    inputs = sorted({_resolved(f) for f in found}, key=str)
+    if exclude is None:
+        return inputs
+    out = _resolved(Path(exclude))
+    kept = [f for f in inputs if f != out and out not in f.parents]
+    if len(kept) < len(inputs):
+        import warnings
+
+        from ..errors import PanoLightWarning
+
+        warnings.warn(f"skipping {len(inputs) - len(kept)} file(s) inside the output folder {out}: a batch "
+                      f"never takes its own outputs as inputs", PanoLightWarning, stacklevel=2)
+    return kept
 
 
 def _is_dir(p: Path) -> bool:
@@ -91,16 +106,30 @@ def _safe_name(stem: str) -> str:
     return name or "panorama"
 
 
+RESERVED = re.compile(r"^batch_report.*\.json$", re.IGNORECASE)  # the reports batch writes beside the folders
+
+
 def output_names(inputs: list[Path]) -> dict[Path, str]:
-    """Folder name per input: its sanitised stem (``_safe_name``), plus a short hash of its full path
-    where names collide (compared without case, for case-insensitive file systems), so two inputs never
-    share a folder. Computed over the full (unsharded) list so all shards agree."""
+    """Folder name per input, unique by construction (compared without case, for case-insensitive file
+    systems): its sanitised stem (``_safe_name``) where no other input has it; else, and for names of the
+    reports (``batch_report*.json``), the stem plus a short hash of the full path, with a counter if even
+    that is taken (an input may be named like another's hashed folder). Computed over the full
+    (unsharded), sorted list, so all shards agree."""
     safe = {p: _safe_name(p.stem) for p in inputs}
     counts: dict[str, int] = {}
     for name in safe.values():
         counts[name.lower()] = counts.get(name.lower(), 0) + 1
-    return {p: name if counts[name.lower()] == 1 else f"{name}-{hashlib.sha1(str(p).encode()).hexdigest()[:8]}"
-            for p, name in safe.items()}
+    names = {p: name for p, name in safe.items() if counts[name.lower()] == 1 and not RESERVED.match(name)}
+    taken = {name.lower() for name in names.values()}
+    for p in sorted((p for p in inputs if p not in names), key=str):
+        base = f"{safe[p]}-{hashlib.sha1(str(p).encode()).hexdigest()[:8]}"
+        name, k = base, 1
+        while name.lower() in taken or RESERVED.match(name):
+            k += 1
+            name = f"{base}-{k}"
+        names[p] = name
+        taken.add(name.lower())
+    return {p: names[p] for p in inputs}
 
 
 class Progress:
@@ -121,7 +150,7 @@ class Progress:
         width = 24
         filled = int(width * self.done / max(1, self.total))
         bar = "#" * filled + "-" * (width - filled)
-        line = f"[{bar}] {self.done}/{self.total} {status:<6} {name}  (eta {eta:.0f} s)"
+        line = f"[{bar}] {self.done}/{self.total} {status:<6} {printable(name)}  (eta {eta:.0f} s)"
         if self.tty:
             self.stream.write("\r" + line[:120].ljust(120))
             if self.done == self.total:
@@ -136,14 +165,8 @@ SIDECAR = ".panolight-batch.json"  # per output folder: the input's SHA-256 and 
 
 def _sha256(path: Path) -> str | None:
     """The file's SHA-256, or None when it cannot be read (the job then reports why)."""
-    h = hashlib.sha256()
-    try:
-        with open(path, "rb") as f:
-            for block in iter(lambda: f.read(1 << 20), b""):
-                h.update(block)
-    except OSError:
-        return None
-    return h.hexdigest()
+    d = digest(path)
+    return d and d["sha256"]
 
 
 def _up_to_date(digest: str | None, dst: Path, settings) -> bool:
@@ -205,7 +228,7 @@ def _process_task(task):
     return k, _process(job, src, dst, settings)
 
 
-def _worker_init():
+def _worker_init(parent: int):
     """Pool workers leave Ctrl-C to the batch process, which stops them (SIGTERM: they clean up), and
     run their pixel passes on one thread: the workers already fill the CPUs."""
     import signal
@@ -213,8 +236,32 @@ def _worker_init():
     from .. import threads
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)
+    _die_with_parent(parent)
     threads.set_count(1)
     _keep_freed_memory()
+
+
+def _exit_on_sigterm(signum, frame):
+    """A worker told to stop (pool.terminate, or its parent gone) unwinds: the writers' ``finally`` blocks
+    remove their staging folders, and SystemExit ends the process without a traceback."""
+    raise SystemExit(128 + signum)
+
+
+def _die_with_parent(pid: int) -> None:
+    """Stop this worker (SIGTERM to itself, so it cleans up) once the batch process ``pid`` is gone, however
+    it went (SIGKILL included): a killed batch leaves no orphans writing or printing tracebacks. A
+    watcher thread, because a forkserver's workers outlive their parent by design (they keep it alive)."""
+    import os
+    import signal
+    import threading
+
+    def watch():
+        while pid_alive(pid):
+            time.sleep(0.5)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    threading.Thread(target=watch, name="panolight-parent-watch", daemon=True).start()
 
 
 def _keep_freed_memory() -> None:
@@ -256,7 +303,17 @@ def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: 
     """
     names = output_names(inputs)
     mine = shard(inputs, *shard_spec)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise PanoLightError(f"{out_dir}: cannot create the output folder ({exc.strerror or exc})") from None
+    # one batch per output folder (and shard: the shards of one job run side by side) at a time
+    i, n = shard_spec
+    with folder_lock(out_dir, ".panolight.lock" if n == 1 else f".panolight-shard-{i}-of-{n}.lock"):
+        return _run_locked(inputs, names, mine, out_dir, job, shard_spec, quiet, settings, jobs)
+
+
+def _run_locked(inputs, names, mine, out_dir, job, shard_spec, quiet, settings, jobs) -> dict:
     prog = Progress(len(mine), quiet)
     done: dict[int, dict] = {}
     i, n = shard_spec
@@ -287,12 +344,13 @@ def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: 
                 record(*_process_task(task))
         else:
             import multiprocessing
+            import os
 
             # forkserver/spawn: workers start from a clean process, never a fork of one whose library
             # thread pools (OpenEXR's, BLAS's) would hang in the child
             methods = multiprocessing.get_all_start_methods()
             ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-            pool = ctx.Pool(min(jobs, len(tasks)), initializer=_worker_init)
+            pool = ctx.Pool(min(jobs, len(tasks)), initializer=_worker_init, initargs=(os.getpid(),))
             for k, result in pool.imap_unordered(_process_task, tasks):
                 record(k, result)
             pool.close()

@@ -12,7 +12,7 @@ import warnings
 from pathlib import Path
 
 from .. import __version__
-from ..errors import PanoLightError, PanoLightWarning
+from ..errors import PanoLightError, PanoLightWarning, printable
 from ..pipeline import settings as estimate_settings
 from .options import HelpFormatter, resolution, stderr_log
 
@@ -122,7 +122,7 @@ def run_batch(args) -> int:
 
     shard_spec = parse_shard(args.shard)
     settings = estimate_settings.from_args(args)
-    inputs = collect_inputs(args.inputs, args.list, args.recursive)
+    inputs = collect_inputs(args.inputs, args.list, args.recursive, exclude=args.output)
     if not inputs:
         raise PanoLightError("no input panoramas found (give files, folders, or --list FILE)")
     kwargs = _job_kwargs(args)
@@ -139,7 +139,7 @@ def run_batch(args) -> int:
           file=sys.stderr)
     for r in report["results"]:
         if r["status"] == "failed":
-            print(f"  failed: {r['error']}", file=sys.stderr)
+            print(f"  failed: {printable(r['error'])}", file=sys.stderr)
     return 1 if report["failed"] else 0
 
 
@@ -322,15 +322,16 @@ def main(argv=None) -> int:
 def _run(args) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("always", PanoLightWarning)
-        warnings.showwarning = lambda m, c, f, l, file=None, line=None: print(f"warning: {m}", file=sys.stderr)
+        warnings.showwarning = lambda m, c, f, l, file=None, line=None: print(f"warning: {printable(m)}",
+                                                                               file=sys.stderr)
         try:
             return args.func(args)
         except PanoLightError as exc:
-            print(f"panolight: error: {exc}", file=sys.stderr)
+            print(f"panolight: error: {printable(exc)}", file=sys.stderr)
             return 1
         except OSError as exc:  # a path the user gave cannot be read or written (permissions, missing folders)
             where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-            print(f"panolight: error: {where}{exc.strerror or exc}", file=sys.stderr)
+            print(f"panolight: error: {printable(where)}{exc.strerror or exc}", file=sys.stderr)
             return 1
         except MemoryError:
             print("panolight: error: out of memory (the image is too large for this machine's memory limit; "

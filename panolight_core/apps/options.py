@@ -4,12 +4,14 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..errors import printable
+
 HelpFormatter = argparse.RawDescriptionHelpFormatter  # epilogs keep their examples' line breaks
 
 
 def stderr_log(quiet: bool):
     """A progress printer: one line on stderr per message, or nothing when quiet."""
-    return (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    return (lambda msg: None) if quiet else (lambda msg: print(printable(msg), file=sys.stderr, flush=True))
 
 
 def resolution(text: str) -> tuple[int, int]:

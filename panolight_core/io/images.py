@@ -26,15 +26,21 @@ _EXTENSIONS = {".exr": "exr", ".hdr": "hdr", ".pic": "hdr", ".rgbe": "hdr", ".pn
 
 def sniff_format(path) -> str:
     """'exr' | 'hdr' | 'png' | 'jpeg' from the file's first bytes; raises ImageError otherwise."""
+    import stat
+
     p = Path(path)
-    if not p.exists():
-        raise ImageError(p, "file not found")
-    if p.is_dir():
-        raise ImageError(p, "is a directory, not an image file")
-    if p.stat().st_size == 0:
-        raise ImageError(p, "file is empty (0 bytes)")
-    with open(p, "rb") as f:
-        head = f.read(16)
+    try:
+        st = p.stat()
+        if stat.S_ISDIR(st.st_mode):
+            raise ImageError(p, "is a directory, not an image file")
+        if st.st_size == 0:
+            raise ImageError(p, "file is empty (0 bytes)")
+        with open(p, "rb") as f:
+            head = f.read(16)
+    except FileNotFoundError:
+        raise ImageError(p, "file not found") from None
+    except OSError as exc:  # a symlink loop, no permission, a name too long
+        raise ImageError(p, f"cannot be opened ({exc.strerror or exc})") from None
     if head.startswith(b"\x76\x2f\x31\x01"):
         return "exr"
     if head.startswith(b"#?RADIANCE") or head.startswith(b"#?RGBE"):

@@ -1,7 +1,6 @@
 """A panorama file in, a lighting folder out: the job behind ``panolight estimate`` and ``batch``."""
 from __future__ import annotations
 
-import hashlib
 import time
 import warnings
 from pathlib import Path
@@ -13,7 +12,8 @@ from ..camera import linear
 from ..camera.resample import area_downsample_rows
 from ..errors import PanoLightError, PanoLightWarning
 from ..io import read_image, write_image, write_srgb8
-from ..io.atomic import pid_alive
+from ..io import ownership
+from ..io.atomic import folder_lock
 from ..io.images import write_exr_rows
 from ..io.lighting import write_lighting
 from .estimate import estimate_lighting, require_finite
@@ -45,19 +45,52 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
                  outputs=tuple(OUTPUT_GROUPS), log=None) -> dict:
     """Estimate the lighting of panorama ``src`` (pipeline.estimate_lighting with ``settings``) and write
     the files of the ``outputs`` groups (OUTPUT_GROUPS) into ``out_dir`` (created). resolution: (W, H) of
-    radiance.exr / irradiance.exr. max_megapixels: the decoding budget (io.images). Files in out_dir that
-    an earlier PanoLight run did not write are kept unless ``overwrite``; an earlier run's outputs that
-    this run does not write are removed, so the folder never mixes two runs. Returns the lighting
-    document written. Raises PanoLightError."""
+    radiance.exr / irradiance.exr. max_megapixels: the decoding budget (io.images). The folder is locked
+    for the whole run (a second writer is refused at once). Output-named files that PanoLight did not
+    write there (io.ownership's manifest) are refused unless ``overwrite``; an earlier run's outputs that
+    this run does not write are removed, a user's are kept, so the folder never mixes two runs. Returns
+    the lighting document written. Raises PanoLightError."""
     log = log or (lambda msg: None)
     src, out_dir = Path(src), Path(out_dir)
     outputs = parse_outputs(outputs)
     for name in OUTPUT_FILES:  # an output never replaces the input (estimate hdr.exr -o . would)
-        if (out_dir / name).resolve() == src.resolve():
+        if _same_file(out_dir / name, src):
             raise PanoLightError(f"{src}: the output {name} in {out_dir} would overwrite the input; "
                                  f"choose another output folder (-o)")
-    if not overwrite:
-        _check_foreign_outputs(out_dir)
+    created = not out_dir.exists()
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise PanoLightError(f"{out_dir}: cannot create the output folder ({exc.strerror or exc})") from None
+    try:
+        with folder_lock(out_dir):  # the whole run: a second writer is refused before it reads anything
+            writes = _planned_files(outputs)
+            if not overwrite:
+                _check_foreign_outputs(out_dir, writes)
+            return _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_megapixels, outputs,
+                                  log)
+    except BaseException:  # refused or interrupted: a folder this run made is not left behind
+        if created and out_dir.is_dir() and not any(out_dir.iterdir()):
+            out_dir.rmdir()
+        raise
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.resolve() == b.resolve()
+    except (OSError, RuntimeError):  # a symlink loop: reading it fails later, with its name
+        return False
+
+
+def _planned_files(outputs) -> tuple[str, ...]:
+    """The files a run with these output groups writes (lighting.usda only where usd-core is installed)."""
+    from ..io.usd import usd_available
+
+    names = [n for g in outputs for n in OUTPUT_GROUPS[g]]
+    return tuple(n for n in OUTPUT_FILES if n in names and (n != "lighting.usda" or usd_available()))
+
+
+def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_megapixels, outputs, log) -> dict:
     t0 = time.perf_counter()
     log(f"reading {src}")
     budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
@@ -79,20 +112,15 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
             maps["irradiance.exr"] = fitted.irradiance_map(h, w).astype(np.float32)
     require_finite(maps, settings.exposure_ev, f"{src}: ")  # refused before anything is written
     doc = result.document
-    doc["source"] = {"path": str(src), "sha256": hashlib.sha256(src.read_bytes()).hexdigest(),
+    source = ownership.digest(src)
+    if source is None:
+        raise PanoLightError(f"{src}: could not be read again to record its SHA-256 (was it moved?)")
+    doc["source"] = {"path": str(src), "sha256": source["sha256"],
                      "width": int(pixels.shape[1]), "height": int(pixels.shape[0]),
                      "dynamic_range": "ldr-8bit-srgb" if pixels.dtype == np.uint8 else "hdr"}
     doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
-    created = not out_dir.exists()
-    out_dir.mkdir(parents=True, exist_ok=True)
     log(f"writing {out_dir}/")
-    try:
-        with _folder_lock(out_dir):
-            return _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, settings.exposure_ev)
-    except BaseException:  # refused or interrupted mid-write: a folder this run made is not left behind
-        if created and out_dir.is_dir() and not any(out_dir.iterdir()):
-            out_dir.rmdir()
-        raise
+    return _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, settings.exposure_ev)
 
 
 def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev) -> dict:
@@ -133,62 +161,36 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
                           PanoLightWarning, stacklevel=3)
         doc["timings"]["write_s"] = round(time.perf_counter() - t2, 6)
         write_lighting(stage / "lighting.json", doc)
-        for name in written:
+        written.append("lighting.json")
+        # the manifest proves which files are ours: while the set is renamed into place it accepts the
+        # replaced files too, so an interruption between two renames never makes our own files foreign
+        digests = {name: ownership.digest(stage / name) for name in written}
+        earlier = ownership.current(out_dir, OUTPUT_FILES)
+        ownership.record(out_dir, digests, keep=earlier)
+        for name in written[:-1]:
             os.replace(stage / name, out_dir / name)
         for name in OUTPUT_FILES:  # an earlier run's outputs this run did not write: never a mix of runs
-            if name not in written and name != "lighting.json":
+            if name not in written and name in earlier:  # only ours: a user's file of that name is kept
                 (out_dir / name).unlink(missing_ok=True)
         os.replace(stage / "lighting.json", out_dir / "lighting.json")  # last: it marks the set complete
+        ownership.record(out_dir, digests)
+    except PanoLightError as exc:  # a full disk, a size limit: named as the output, not the staging copy
+        raise PanoLightError(str(exc).replace(str(stage), str(out_dir))) from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     return doc
 
 
-def _check_foreign_outputs(out_dir: Path) -> None:
-    """Refuse to replace files PanoLight did not write: output names that exist in a folder without a
-    valid lighting.json of an earlier run (``overwrite=True`` / --overwrite replaces them)."""
-    present = [n for n in OUTPUT_FILES if (out_dir / n).exists()]
-    if not present:
-        return
-    from ..io.lighting import read_lighting
-
-    try:
-        read_lighting(out_dir / "lighting.json")
-        return  # an earlier PanoLight run: its outputs are ours to replace
-    except PanoLightError:
-        pass
-    raise PanoLightError(f"{out_dir}: {', '.join(present)} exist and were not written by PanoLight; "
-                         f"choose another folder (-o) or pass --overwrite to replace them")
-
-
-class _folder_lock:
-    """One writer per output folder: OUT/.panolight.lock holds the writer's pid (created exclusively). A
-    second writer is refused in one line; a lock left by a process that no longer runs is taken over."""
-
-    def __init__(self, folder: Path):
-        self.path = Path(folder) / ".panolight.lock"
-
-    def __enter__(self):
-        import os
-
-        for _ in range(2):
-            try:
-                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-            except FileExistsError:
-                try:
-                    pid = int(self.path.read_text().strip() or 0)
-                except (OSError, ValueError):
-                    pid = 0
-                if pid and pid_alive(pid):
-                    raise PanoLightError(f"{self.path.parent}: another PanoLight process (pid {pid}) is writing "
-                                         f"there; wait for it or choose another folder (-o)") from None
-                self.path.unlink(missing_ok=True)  # stale: its writer is gone
-                continue
-            with os.fdopen(fd, "w") as f:
-                f.write(str(os.getpid()))
-            return self
-        raise PanoLightError(f"{self.path.parent}: cannot take the output folder's lock {self.path.name}")
-
-    def __exit__(self, *exc):
-        self.path.unlink(missing_ok=True)
-        return False
+def _check_foreign_outputs(out_dir: Path, writes) -> None:
+    """Refuse to replace files PanoLight did not write there: each output name this run writes must be
+    absent or match the folder's manifest (io.ownership: size and SHA-256 of what the last run wrote), so
+    a copied lighting.json proves nothing about its neighbours (``overwrite=True`` / --overwrite
+    replaces them). Foreign files of names this run does not write are kept, and said so."""
+    kept = ownership.foreign(out_dir, [n for n in OUTPUT_FILES if n not in writes])
+    if kept:
+        warnings.warn(f"{out_dir}: keeping {', '.join(kept)}, which PanoLight did not write (they are not part "
+                      f"of this run's outputs)", PanoLightWarning, stacklevel=4)
+    present = ownership.foreign(out_dir, writes)
+    if present:
+        raise PanoLightError(f"{out_dir}: {', '.join(present)} exist and were not written by PanoLight; "
+                             f"choose another folder (-o) or pass --overwrite to replace them")

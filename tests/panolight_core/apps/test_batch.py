@@ -174,3 +174,99 @@ def test_worker_processes_give_the_same_report_in_input_order(tmp_path, rng):
             assert (out / f"p{i}" / "lighting.json").is_file()
     assert reports[0] == reports[1] == [("p0.png", "ok"), ("p1.png", "ok"), ("p2.png", "failed"), ("p3.png", "ok"),
                                         ("p4.png", "ok")]
+
+
+def test_output_names_are_unique_by_construction_and_never_a_report(tmp_path):
+    """Issue 23: a.jpg, A.jpg and a-<hash of a.jpg>.jpg shared one folder; batch_report.json.jpg became the
+    report's own name."""
+    import hashlib
+
+    a = (tmp_path / "a.jpg").resolve()
+    hashed = f"a-{hashlib.sha1(str(a).encode()).hexdigest()[:8]}"
+    inputs = [a, tmp_path / "A.jpg", tmp_path / f"{hashed}.jpg", tmp_path / f"{hashed}-2.jpg",
+              tmp_path / "batch_report.json.jpg", tmp_path / "batch_report-1-of-2.json.png"]
+    names = output_names(inputs)
+    assert len({v.lower() for v in names.values()}) == len(inputs)
+    assert not any(v.lower().startswith("batch_report") and v.lower().endswith(".json") for v in names.values())
+    assert output_names(list(reversed(inputs))) == names  # the same whatever order they came in
+
+
+def test_a_batch_never_takes_its_own_outputs_as_inputs(tmp_path, rng, capsys):
+    src = tmp_path / "src"
+    src.mkdir()
+    write_image(src / "p.png", rng.random((16, 32, 3)))
+    write_image(src / "batch_report.json.png", rng.random((16, 32, 3)))
+    for _ in range(2):  # the second run finds src/out/.../preview.png etc. under src
+        assert main(["batch", str(src), "-o", str(src / "out"), "--recursive", "-q", "--resolution", "32x16"]) == 0
+    report = json.loads((src / "out" / "batch_report.json").read_text())
+    assert report["total_inputs"] == 2 and report["skipped"] == 2, report
+    assert "inside the output folder" in capsys.readouterr().err
+    assert collect_inputs([src], recursive=True, exclude=src / "out") == sorted(
+        [(src / "batch_report.json.png").resolve(), (src / "p.png").resolve()], key=str)
+
+
+def test_a_second_batch_into_the_same_folder_is_refused_at_once(tmp_path, rng, capsys):
+    from panolight_core.io.atomic import folder_lock
+
+    write_image(tmp_path / "p.png", rng.random((16, 32, 3)))
+    out = tmp_path / "out"
+    out.mkdir()
+    with folder_lock(out):  # a batch already runs there
+        assert main(["batch", str(tmp_path / "p.png"), "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "another PanoLight process" in err and err.count("\n") == 1 and not (out / "p").exists()
+    with folder_lock(out, ".panolight-shard-1-of-2.lock"):  # shards of one job run side by side
+        assert main(["batch", str(tmp_path / "p.png"), "-o", str(out), "-q", "--shard", "2/2"]) == 0
+
+
+def test_file_names_with_terminal_escapes_are_printed_escaped(tmp_path, capsys):
+    bad = tmp_path / "evil\x1b]0;pwned\x07\x1b[2J.jpg"
+    bad.write_bytes(b"\xff\xd8\xff\xe0 not a jpeg")
+    assert main(["batch", str(bad), "-o", str(tmp_path / "out")]) == 1
+    assert main(["estimate", str(bad), "-o", str(tmp_path / "o1")]) == 1
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and "\x07" not in err and "evil\\x1b]0;pwned\\x07" in err
+
+
+def test_workers_die_with_a_killed_batch(tmp_path):
+    """kill -KILL of a running batch left its pool workers running as orphans, printing tracebacks."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "slowjob.py").write_text(
+        "import os, time\n"
+        "def job(src, dst):\n"
+        "    dst.mkdir(parents=True, exist_ok=True)\n"
+        "    (dst / 'pid').write_text(str(os.getpid()))\n"
+        "    time.sleep(60)\n")
+    for i in range(4):
+        (tmp_path / f"p{i}.png").write_bytes(b"x")
+    script = ("import sys; from pathlib import Path; import slowjob\n"
+              "from panolight_core.apps.batch import run_batch\n"
+              f"run_batch(sorted(Path({str(tmp_path)!r}).glob('p*.png')), Path({str(tmp_path / 'out')!r}), "
+              "slowjob.job, quiet=True, jobs=2)\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(Path(__file__).parents[3])])}
+    proc = subprocess.Popen([sys.executable, "-c", script], env=env, stderr=subprocess.PIPE)
+    deadline = time.time() + 60
+    while len(list((tmp_path / "out").glob("*/pid"))) < 2 and time.time() < deadline:
+        time.sleep(0.1)
+    pids = [int(p.read_text()) for p in (tmp_path / "out").glob("*/pid")]
+    assert len(pids) == 2
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=10)
+
+    def running(pid):
+        try:
+            return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] not in "ZX"
+        except OSError:
+            return False
+
+    deadline = time.time() + 15
+    while any(running(p) for p in pids) and time.time() < deadline:
+        time.sleep(0.1)
+    assert not any(running(p) for p in pids)
+    _, err = proc.communicate(timeout=30)  # every process that shared stderr has gone
+    assert b"Traceback" not in err, err.decode()

@@ -17,8 +17,8 @@ def test_estimate_hdr_writes_its_outputs_and_they_are_right(tmp_path, rng):
     src = write_image(tmp_path / "in.exr", img)
     out = tmp_path / "out"
     assert main(["estimate", str(src), "-o", str(out), "--lmax", "3", "--resolution", "64x32", "-q"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["hdr.exr", "irradiance.exr", "lighting.json", "lighting.usda",
-                                                     "preview.png", "radiance.exr"]
+    assert sorted(p.name for p in out.iterdir()) == [".panolight-files.json", "hdr.exr", "irradiance.exr",
+                                                     "lighting.json", "lighting.usda", "preview.png", "radiance.exr"]
     coeffs, doc = read_lighting(out / "lighting.json")
     np.testing.assert_allclose(coeffs, sh.project(img.astype(np.float64), 3), rtol=1e-5, atol=1e-6)
     np.testing.assert_array_equal(read_image(out / "hdr.exr"), img)  # an HDR input is its own HDRI
@@ -193,19 +193,78 @@ def test_outputs_never_replace_files_panolight_did_not_write(tmp_path, capsys):
     assert (out / "preview.png").read_bytes() == b"the user's own picture"
     assert main(["estimate", str(src), "-o", str(out), "-q", "--overwrite"]) == 0
     assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0  # an earlier run's outputs are ours
+    (out / "radiance.exr").write_bytes(b"edited by the user after the run")  # no longer the file we wrote
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
+    assert "radiance.exr exist and were not written by PanoLight" in capsys.readouterr().err
 
 
-def test_a_second_writer_is_refused_and_a_stale_lock_taken_over(tmp_path, capsys):
+def test_a_copied_lighting_json_does_not_make_its_neighbours_ours(tmp_path, capsys):
+    """Issue 23: cp <earlier run>/lighting.json o/; echo mine > o/hdr.exr; estimate --outputs lighting
+    deleted the user's hdr.exr, taking the copied lighting.json as proof of ownership."""
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    assert main(["estimate", str(src), "-o", str(tmp_path / "earlier"), "-q"]) == 0
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "lighting.json").write_bytes((tmp_path / "earlier" / "lighting.json").read_bytes())
+    (out / "hdr.exr").write_text("mine")
+    assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "lighting"]) == 1  # lighting.json: not ours
+    assert "lighting.json exist and were not written" in capsys.readouterr().err
+    assert (out / "hdr.exr").read_text() == "mine"
+    # replacing what it writes (--overwrite) still never deletes a user's file it does not write
+    assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "lighting", "--overwrite"]) == 0
+    assert (out / "hdr.exr").read_text() == "mine" and (out / "radiance.exr").is_file()
+    # an earlier run's own hdr.exr is removed when a later run does not write it: never a mix of runs
+    assert main(["estimate", str(src), "-o", str(tmp_path / "p"), "-q"]) == 0
+    assert main(["estimate", str(src), "-o", str(tmp_path / "p"), "-q", "--outputs", "lighting"]) == 0
+    assert not (tmp_path / "p" / "hdr.exr").exists() and not (tmp_path / "p" / "preview.png").exists()
+
+
+def test_an_interrupted_rename_leaves_our_files_ours(tmp_path, monkeypatch):
+    """While the set is renamed into place the manifest accepts both the old and the new files."""
+    from panolight_core.io import ownership
+
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    src2 = write_image(tmp_path / "in2.exr", np.full((16, 32, 3), 0.7, np.float32))
+    out = tmp_path / "o"
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0
+    real = os.replace
+    calls = []
+
+    def replace_then_die(a, b):
+        calls.append(b)
+        if Path(b).name == "preview.png":  # killed after some renames
+            raise KeyboardInterrupt
+        return real(a, b)
+
+    monkeypatch.setattr(os, "replace", replace_then_die)
+    assert main(["estimate", str(src2), "-o", str(out), "-q"]) == 130
+    monkeypatch.setattr(os, "replace", real)
+    assert not ownership.foreign(out, ["radiance.exr", "irradiance.exr", "preview.png", "hdr.exr", "lighting.json"])
+    assert main(["estimate", str(src2), "-o", str(out), "-q"]) == 0
+
+
+def test_a_second_writer_is_refused_for_the_whole_run_and_a_stale_lock_taken_over(tmp_path, capsys, monkeypatch):
+    from panolight_core.io.atomic import folder_lock
+    from panolight_core.pipeline import job as pipeline
+
     src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
     out = tmp_path / "o"
     out.mkdir()
-    lock = out / ".panolight.lock"
-    lock.write_text(str(os.getppid()))  # a live process holds the folder
-    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
+    with folder_lock(out):  # another writer holds the folder
+        assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
     assert "another PanoLight process" in capsys.readouterr().err and not (out / "lighting.json").exists()
-    lock.write_text("999999999")  # its writer is gone
+    (out / ".panolight.lock").write_text("999999999")  # a lock file its dead writer left
+    seen = []
+    real = pipeline.read_image
+
+    def read_while_a_second_estimate_starts(*a, **kw):  # the lock covers reading and estimating too
+        seen.append(main(["estimate", str(src), "-o", str(out), "-q"]))
+        return real(*a, **kw)
+
+    monkeypatch.setattr(pipeline, "read_image", read_while_a_second_estimate_starts)
     assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0
-    assert (out / "lighting.json").is_file() and not lock.exists()
+    assert seen == [1] and "another PanoLight process (pid " in capsys.readouterr().err
+    assert (out / "lighting.json").is_file() and not (out / ".panolight.lock").exists()
 
 
 def test_out_of_memory_is_one_line(tmp_path, capsys, monkeypatch):
@@ -264,10 +323,10 @@ def test_outputs_choose_the_groups_and_leave_no_mix_of_runs(tmp_path, capsys):
     out = tmp_path / "o"
     assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0
     assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "lighting"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["lighting.json", "lighting.usda", "radiance.exr"]
+    assert sorted(p.name for p in out.iterdir()) == [".panolight-files.json", "lighting.json", "lighting.usda", "radiance.exr"]
     assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "hdr,previews"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["hdr.exr", "irradiance.exr", "lighting.json", "lighting.usda",
-                                                     "preview.png", "radiance.exr"]
+    assert sorted(p.name for p in out.iterdir()) == [".panolight-files.json", "hdr.exr", "irradiance.exr",
+                                                     "lighting.json", "lighting.usda", "preview.png", "radiance.exr"]
     with pytest.raises(SystemExit):
         main(["estimate", str(src), "-o", str(out), "--outputs", "lighting,thumbnails"])
     assert "--outputs takes 'all' or a comma-separated list of lighting, hdr, previews" in capsys.readouterr().err
@@ -305,3 +364,36 @@ def test_hdr_exr_is_half_floats_for_an_8_bit_input_and_float32_when_it_would_not
         want = estimate_lighting(ldr, Settings(exposure_ev=ev)).hdr_panorama(ldr)
         assert want.max() > 1.0  # energy was recovered
         np.testing.assert_allclose(read_image(out / "hdr.exr"), want, rtol=2 ** -11, atol=0)
+
+
+def test_a_symlink_loop_and_a_file_size_limit_get_one_line_and_leave_nothing(tmp_path):
+    """Issue 23: a symlink loop raised RuntimeError from pipeline/job.py; a full disk or `ulimit -f` a
+    traceback from io/images.py."""
+    import resource
+
+    (tmp_path / "a.jpg").symlink_to("b.jpg")
+    (tmp_path / "b.jpg").symlink_to("a.jpg")
+    r = subprocess.run([sys.executable, "-m", "panolight_core", "estimate", "a.jpg", "-o", "out", "-q"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert "a.jpg: cannot be opened (Too many levels of symbolic links)" in r.stderr
+    write_image(tmp_path / "big.exr", np.random.default_rng(0).random((256, 512, 3)).astype(np.float32))
+    r = subprocess.run([sys.executable, "-m", "panolight_core", "estimate", "big.exr", "-o", "out", "-q"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                       preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, 100_000)))
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, r.stderr
+    assert "cannot write it (File too large)" in r.stderr and "out/" in r.stderr and ".panolight-" not in r.stderr
+    assert not (tmp_path / "out").exists()  # nothing partial is left
+
+
+def test_a_full_disk_is_one_error_naming_the_file(tmp_path, monkeypatch):
+    import errno
+
+    from panolight_core.errors import PanoLightError
+    from panolight_core.io.atomic import atomic_path
+
+    with pytest.raises(PanoLightError, match=r"x\.json: cannot write it \(No space left on device\)"):
+        with atomic_path(tmp_path / "x.json") as tmp:
+            tmp.write_text("partial")
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    assert list(tmp_path.iterdir()) == []

@@ -1,0 +1,77 @@
+"""Which files in a folder PanoLight wrote: a manifest of their sizes and SHA-256, so a run replaces or
+removes only its own files (a copied lighting.json proves nothing about its neighbours)."""
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+from .atomic import atomic_path
+
+MANIFEST = ".panolight-files.json"  # {"files": {name: [{"size": bytes, "sha256": hex}, ...]}}
+
+
+def digest(path) -> dict | None:
+    """{"size", "sha256"} of a file, or None when it cannot be read."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            size = 0
+            for block in iter(lambda: f.read(1 << 22), b""):
+                h.update(block)
+                size += len(block)
+    except OSError:
+        return None
+    return {"size": size, "sha256": h.hexdigest()}
+
+
+def _entries(folder: Path) -> dict[str, list[dict]]:
+    try:
+        doc = json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
+        files = doc["files"]
+        return {str(k): [e for e in v if isinstance(e, dict)] for k, v in files.items() if isinstance(v, list)}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}  # no manifest, or not ours to trust: nothing is owned
+
+
+def owned(folder, name: str, entries: dict | None = None) -> bool:
+    """Whether ``folder/name`` is a file PanoLight wrote there and nobody changed since (size, then hash)."""
+    path = Path(folder) / name
+    known = (_entries(folder) if entries is None else entries).get(name, [])
+    try:
+        size = path.stat().st_size
+    except OSError:
+        return False
+    if not path.is_file() or not any(e.get("size") == size for e in known):
+        return False
+    d = digest(path)
+    return d is not None and any(e == d for e in known)
+
+
+def foreign(folder, names) -> list[str]:
+    """The ``names`` that exist in ``folder`` but were not written there by PanoLight."""
+    entries = _entries(folder)
+    return [n for n in names if _exists(Path(folder) / n) and not owned(folder, n, entries)]
+
+
+def _exists(path: Path) -> bool:
+    return path.exists() or path.is_symlink()
+
+
+def record(folder, digests: dict[str, dict], keep: dict[str, list[dict]] | None = None) -> None:
+    """Write the manifest: ``digests`` (name -> digest) as the files PanoLight wrote, plus ``keep`` (name ->
+    earlier digests still accepted, for the moment between renames). Entries of other names whose files
+    still match are kept (several tools may write into one folder)."""
+    folder = Path(folder)
+    old = _entries(folder)
+    files = {n: v for n, v in old.items() if n not in digests and owned(folder, n, old)}
+    for name, d in digests.items():
+        files[name] = [d] + [e for e in (keep or {}).get(name, []) if e != d]
+    with atomic_path(folder / MANIFEST) as tmp:
+        tmp.write_text(json.dumps({"files": files}, indent=1) + "\n", encoding="utf-8")
+
+
+def current(folder, names) -> dict[str, list[dict]]:
+    """The manifest entries of those ``names`` that are owned now (kept accepted while they are replaced)."""
+    entries = _entries(folder)
+    return {n: entries[n] for n in names if owned(folder, n, entries)}
