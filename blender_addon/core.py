@@ -13,6 +13,6 @@ if importlib.util.find_spec(f"{__package__}.panolight_core") is not None:
 else:  # a development checkout or a pip install: no bundled copy beside this file
     import panolight_core as core
 
-for _name in ("camera.resample", "errors", "estimators", "io.images", "io.lighting", "lighting.order", "pipeline",
+for _name in ("camera.resample", "errors", "estimators", "io.images", "io.lighting", "io.ownership", "lighting.order", "pipeline",
               "pipeline.hdri", "pipeline.settings", "sh"):
     importlib.import_module(f"{core.__name__}.{_name}")  # core.io.lighting, core.pipeline.hdri, ...

@@ -106,7 +106,7 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         if w != 2 * h:
             raise Error(f"{path}: equirectangular panoramas must be 2:1, got {w} x {h}")
         world = W.build_world(image, **_world_kwargs(context))
-        world[W.PANORAMA_KEY] = image.name
+        world[W.PANORAMA_KEY] = image  # the image itself, not its name: a rename keeps it
         W.store_lighting(world, None)  # a new panorama needs a new estimate
         if W.ours(bpy.data.collections, W.LIGHTS_COLLECTION) is not None:
             W.set_lights([], context.scene)  # the previous panorama's suns no longer apply
@@ -268,11 +268,19 @@ class PANOLIGHT_OT_export_lighting(bpy.types.Operator, ExportHelper):
     def execute(self, context):
         doc = W.stored_lighting(context.scene.world)
         path = _export_path(self.filepath, self.filename_ext)
-        core.io.lighting.write_lighting(path, doc)
         exr = path.with_name(path.stem + "_radiance.exr")
         image = W.own_image(W.SH_IMAGE_NAME)
+        owners = core.io.ownership
+        # the browser warned about the .json only: a radiance map beside it that PanoLight did not write
+        # there (its folder's manifest) is the user's, and is never replaced
+        if image is not None and owners.foreign(path.parent, [exr.name]):
+            raise Error(f"{exr}: exists and was not written by PanoLight; choose another name (the radiance map "
+                        f"is written beside the .json as NAME_radiance.exr) or move that file")
+        core.io.lighting.write_lighting(path, doc)
         if image is not None:
             _save_exr(context.scene, image, exr)
+        written = [path] + ([exr] if image is not None else [])
+        owners.record(path.parent, {p.name: owners.digest(p) for p in written})
         self.report({"INFO"}, f"PanoLight: wrote {path}" + (f" and {exr.name}" if image else ""))
         return {"FINISHED"}
 

@@ -64,8 +64,9 @@ def draw_panel(layout, context):
     world = context.scene.world
     col = layout.column(align=True)
     col.operator("panolight.load_panorama", icon="IMAGE_DATA")
-    if world is not None and world.get(W.PANORAMA_KEY):
-        col.label(text=f"Panorama: {world[W.PANORAMA_KEY]}")
+    panorama = world.get(W.PANORAMA_KEY) if world is not None else None
+    if isinstance(panorama, bpy.types.Image):
+        col.label(text=f"Panorama: {panorama.name}")
     box = layout.box()
     for prop in ("estimator", "model", "lmax", "tolerance", "window"):
         box.prop(s, prop)

@@ -23,15 +23,17 @@ LIGHTS_COLLECTION = "PanoLight Lights"
 SH_IMAGE_NAME = "PanoLight SH Radiance"
 HDRI_IMAGE_NAME = "PanoLight HDRI"
 TAG = "panolight"
-PANORAMA_KEY = "panolight_panorama"  # world ID property: the name of the panorama image
+PANORAMA_KEY = "panolight_panorama"  # world ID property: the panorama image itself (an ID pointer: renames follow)
 LIGHTING_KEY = "panolight_lighting"  # world ID property: the estimate, a lighting.json document as JSON
 ESTIMATE_KEY = "panolight_estimate"  # world and HDRI image ID property: which estimate the HDRI is of
 
 
 def stored_panorama(world):
-    """The panorama image of a PanoLight world, or PanoLightError."""
-    name = world.get(PANORAMA_KEY) if world else None
-    image = bpy.data.images.get(name) if name else None
+    """The panorama image of a PanoLight world, or PanoLightError. Tracked by identity: renaming it keeps
+    it, and another image that takes its old name is never taken for it."""
+    image = world.get(PANORAMA_KEY) if world else None
+    if not isinstance(image, bpy.types.Image):  # removed, or a name stored by an earlier version
+        image = None
     if image is None:
         raise core.errors.PanoLightError("no panorama loaded: use Load panorama first")
     return image

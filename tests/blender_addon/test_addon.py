@@ -355,6 +355,14 @@ def test_export_follows_blenders_conventions(tmp_path, monkeypatch):
             bpy.ops.panolight.export_lighting(filepath=bad)
     assert set(Path.cwd().iterdir()) == here and not (tmp_path / "notes.json").exists()
     assert not Path(str(tmp_path) + ".json").exists()
+    # issue 23: exporting to shot.json silently replaced the user's shot_radiance.exr beside it
+    (tmp_path / "shot_radiance.exr").write_bytes(b"the user's own render")
+    with pytest.raises(RuntimeError, match="shot_radiance.exr: exists and was not written by PanoLight"):
+        bpy.ops.panolight.export_lighting(filepath=str(tmp_path / "shot.json"))
+    assert (tmp_path / "shot_radiance.exr").read_bytes() == b"the user's own render"
+    assert not (tmp_path / "shot.json").exists()
+    # our own earlier export is ours to replace (the browser asked about the .json)
+    assert bpy.ops.panolight.export_lighting(filepath=str(tmp_path / "mine.json")) == {"FINISHED"}
 
 
 def test_blender_inputs_go_through_the_cores_validation(tmp_path):
@@ -467,3 +475,23 @@ def test_scanline_reads_give_the_pixels_blender_holds(tmp_path, monkeypatch):
     monkeypatch.setattr(W, "file_pixels", lambda image: None)
     assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
     assert W.stored_lighting(bpy.context.scene.world)["coefficients"] == with_oiio
+
+
+def test_the_panorama_is_tracked_by_identity_not_by_name(tmp_path):
+    """Issue 23: renaming the panorama made Estimate say "no panorama loaded"; an unrelated 2:1 image
+    that then took the old name was silently estimated instead."""
+    assert bpy.ops.panolight.load_panorama(filepath=str(_small_city(tmp_path))) == {"FINISHED"}
+    _configure(lmax="2", model="sh")
+    world = bpy.context.scene.world
+    pano = blender_addon.world.stored_panorama(world)
+    old = pano.name
+    pano.name = "renamed by the user"
+    impostor = bpy.data.images.new(old, 64, 32, float_buffer=True)  # black, 2:1, with the old name
+    assert impostor.name == old
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    doc = blender_addon.world.stored_lighting(world)
+    assert doc["coefficients"][0][0] > 0.05  # the city, not the black impostor
+    bpy.data.images.remove(pano)
+    with pytest.raises(RuntimeError, match="no panorama loaded"):
+        bpy.ops.panolight.estimate_lighting()
+    bpy.data.images.remove(impostor)
