@@ -141,6 +141,8 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
             _make_hdri(world, self._pixels, result)
         self._pixels = None
         n = len(doc.get("lights", []))
+        for problem in result.warnings:  # an all-black, absurdly bright or clipped-white panorama
+            self.report({"WARNING"}, f"PanoLight: {W.stored_panorama(world).filepath or 'the panorama'}: {problem}")
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
 
@@ -225,7 +227,8 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         else:
             coeffs = np.asarray(doc["coefficients"], dtype=np.float64)
             h = max(64, min(1024, s.radiance_height))
-            radiance = np.maximum(core.sh.reconstruct(coeffs, h, 2 * h), 0.0).astype(np.float32)
+            # no negative light, nothing clipped: the nearest non-negative map with the same bands 0-2
+            radiance = core.sh.emitter_map(coeffs, h, 2 * h)[0].astype(np.float32)
             image = W.radiance_image(radiance)
             lights = doc.get("lights", []) if s.create_lights else []
         W.build_world(panorama, image, **_world_kwargs(context))

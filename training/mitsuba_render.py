@@ -106,7 +106,8 @@ def _disk_cover(dirs: np.ndarray, direction, angle: float) -> np.ndarray:
 def envmap_bitmap(coeffs: np.ndarray, lights=(), height: int = 256) -> np.ndarray:
     """(height, 2 height, 3) float32 Mitsuba envmap texels: the SH radiance at Mitsuba's texel
     directions (rows theta = pi y / (H - 1), columns u = (x + 0.5) / W, our frame), with area lights
-    painted in as disks carrying their irradiance. Negative SH radiance is clamped to 0 (it is not light)."""
+    painted in as disks carrying their irradiance. Where the SH radiance rings below zero the texels are its
+    nearest non-negative map with the same bands 0-2 (sh.nonnegative: no light added or removed)."""
     w = 2 * height
     theta = np.pi * np.arange(height) / (height - 1)
     u = (np.arange(w) + 0.5) / w
@@ -114,8 +115,9 @@ def envmap_bitmap(coeffs: np.ndarray, lights=(), height: int = 256) -> np.ndarra
     dirs = np.stack(np.broadcast_arrays(-st * np.cos(2 * np.pi * u), st * np.sin(2 * np.pi * u),
                                         np.cos(theta)[:, None]), axis=-1)
     img = sh.basis(dirs.reshape(-1, 3), sh.lmax_from_count(coeffs.shape[0]), check_unit=False) @ coeffs
-    img = np.maximum(img.reshape(height, w, 3), 0.0)
     omega = (2 * np.pi / w) * (np.pi / (height - 1)) * np.maximum(st, np.sin(np.pi / (2 * (height - 1))))
+    # no negative light, nothing clipped: the nearest non-negative texels with the same bands 0-2
+    img = sh.nonnegative(img.reshape(height, w, 3), dirs, np.broadcast_to(omega, (height, w)))[0]
     for light in lights:
         if light["type"] == "sun":
             continue

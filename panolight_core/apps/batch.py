@@ -6,9 +6,10 @@ import json
 import re
 import sys
 import time
+import warnings
 from pathlib import Path
 
-from ..errors import PanoLightError, printable
+from ..errors import PanoLightError, PanoLightWarning, printable
 from ..io.atomic import atomic_path, folder_lock, pid_alive
 from ..io.ownership import digest
 
@@ -211,9 +212,13 @@ def _process(job, src: Path, dst: Path, settings) -> dict:
             return {"input": str(src), "status": "skipped", "output": str(dst),
                     "why": "up to date (same input and settings)"}
         (dst / SIDECAR).unlink(missing_ok=True)
-        job(src, dst)
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always", PanoLightWarning)
+            job(src, dst)
         _write_json(dst / SIDECAR, {"sha256": digest, "settings": settings})
-        return {"input": str(src), "status": "ok", "output": str(dst), "seconds": round(time.perf_counter() - t, 4)}
+        result = {"input": str(src), "status": "ok", "output": str(dst), "seconds": round(time.perf_counter() - t, 4)}
+        notes = [str(w.message) for w in said if issubclass(w.category, PanoLightWarning)]
+        return {**result, "warnings": notes} if notes else result
     except PanoLightError as exc:
         error = str(exc)
     except (KeyboardInterrupt, SystemExit):

@@ -140,6 +140,8 @@ def run_batch(args) -> int:
     for r in report["results"]:
         if r["status"] == "failed":
             print(f"  failed: {printable(r['error'])}", file=sys.stderr)
+        for note in r.get("warnings", ()):
+            print(f"  warning: {printable(note)}", file=sys.stderr)
     return 1 if report["failed"] else 0
 
 

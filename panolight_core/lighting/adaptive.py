@@ -71,6 +71,24 @@ def ringing(coeffs: np.ndarray, lights=()) -> dict:
             "min_irradiance_rel": float(irr.min()) / mean_irr if mean_irr > 0 else 0.0}
 
 
+EMITTERS_NOTE = ("the SH radiance rings below zero; every emitter PanoLight writes (radiance.exr, the USD dome, "
+                 "Blender's SH world, Mitsuba's envmap) is its nearest non-negative map with the same bands 0-2 "
+                 "(sh.nonnegative): the same diffuse lighting and energy, no negative light, nothing clipped")
+
+
+def _ringing_why(ring: dict, window, deringing: str) -> str:
+    """One sentence on the irradiance and the radiance ringing of the model as written."""
+    if deringing != "auto":
+        head = f"deringing {deringing!r} requested"
+    elif window:
+        head = "deringed: the irradiance dipped below the threshold"
+    else:
+        head = "no visible ringing in the irradiance"
+    low = ring["min_radiance_rel"]
+    tail = f"; the SH radiance dips to {low:.2g} x its mean" if low < 0 else "; the SH radiance is non-negative"
+    return head + tail
+
+
 def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", tolerance: float = DEFAULT_TOLERANCE,
               max_order: int = DEFAULT_MAX_ORDER, irradiance_ringing: float = IRRADIANCE_RINGING,
               radiance_ringing: float | None = None, deringing: str = "auto",
@@ -143,8 +161,8 @@ def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", toleran
         window = {"kind": deringing, "width": width, "target": "fixed"}
     info["ringing"] = {**{k: round(v, 6) for k, v in ring.items()}, "irradiance_threshold": irradiance_ringing,
                        "radiance_threshold": radiance_ringing, "window": window,
-                       "why": "deringed: negative values beyond the threshold" if window and deringing == "auto"
-                       else ("no visible ringing" if deringing == "auto" else f"deringing {deringing!r} requested")}
+                       "why": _ringing_why(ring, window, deringing),
+                       "emitters": EMITTERS_NOTE if ring["min_radiance_rel"] < 0 else "the SH radiance is non-negative"}
     model = LightingModel(found, coeffs, info)
     info["parameters"] = model.parameter_count
     info["fit_s"] = round(time.perf_counter() - t0, 6)

@@ -54,15 +54,42 @@ def fit_radiance(radiance: np.ndarray, *, hdr_input: bool, lmax="auto", model: s
                      light_threshold=None if hdr_input else CLIP_LEVEL, known_lights=known_lights, exclude=exclude)
 
 
+BLACK = 1e-30  # an HDR panorama whose brightest pixel is below this holds no light (1e-40: denormals)
+IMPLAUSIBLE = 1e12  # above any real radiance, even a sun in absolute units (about 1.6e9 cd/m^2)
+CLIPPED_WHITE = 0.9  # an LDR panorama this much white (every channel >= 250) has no recoverable lighting
+
+
+def input_warnings(pixels: np.ndarray) -> list[str]:
+    """What makes a panorama's lighting meaningless though computable, one sentence each: no light at
+    all (all black), values no real radiance has (1e30, float max), or an LDR photo clipped white almost
+    everywhere. pixels: (H, W, 3) uint8 sRGB or float linear. Reads the image by row blocks."""
+    found = []
+    peak = max(float(pixels[r:r + 256].max()) for r in range(0, pixels.shape[0], 256))
+    if (pixels.dtype == np.uint8 and peak == 0) or (pixels.dtype != np.uint8 and peak < BLACK):
+        found.append(f"the panorama is black (brightest value {peak:g}): the lighting is zero")
+    elif pixels.dtype != np.uint8 and peak > IMPLAUSIBLE:
+        found.append(f"pixel values reach {peak:.3g}, beyond any real radiance: the lighting carries them "
+                     f"(check the file's units, or repair it)")
+    if pixels.dtype == np.uint8:
+        step = max(1, int(math.sqrt(pixels.shape[0] * pixels.shape[1] / 1e6)))  # about a million pixels
+        white = float((pixels[::step, ::step].min(axis=2) >= 250).mean())
+        if white >= CLIPPED_WHITE:
+            found.append(f"{100 * white:.0f}% of the pixels are clipped white: this exposure holds almost no "
+                         f"lighting information, and the estimate is a guess (use a darker exposure)")
+    return found
+
+
 @dataclass
 class Result:
     """What ``estimate_lighting`` found. document: the lighting.json content (io.lighting schema) without
     the input file's identity, which the caller adds as ``source``; model: the lights + SH it describes
-    (Blender world frame, scaled by 2^exposure_ev); estimate: the estimator's output (hdr_panorama needs it)."""
+    (Blender world frame, scaled by 2^exposure_ev); estimate: the estimator's output (hdr_panorama needs it);
+    warnings: ``input_warnings`` of the pixels (the caller names the file and shows them)."""
 
     document: dict
     model: LightingModel
     estimate: Estimate
+    warnings: tuple = ()
 
     @property
     def scale(self) -> float:
@@ -118,7 +145,7 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Re
         timings={"estimate_s": round(est.info["estimate_s"], 6),
                  "model_s": round(time.perf_counter() - t1 - est.info["estimate_s"], 6)},
     )
-    return Result(doc, model, est)
+    return Result(doc, model, est, tuple(input_warnings(pixels)))
 
 
 def require_finite(outputs: dict, exposure_ev: float, what: str = "") -> None:

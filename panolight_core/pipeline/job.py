@@ -102,12 +102,15 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
         result = estimate_lighting(pixels, settings)
     except PanoLightError as exc:
         raise PanoLightError(f"{src}: {exc}") from None
+    for problem in result.warnings:
+        warnings.warn(f"{src}: {problem}", PanoLightWarning, stacklevel=4)
     fitted = result.model
     w, h = resolution
     log(f"reconstructing radiance and irradiance at {w}x{h}" +
         (f" ({len(fitted.lights)} light(s))" if fitted.lights else ""))
     with np.errstate(over="ignore", invalid="ignore"):
-        maps = {"radiance.exr": sh.reconstruct(fitted.coeffs, h, w).astype(np.float32)}
+        emitter, made = sh.emitter_map(fitted.coeffs, h, w)  # no negative light, the same bands 0-2
+        maps = {"radiance.exr": emitter.astype(np.float32)}
         if "previews" in outputs:
             maps["irradiance.exr"] = fitted.irradiance_map(h, w).astype(np.float32)
     require_finite(maps, settings.exposure_ev, f"{src}: ")  # refused before anything is written
@@ -119,6 +122,8 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
                      "width": int(pixels.shape[1]), "height": int(pixels.shape[0]),
                      "dynamic_range": "ldr-8bit-srgb" if pixels.dtype == np.uint8 else "hdr"}
     doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
+    doc.setdefault("model", {}).setdefault("ringing", {})["emitter"] = {
+        "negative_fraction": round(made["negative_fraction"], 6), "moment_error": made["moment_error"]}
     log(f"writing {out_dir}/")
     return _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, settings.exposure_ev)
 

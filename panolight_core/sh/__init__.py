@@ -6,6 +6,7 @@ from .basis import basis
 from .convert import filament_sh_txt, from_paper, to_filament, to_paper, to_threejs, to_unity
 from .grid import pixel_directions, pixel_solid_angles, row_solid_angles
 from .indexing import degrees_orders, lmax_from_count, num_coeffs
+from .nonnegative import emitter_map, nonnegative
 from .irradiance import convolve_lambert, irradiance, irradiance_matrix, irradiance_rh, lambert_kernel
 from .rotation import rotate, rotate_z, rotation_matrices
 from .transform import project, reconstruct
@@ -16,7 +17,7 @@ __all__ = [
     "irradiance_map", "convolve_lambert", "lambert_kernel", "window", "window_weights",
     "auto_window_width", "min_over_grid", "rotate", "rotate_z", "rotation_matrices", "num_coeffs",
     "lmax_from_count", "degrees_orders", "pixel_directions", "pixel_solid_angles", "row_solid_angles",
-    "to_paper", "from_paper", "to_threejs", "to_unity", "to_filament", "filament_sh_txt",
+    "emitter_map", "nonnegative", "to_paper", "from_paper", "to_threejs", "to_unity", "to_filament", "filament_sh_txt",
 ]
 
 

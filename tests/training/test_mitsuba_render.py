@@ -32,6 +32,26 @@ def test_envmap_texels_follow_the_conventions():
     assert np.abs(np.array(got) - ref).max() < 2e-3 * ref.mean()
 
 
+def test_a_ringing_sh_envmap_holds_no_negative_light_and_the_same_diffuse_lighting():
+    """Issue 23: the envmap clamped negative SH radiance to 0, which adds light."""
+    c = np.zeros((25, 3))
+    c[:, :] = sh.basis(np.array([[0.3, 0.4, 0.866]]) / np.linalg.norm([0.3, 0.4, 0.866]), 4)[0][:, None]
+    c[0] += 0.2  # a band-limited sun over a dim sky: rings below zero
+    img = mr.envmap_bitmap(c, [], 64).astype(np.float64)
+    h, w = 64, 128
+    theta = np.pi * np.arange(h) / (h - 1)
+    u = (np.arange(w) + 0.5) / w
+    st = np.sin(theta)[:, None]
+    dirs = np.stack(np.broadcast_arrays(-st * np.cos(2 * np.pi * u), st * np.sin(2 * np.pi * u),
+                                        np.cos(theta)[:, None]), axis=-1).reshape(-1, 3)
+    omega = np.broadcast_to((2 * np.pi / w) * (np.pi / (h - 1)) * np.maximum(st, np.sin(np.pi / (2 * (h - 1)))),
+                            (h, w)).reshape(-1, 1)
+    model = sh.basis(dirs, 4) @ c
+    assert (model < 0).mean() > 0.05 and img.min() >= 0
+    y = sh.basis(dirs, 2)
+    np.testing.assert_allclose((omega * y).T @ img.reshape(-1, 3), (omega * y).T @ model, atol=1e-5)
+
+
 def test_camera_rays_match_mitsuba():
     sensor = mi.load_dict(mr._sensor(40, 30, 55.0, 37.0, -8.0, 1))
     rays = mr.perspective_rays(40, 30, 55.0, 37.0, -8.0)

@@ -397,3 +397,55 @@ def test_a_full_disk_is_one_error_naming_the_file(tmp_path, monkeypatch):
             tmp.write_text("partial")
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("name, pixels, said", [
+    ("black.png", np.zeros((16, 32, 3)), "the panorama is black"),
+    ("black.exr", np.zeros((16, 32, 3), np.float32), "the panorama is black"),
+    ("black.hdr", np.zeros((16, 32, 3), np.float32), "the panorama is black"),
+    ("denormal.exr", np.full((16, 32, 3), 1e-40, np.float32), "the panorama is black"),
+    ("huge.exr", np.full((16, 32, 3), 1e30, np.float32), "pixel values reach"),
+    ("floatmax.exr", np.full((16, 32, 3), np.finfo(np.float32).max / 4, np.float32), "pixel values reach"),
+    ("white.png", np.ones((16, 32, 3)), "100% of the pixels are clipped white"),
+])
+def test_inputs_with_no_meaningful_lighting_are_said_with_the_file_named(tmp_path, capsys, name, pixels, said):
+    """Issue 23: all-black, 1e30 and fully clipped inputs gave zero / 3.5e30 / 160x lighting silently."""
+    src = write_image(tmp_path / name, pixels)
+    for estimator in ("naive", "sources"):
+        assert main(["estimate", str(src), "-o", str(tmp_path / estimator), "--estimator", estimator, "-q"]) == 0
+        err = capsys.readouterr().err
+        assert f"warning: {src}: {said}" in err, err
+    assert main(["batch", str(src), "-o", str(tmp_path / "b"), "-q"]) == 0  # batch reports say it per input
+    import json
+
+    report = json.loads((tmp_path / "b" / "batch_report.json").read_text())
+    assert said in report["results"][0]["warnings"][0] and said in capsys.readouterr().err
+
+
+def test_a_normal_photo_gets_no_such_warning(tmp_path, capsys, rng):
+    src = write_image(tmp_path / "ok.png", rng.random((16, 32, 3)) * 0.8)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_radiance_exr_holds_no_negative_light_and_keeps_the_diffuse_lighting(tmp_path):
+    """Issue 23: radiance.exr (the USD dome's texture) was negative in 13-47 % of its pixels on real
+    photos while lighting.json said "no visible ringing" (only irradiance was checked)."""
+    img = np.full((64, 128, 3), 0.05, np.float32)
+    img[18:22, 88:92] = 400.0  # a small sun: its SH series rings
+    src = write_image(tmp_path / "sun.exr", img)
+    out = tmp_path / "o"
+    assert main(["estimate", str(src), "-o", str(out), "--model", "sh", "--lmax", "6", "--resolution",
+                 "256x128", "-q"]) == 0
+    coeffs, doc = read_lighting(out / "lighting.json")
+    model = sh.reconstruct(coeffs, 128, 256)
+    assert (model < 0).mean() > 0.05  # the SH radiance rings ...
+    emitter = read_image(out / "radiance.exr", negative="error")  # ... the emitter does not
+    assert emitter.min() >= 0
+    y = sh.basis(sh.pixel_directions(128, 256).reshape(-1, 3), 2)
+    w = sh.pixel_solid_angles(128, 256).reshape(-1, 1)
+    np.testing.assert_allclose((w * y).T @ emitter.reshape(-1, 3), (w * y).T @ model.reshape(-1, 3),
+                               rtol=1e-5, atol=1e-6 * abs(coeffs[0]).max())  # bands 0-2: the same irradiance
+    ringing = doc["model"]["ringing"]
+    assert "the SH radiance dips to" in ringing["why"] and ringing["emitter"]["negative_fraction"] > 0.05
+    assert "nearest non-negative map" in ringing["emitters"]
