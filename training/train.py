@@ -151,6 +151,27 @@ def _lighting_loss(model, b, weights):
     return loss
 
 
+def load_autoencoder(path, net) -> dict:
+    """The autoencoder state (``ae.*`` tensors, prefix removed) of a model.safetensors for ``net``'s
+    configuration, read without pickle and checked: PanoLightError naming the file when a tensor is
+    missing, has another shape, or holds NaN / Inf."""
+    from panolight_core.errors import PanoLightError
+    from panolight_core.estimators.nn.safetensors_np import load_safetensors
+
+    weights, _ = load_safetensors(path)
+    ae = {k[3:]: v for k, v in weights.items() if k.startswith("ae.")}
+    for name, want in net.ae.state_dict().items():
+        got = ae.get(name)
+        if got is None:
+            raise PanoLightError(f"{path}: no autoencoder tensor 'ae.{name}' (weights of another configuration?)")
+        if tuple(got.shape) != tuple(want.shape):
+            raise PanoLightError(f"{path}: tensor 'ae.{name}' has shape {tuple(got.shape)}; this configuration "
+                                 f"needs {tuple(want.shape)}")
+        if not np.isfinite(got).all():
+            raise PanoLightError(f"{path}: tensor 'ae.{name}' holds NaN or Inf weights (a diverged training run?)")
+    return {name: torch.from_numpy(np.array(ae[name], dtype=np.float32)) for name in net.ae.state_dict()}
+
+
 def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size: int = 16, lr: float | None = None,
           seed: int = 0, procedural: int = 4000, val_procedural: int = 400, cache=None, max_minutes=None,
           ae_from=None, hdr=None, hdr_copies: int = 0, hold_out=None, relight_pool: str = "procedural",
@@ -166,6 +187,7 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
     of those scenes left out entirely (written to OUT/held_out.json for training.neural_cv). relight_pool:
     "hdr" relights the synthetic samples with the real HDRs' lightings (_datasets)."""
     cfg = load_config(config) if not isinstance(config, dict) else config
+    ae_state = None if ae_from is None else load_autoencoder(ae_from, LightingNet(cfg))  # fail before any work
     rank, world = _distributed()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -183,11 +205,8 @@ def train(config, data, out, *, epochs: int = 10, ae_epochs: int = 2, batch_size
         train_arr, val_arr = _datasets(cfg, data, procedural, val_procedural, seed, cache or data or out,
                                        lambda m: None, hdr, **extra)
     net = LightingNet(cfg)
-    if ae_from is not None:
-        from safetensors.torch import load_file
-
-        ae = {k[3:]: v for k, v in load_file(str(ae_from)).items() if k.startswith("ae.")}
-        net.ae.load_state_dict(ae)
+    if ae_state is not None:
+        net.ae.load_state_dict(ae_state)
     opt = torch.optim.Adam(net.parameters(), lr=lr if lr is not None else cfg.get("lr", 1e-4))
     start, ckpt = 0, out / "checkpoint.pt"
     ae_best = None  # (validation m-RMSE, state) of the autoencoder's best epoch: the lighting stage starts from it

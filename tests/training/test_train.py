@@ -86,3 +86,27 @@ def test_the_autoencoder_is_frozen_at_its_best_validation_epoch(data, tmp_path, 
     assert all(np.array_equal(kept[k], state["ae_best"][k].numpy()) for k in kept)  # exported: the best epoch
     assert any(not np.array_equal(kept[k], last[k].numpy()) for k in kept)  # not the last one
     assert any("epoch 0: the autoencoder as it starts, val m-RMSE 0.800" in s for s in said)
+
+
+def test_malformed_ae_from_weights_get_one_line_naming_the_file(tmp_path, capsys):
+    """Issue 23: train --ae-from a malformed file failed with RecursionError / KeyError / a shape error."""
+    from panolight_core.apps.cli import main
+    from panolight_core.errors import PanoLightError
+    from panolight_core.estimators.nn import estimator as E
+    from tests.panolight_core.estimators.nn.test_estimator import _malformed_weights
+    from training.models import LightingNet
+
+    cfg = E.load_model().config
+    said = {"nested": "unreadable header", "missing": None, "nan": "'ae.dec.0.conv.weight' holds NaN or Inf",
+            "swapped": "tensor 'ae.enc.1.conv.weight' has shape", "huge": None}
+    for key, (path, _) in _malformed_weights(tmp_path).items():
+        if said[key] is None:  # the autoencoder is intact (a missing encoder tensor, another input size)
+            assert set(T.load_autoencoder(path, LightingNet(cfg))) == set(LightingNet(cfg).ae.state_dict())
+            continue
+        with pytest.raises(PanoLightError, match=said[key]):
+            T.load_autoencoder(path, LightingNet(cfg))
+        rc = main(["train", "small", "--ae-from", str(path), "--out", str(tmp_path / key), "-q"])
+        err = capsys.readouterr().err
+        assert rc == 1 and err.count("\n") == 1 and str(path) in err and said[key] in err, (key, err)
+    nested, _ = _malformed_weights(tmp_path)["nested"]
+    assert not (tmp_path / "nested" / "metrics.csv").exists()  # refused before any work

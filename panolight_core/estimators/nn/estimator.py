@@ -42,15 +42,58 @@ def load_model(path=DEFAULT_WEIGHTS) -> Model:
     weights, meta = load_safetensors(path)
     try:
         config = json.loads(meta["config"])
-    except (KeyError, TypeError, json.JSONDecodeError):
+    except (KeyError, TypeError, json.JSONDecodeError, RecursionError):
         raise PanoLightError(f"{path}: the weights carry no model config (export with training.train.export)") from None
+    if not isinstance(config, dict):
+        raise PanoLightError(f"{path}: the model config is not a JSON object")
     missing = [k for k in REQUIRED if k not in config]
     if missing:
         raise PanoLightError(f"{path}: the model config lacks {', '.join(missing)}")
+    _check_config(path, config)
     first = weights.get("ae.enc.0.conv.weight")
     if first is None or first.ndim != 4 or first.shape[1] != CHANNELS:
         raise PanoLightError(f"{path}: not a PanoLight lighting network (unexpected first layer)")
-    return Model({k: v.astype(np.float32) for k, v in weights.items()}, config, path)
+    weights = {k: v.astype(np.float32) for k, v in weights.items()}
+    for name, v in weights.items():
+        if not np.isfinite(v).all():
+            raise PanoLightError(f"{path}: tensor {name!r} holds NaN or Inf weights (a diverged training run?)")
+    h = config["input_height"]
+    try:  # one dry pass: every tensor the config needs is there, with a shape that fits
+        with np.errstate(all="ignore"):
+            forward(weights, config, np.zeros((1, CHANNELS, h, 2 * h), np.float32))
+    except KeyError as exc:
+        raise PanoLightError(f"{path}: the weights lack the tensor {exc.args[0]!r} that the model config needs") from None
+    except (ValueError, IndexError, TypeError) as exc:
+        raise PanoLightError(f"{path}: the weights do not fit the model config ({exc})") from None
+    return Model(weights, config, path)
+
+
+MAX_INPUT_HEIGHT = 1024  # the network's own input rows (the shipped models use 64-128)
+
+
+def _check_config(path, config: dict) -> None:
+    """The config's numbers are of the kind and size a lighting network has, before any array is made."""
+    def ints(v, lo, hi):
+        return isinstance(v, int) and not isinstance(v, bool) and lo <= v <= hi
+
+    def int_list(v, lo, hi):
+        return isinstance(v, list) and 0 < len(v) <= 16 and all(ints(x, lo, hi) for x in v)
+
+    problems = []
+    if not ints(config["input_height"], 8, MAX_INPUT_HEIGHT):
+        problems.append(f"input_height {config['input_height']!r} (8 to {MAX_INPUT_HEIGHT})")
+    if not ints(config["lmax"], 0, 16):
+        problems.append(f"lmax {config['lmax']!r} (0 to 16)")
+    for key, lo, hi in (("ae_widths", 1, 4096), ("encoder_widths", 1, 4096), ("encoder_strides", 1, 4)):
+        if not int_list(config[key], lo, hi):
+            problems.append(f"{key} {config[key]!r} (a list of integers {lo} to {hi})")
+    if not ints(config["hidden"], 1, 1 << 16):
+        problems.append(f"hidden {config['hidden']!r} (1 to 65536)")
+    if not problems and config["input_height"] % (2 ** len(config["ae_widths"])):
+        problems.append(f"input_height {config['input_height']} (a multiple of 2^{len(config['ae_widths'])}, "
+                        f"the autoencoder's depth)")
+    if problems:
+        raise PanoLightError(f"{path}: the model config has an impossible {'; '.join(problems)}")
 
 
 def predict(model: Model, ldr: np.ndarray, lmax: int) -> tuple[np.ndarray, np.ndarray]:

@@ -37,7 +37,7 @@ def load_safetensors(path) -> tuple[dict[str, np.ndarray], dict]:
         raise PanoLightError(f"{p}: not a safetensors file (header length {n} does not fit the file)")
     try:
         header = json.loads(data[8:8 + n])
-    except (UnicodeDecodeError, json.JSONDecodeError):
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):  # RecursionError: nesting bombs
         raise PanoLightError(f"{p}: not a safetensors file (unreadable header)") from None
     if not isinstance(header, dict):
         raise PanoLightError(f"{p}: not a safetensors file (the header is not a JSON object)")

@@ -104,3 +104,51 @@ def test_the_shipped_weights_give_torch_s_numbers_in_numpy():
     got, got_hdr = forward(model.weights, model.config, x[None])
     np.testing.assert_allclose(got, ref.numpy(), rtol=1e-4, atol=1e-4)
     np.testing.assert_allclose(got_hdr, ref_hdr.numpy(), rtol=1e-4, atol=1e-4)
+
+
+def _malformed_weights(tmp_path):
+    """Issue 23's malformed weight files, made from the shipped model: name -> (path, what the line says)."""
+    import struct
+
+    from safetensors.numpy import save_file
+
+    from panolight_core.estimators.nn.safetensors_np import load_safetensors
+
+    weights, meta = load_safetensors(E.DEFAULT_WEIGHTS)
+    made = {}
+
+    def save(name, w, m=meta):
+        save_file({k: np.ascontiguousarray(v) for k, v in w.items()}, str(tmp_path / name), metadata=m)
+        return tmp_path / name
+
+    bomb = tmp_path / "nested.safetensors"
+    header = b"[" * 100000 + b"]" * 100000
+    bomb.write_bytes(struct.pack("<Q", len(header)) + header)
+    made["nested"] = (bomb, "unreadable header")
+    made["missing"] = (save("missing.safetensors", {k: v for k, v in weights.items() if k != "encoder.fc2.weight"}),
+                       "lack the tensor 'encoder.fc2.weight'")
+    nan = dict(weights)
+    nan["ae.dec.0.conv.weight"] = nan["ae.dec.0.conv.weight"].copy()
+    nan["ae.dec.0.conv.weight"].flat[3] = np.nan
+    made["nan"] = (save("nan.safetensors", nan), "'ae.dec.0.conv.weight' holds NaN or Inf")
+    swapped = dict(weights)
+    swapped["ae.enc.1.conv.weight"] = np.swapaxes(swapped["ae.enc.1.conv.weight"], 0, 1)
+    made["swapped"] = (save("swapped.safetensors", swapped), "do not fit the model config")
+    config = json.loads(meta["config"])
+    made["huge"] = (save("huge.safetensors", weights, {**meta, "config": json.dumps({**config, "input_height": 100000})}),
+                    "impossible input_height 100000")
+    return made
+
+
+def test_malformed_weights_get_one_line_naming_the_file(tmp_path, capsys):
+    """Issue 23: RecursionError, KeyError, an error about the radiance map, a conv2d ValueError and an
+    out-of-memory hint that named neither the file nor the cause."""
+    from panolight_core.apps.cli import main
+
+    for key, (path, said) in _malformed_weights(tmp_path).items():
+        E.load_model.cache_clear()
+        with pytest.raises(PanoLightError, match=f"^{path}: .*"):
+            E.load_model(path)
+        assert main(["eval", "--weights", f"{key}={path}", "-q"]) == 1
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and str(path) in err and said in err and "Traceback" not in err, (key, err)
