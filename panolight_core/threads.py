@@ -78,3 +78,13 @@ def imap(fn, items, ahead: int | None = None):
 def map_ordered(fn, items) -> list:
     """``[fn(item) for item in items]`` computed by ``count()`` threads."""
     return list(imap(fn, items, ahead=len(items) if hasattr(items, "__len__") else None))
+
+
+def process_context():
+    """The multiprocessing context for worker processes: forkserver (spawn where it is missing). Workers
+    start from a clean process, never a fork of one whose library thread pools (OpenImageIO's, OpenEXR's,
+    BLAS's) would hang in the child."""
+    import multiprocessing
+
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from panolight_core import sh
+from panolight_core import sh, threads
 from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.estimators.nn.inputs import network_input
 from panolight_core.camera.resample import area_downsample
@@ -169,7 +169,7 @@ def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64,
         raise ValueError("nothing to prepare: give procedural > 0, synthetic samples or HDR panoramas")
     examples = []
     workers = workers or min(len(jobs), os.cpu_count() or 1)
-    with ProcessPoolExecutor(workers) if workers > 1 else contextlib.nullcontext() as pool_ex:
+    with ProcessPoolExecutor(workers, mp_context=threads.process_context()) if workers > 1 else contextlib.nullcontext() as pool_ex:
         chunks = pool_ex.map(_job, jobs, chunksize=16) if pool_ex else (_job(j) for j in jobs)
         for done, exs in enumerate(chunks, 1):
             examples.extend(exs)

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from panolight_core import sh
+from panolight_core import sh, threads
 from panolight_core.estimators import sources
 from panolight_core.camera import auto_exposure, jpeg_roundtrip
 from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
@@ -166,7 +166,7 @@ def build_table(files, augment: int = 16, seed: int = 0, workers: int | None = N
     workers = workers or max(1, min(4, os.cpu_count() or 1))
     out = {}
     t0 = time.perf_counter()
-    with ProcessPoolExecutor(workers) as pool:
+    with ProcessPoolExecutor(workers, mp_context=threads.process_context()) as pool:
         for done, (i, x, y, s) in enumerate(pool.map(_scene_job, jobs), 1):
             out[i] = (x, y, s)
             if done % 10 == 0 or done == len(jobs):

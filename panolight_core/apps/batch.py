@@ -348,13 +348,11 @@ def _run_locked(inputs, names, mine, out_dir, job, shard_spec, quiet, settings, 
             for task in tasks:
                 record(*_process_task(task))
         else:
-            import multiprocessing
             import os
 
-            # forkserver/spawn: workers start from a clean process, never a fork of one whose library
-            # thread pools (OpenEXR's, BLAS's) would hang in the child
-            methods = multiprocessing.get_all_start_methods()
-            ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+            from .. import threads
+
+            ctx = threads.process_context()  # never a fork: library thread pools would hang in the child
             pool = ctx.Pool(min(jobs, len(tasks)), initializer=_worker_init, initargs=(os.getpid(),))
             for k, result in pool.imap_unordered(_process_task, tasks):
                 record(k, result)

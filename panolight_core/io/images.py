@@ -1,293 +1,27 @@
 """Reading and writing panoramas: OpenEXR, Radiance .hdr, PNG (8/16 bit) and JPEG.
 
 read_image returns (H, W, 3) float32 *linear* RGB: 8/16-bit files are sRGB-decoded, HDR files are
-taken as linear Rec.709. Every failure raises ImageError naming the file and the problem.
+taken as linear Rec.709. Every failure raises ImageError naming the file and the problem. Reading goes
+through OpenImageIO (io.read_oiio: the same pixels as in Blender, by row blocks), with simplejpeg for
+colour JPEGs (io.read_jpeg, faster), the OpenEXR package for luminance/chroma EXRs (io.read_exr) and a
+numpy Radiance decoder where OpenImageIO is missing (io.hdr). The numpy-only checks are in io.checks.
 """
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR, linear_to_srgb, srgb_to_linear
-from ..errors import ImageError, PanoLightWarning
-from ..sh.grid import MAX_SIDE  # larger images are refused as absurd
+from ..camera.color import linear_to_srgb
+from ..errors import ImageError
 from . import hdr as _hdr
+from . import read_exr, read_jpeg, read_oiio
 from .atomic import atomic_path
+from .checks import (BLOCK_ROWS, DEFAULT_MAX_MEGAPIXELS, HDR_FORMATS, LDR_FORMATS, MAX_PIXELS,  # noqa: F401
+                     check_jpeg_data, check_size, is_hdr, sanitise_pixels, sniff_format, _sanitise)
 
-MAX_PIXELS = 1 << 29  # 32768 x 16384: no size above this is read at all
-DEFAULT_MAX_MEGAPIXELS = 140.0  # the decode budget: 16384 x 8192 (134 MP, the largest common HDRI) fits
-HDR_FORMATS = ("exr", "hdr")
-LDR_FORMATS = ("png", "jpeg")
 _EXTENSIONS = {".exr": "exr", ".hdr": "hdr", ".pic": "hdr", ".rgbe": "hdr", ".png": "png", ".jpg": "jpeg",
                ".jpeg": "jpeg"}
-
-
-def sniff_format(path) -> str:
-    """'exr' | 'hdr' | 'png' | 'jpeg' from the file's first bytes; raises ImageError otherwise."""
-    import stat
-
-    p = Path(path)
-    try:
-        st = p.stat()
-        if stat.S_ISDIR(st.st_mode):
-            raise ImageError(p, "is a directory, not an image file")
-        if st.st_size == 0:
-            raise ImageError(p, "file is empty (0 bytes)")
-        with open(p, "rb") as f:
-            head = f.read(16)
-    except FileNotFoundError:
-        raise ImageError(p, "file not found") from None
-    except OSError as exc:  # a symlink loop, no permission, a name too long
-        raise ImageError(p, f"cannot be opened ({exc.strerror or exc})") from None
-    if head.startswith(b"\x76\x2f\x31\x01"):
-        return "exr"
-    if head.startswith(b"#?RADIANCE") or head.startswith(b"#?RGBE"):
-        return "hdr"
-    if head.startswith(b"\x89PNG\r\n\x1a\n"):
-        return "png"
-    if head.startswith(b"\xff\xd8\xff"):
-        return "jpeg"
-    raise ImageError(p, f"not a supported image (OpenEXR, Radiance .hdr, PNG or JPEG); starts with {head[:8]!r}")
-
-
-def is_hdr(path) -> bool:
-    """True for OpenEXR / Radiance files (by content)."""
-    return sniff_format(path) in HDR_FORMATS
-
-
-def _check_size(path, h: int, w: int, equirect: bool, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS):
-    if h <= 0 or w <= 0:
-        raise ImageError(path, f"image has zero size ({w} x {h})")
-    if h * w > max_megapixels * 1e6 and h * w <= MAX_PIXELS:
-        raise ImageError(path, f"image is {w} x {h} = {h * w / 1e6:.0f} megapixels, above the decode budget of "
-                               f"{max_megapixels:g} (raise it with --max-megapixels if the file is real)")
-    if h > MAX_SIDE or w > MAX_SIDE or h * w > MAX_PIXELS:
-        raise ImageError(path, f"image size {w} x {h} is larger than supported ({MAX_SIDE} per side, "
-                               f"{MAX_PIXELS} pixels)")
-    if equirect and w != 2 * h:
-        raise ImageError(path, f"equirectangular panoramas must be 2:1 (width = 2 x height); got {w} x {h}")
-
-
-def _exr_colour(names) -> str | None:
-    """Which colour layout an EXR part's channel names hold: "RGB", "YC" (luminance + chroma), "Y", or None."""
-    names = set(names)
-    if {"R", "G", "B"} <= names:
-        return "RGB"
-    if {"Y", "RY", "BY"} <= names:
-        return "YC"
-    return "Y" if "Y" in names else None
-
-
-def _exr_names(header) -> set:
-    return {getattr(c, "name", str(c)) for c in header.get("channels", [])}
-
-
-def _exr_window(header, key):
-    (x0, y0), (x1, y1) = header[key]
-    return int(x0), int(y0), int(x1), int(y1)
-
-
-def _choose_exr_part(path, parts) -> int:
-    """The part that holds the panorama: colour channels over the full display window, 2:1 preferred,
-    then the largest. Says which (a warning) when the file has several parts; refuses crops."""
-    found = []
-    for i, part in enumerate(parts):
-        layout = _exr_colour(_exr_names(part.header))
-        if layout is None:
-            continue
-        x0, y0, x1, y1 = _exr_window(part.header, "dataWindow")
-        w, h = x1 - x0 + 1, y1 - y0 + 1
-        full = _exr_window(part.header, "dataWindow") == _exr_window(part.header, "displayWindow")
-        found.append((full, w == 2 * h, w * h, -i, i, w, h, layout))
-    if not found:
-        names = sorted({c for p in parts for c in _exr_names(p.header)})
-        raise ValueError(f"no R, G, B (or Y) channels in any part; channels are {names}")
-    full, _, _, _, i, w, h, layout = max(found)
-    if not full:
-        x0, y0, x1, y1 = _exr_window(parts[i].header, "dataWindow")
-        d = _exr_window(parts[i].header, "displayWindow")
-        raise ValueError(f"its data window ({x0},{y0})-({x1},{y1}) is a crop of its display window "
-                         f"({d[0]},{d[1]})-({d[2]},{d[3]}); a panorama must cover the whole sphere")
-    if len(parts) > 1:
-        name = parts[i].name() if callable(getattr(parts[i], "name", None)) else str(i)
-        warnings.warn(PanoLightWarning(f"{path}: {len(parts)} parts; using part {i} ({name!r}, {w} x {h} "
-                                       f"{layout}), the largest full-frame colour part"))
-    return i
-
-
-def _read_exr(path) -> np.ndarray:
-    import OpenEXR
-
-    heads = OpenEXR.File(str(path), header_only=True).parts
-    i = _choose_exr_part(path, heads)
-    x0, y0, x1, y1 = _exr_window(heads[i].header, "dataWindow")
-    yield y1 - y0 + 1, x1 - x0 + 1  # checked against the size budget before any pixel is decoded
-    layout = _exr_colour(_exr_names(heads[i].header))
-    if layout == "RGB" and len(heads) == 1 and {"R", "G", "B"} <= set(_exr_names(heads[i].header)):
-        yield _read_exr_rows(path, y0, y1 - y0 + 1, x1 - x0 + 1)  # scanlines by row blocks, as float32
-        return
-    channels = OpenEXR.File(str(path)).parts[i].channels
-    if layout == "RGB":
-        key = "RGB" if "RGB" in channels else "RGBA"
-        src = channels[key].pixels
-        if src.dtype == np.float32 and src.shape[-1] == 3:
-            yield src
-            return
-        out = np.empty(src.shape[:2] + (3,), np.float32)  # half (or RGBA) -> float32 RGB by row blocks,
-        for r in range(0, out.shape[0], _BLOCK_ROWS):      # without a second full-size temporary
-            out[r:r + _BLOCK_ROWS] = src[r:r + _BLOCK_ROWS, :, :3]
-        del src, channels  # the decoded half data goes before the caller holds the float copy
-        yield out
-    elif layout == "YC":
-        yield _luminance_chroma_to_rgb(channels, y1 - y0 + 1, x1 - x0 + 1)
-    else:
-        yield np.repeat(channels["Y"].pixels[..., None], 3, axis=-1)
-
-
-def _read_exr_rows(path, y0: int, h: int, w: int) -> np.ndarray:
-    """A single-part RGB(A) EXR decoded by row blocks straight into float32 (H, W, 3): no full-size
-    half-float or RGBA temporary (a 16K half EXR peaks at its float32 size, not 1.5 times it)."""
-    import Imath
-    import OpenEXR
-
-    out = np.empty((h, w, 3), np.float32)
-    f = OpenEXR.InputFile(str(path))
-    try:
-        float_type = Imath.PixelType(Imath.PixelType.FLOAT)
-        for r in range(0, h, _BLOCK_ROWS):
-            n = min(_BLOCK_ROWS, h - r)
-            planes = f.channels(["R", "G", "B"], float_type, y0 + r, y0 + r + n - 1)
-            for c, plane in enumerate(planes):
-                out[r:r + n, :, c] = np.frombuffer(plane, dtype=np.float32).reshape(n, w)
-    finally:
-        f.close()
-    return out
-
-
-def _luminance_chroma_to_rgb(channels, h: int, w: int) -> np.ndarray:
-    """OpenEXR's luminance/chroma (Y, RY = (R - Y) / Y, BY = (B - Y) / Y; chroma often subsampled) -> RGB
-    with Rec.709 weights (the CONVENTIONS.md primaries)."""
-    y = np.asarray(channels["Y"].pixels, dtype=np.float32)
-
-    def full(name):
-        c = channels[name]
-        a = np.asarray(c.pixels, dtype=np.float32)
-        a = np.repeat(np.repeat(a, int(c.ySampling), axis=0), int(c.xSampling), axis=1)
-        return a[:h, :w]
-
-    r = y * (1.0 + full("RY"))
-    b = y * (1.0 + full("BY"))
-    wr, wg, wb = (float(v) for v in LUMINANCE_WEIGHTS)
-    g = (y - wr * r - wb * b) / wg
-    return np.stack([r, g, b], axis=-1)
-
-
-def _read_hdr(path):
-    data = Path(path).read_bytes()
-    h, w, _ = _hdr.parse_header(data)
-    yield h, w
-    yield _hdr.decode(data)
-
-
-def _read_pil(path, as_uint8=False):
-    """JPEG/PNG: size first (from the header, as displayed: EXIF orientation 5-8 swaps it), then pixels
-    turned upright by their EXIF orientation."""
-    from PIL import Image, ImageOps
-
-    limit = Image.MAX_IMAGE_PIXELS
-    Image.MAX_IMAGE_PIXELS = MAX_PIXELS  # our own budget (_check_size) decides; Pillow's check only warns
-    try:
-        opened = Image.open(path)
-    finally:
-        Image.MAX_IMAGE_PIXELS = limit
-    with opened as im:
-        orientation = _orientation(im)
-        yield (im.width, im.height) if orientation in (5, 6, 7, 8) else (im.height, im.width)
-        if im.format == "PNG" and (im.mode in ("I;16", "I;16B", "I") or _png_bit_depth(path) == 16):
-            yield _read_png16(path, as_uint8)
-            return
-        if im.format == "JPEG" and im.mode == "RGB" and orientation in (0, 1):
-            rgb = _decode_jpeg(path)
-            if rgb is not None:
-                yield rgb if as_uint8 else SRGB8_TO_LINEAR[rgb]
-                return
-        im.load()
-        upright = ImageOps.exif_transpose(im) if orientation not in (0, 1) else im  # (each step is a copy)
-        rgb = _pil_rgb(upright if upright.mode == "RGB" else upright.convert("RGB"))
-        del upright
-    yield rgb if as_uint8 else SRGB8_TO_LINEAR[rgb]
-
-
-def _decode_jpeg(path) -> np.ndarray | None:
-    """(H, W, 3) uint8 of an upright colour JPEG decoded by simplejpeg (libjpeg-turbo straight into one
-    numpy array: a 16K panorama in a third of Pillow's time and memory; the same pixels, as both use
-    libjpeg-turbo's accurate DCT and upsampling), or None when simplejpeg is not installed or refuses the
-    file, so that Pillow decodes it (and words any error)."""
-    try:
-        import simplejpeg
-    except ImportError:
-        return None
-    try:
-        return simplejpeg.decode_jpeg(Path(path).read_bytes(), colorspace="RGB")
-    except ValueError:
-        return None
-
-
-def _pil_rgb(im) -> np.ndarray:
-    """(H, W, 3) uint8 of a loaded RGB Pillow image. Large images are copied out in row strips: numpy's
-    own conversion goes through a whole-image bytes object (twice the image at its peak: a 16K JPEG
-    peaks at 1.0 GB this way, 1.4 GB that way)."""
-    from ..camera.resample import row_blocks
-
-    w, h = im.size
-    if w * h <= (1 << 24):
-        return np.asarray(im)
-    out = np.empty((h, w, 3), np.uint8)
-    for r0, r1 in row_blocks(h, w):
-        out[r0:r1] = np.asarray(im.crop((0, r0, w, r1)))
-    return out
-
-
-def _orientation(im) -> int:
-    """EXIF orientation (1 = upright) read from the header alone: a PNG's eXIf chunk only when it comes
-    before the pixel data (reading further would decode a possibly huge, possibly truncated image)."""
-    from PIL import Image
-
-    if im.format == "PNG":
-        raw = im.info.get("exif")
-        if not raw:
-            return 1
-        exif = Image.Exif()
-        exif.load(raw)
-        return int(exif.get(0x0112, 1))
-    return int(im.getexif().get(0x0112, 1))
-
-
-def _png_bit_depth(path) -> int:
-    with open(path, "rb") as f:
-        head = f.read(26)
-    return head[24] if head.startswith(b"\x89PNG") and len(head) >= 25 else 8
-
-
-def _read_png16(path, as_uint8: bool = False) -> np.ndarray:
-    """A 16-bit PNG: display-referred sRGB, i.e. LDR with more precision. as_uint8: rounded to the 8-bit
-    values the same picture saved as 8 bits would hold, so the LDR estimators find its clipped pixels;
-    else float32 linear."""
-    import png
-
-    w, h, rows, info = png.Reader(filename=str(path)).asDirect()
-    arr = np.vstack([np.asarray(r, dtype=np.uint16) for r in rows]).reshape(h, w, info["planes"])
-    if info["planes"] in (1, 2):
-        arr = np.repeat(arr[..., :1], 3, axis=-1)
-    arr = arr[..., :3].astype(np.float32) / float(2 ** info["bitdepth"] - 1)
-    if as_uint8:
-        return np.round(arr * 255.0).astype(np.uint8)
-    return srgb_to_linear(arr).astype(np.float32)
-
-
-_READERS = {"exr": _read_exr, "hdr": _read_hdr, "png": _read_pil, "jpeg": _read_pil}
 
 
 def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negative: str = "clamp",
@@ -301,43 +35,32 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     sets NaN and -Inf to 0 and +Inf to the largest finite value, with a PanoLightWarning.
     negative: "clamp" (default) sets negative radiance to 0 with a PanoLightWarning, "error" refuses it.
     The size is checked from the header before pixels are decoded: at most ``max_megapixels`` (the
-    documented decode budget, DEFAULT_MAX_MEGAPIXELS) and never above MAX_PIXELS.
+    documented decode budget, DEFAULT_MAX_MEGAPIXELS) and never above MAX_PIXELS; a JPEG whose data is
+    too small for its claimed size is refused before decoding. The peak memory is the returned array
+    plus a row block (the float conversion of an LDR file is one more array of its size).
     """
     if nonfinite not in ("error", "repair") or negative not in ("clamp", "error"):
         raise ValueError("nonfinite must be 'error' or 'repair'; negative must be 'clamp' or 'error'")
     p = Path(path)
     fmt = sniff_format(p)
-    reader = _read_pil(p, as_uint8=True) if ldr_as_uint8 and fmt in LDR_FORMATS else _READERS[fmt](p)
     try:
-        h, w = next(reader)
-    except ImageError:
+        img = _decode(p, fmt, equirect, max_megapixels, ldr_as_uint8)
+    except (ImageError, MemoryError, KeyboardInterrupt):
         raise
-    except Exception as exc:  # decoder libraries raise many types for bad headers
-        raise ImageError(p, f"cannot read {fmt.upper()} header (corrupt or truncated file): {exc}") from None
-    _check_size(p, h, w, equirect, max_megapixels)
-    try:
-        img = next(reader)
-    except Exception as exc:
-        raise ImageError(p, f"cannot decode {fmt.upper()} pixels (corrupt or truncated file): {exc}") from None
-    if img.shape != (h, w, 3):
-        raise ImageError(p, f"decoded shape {img.shape} does not match header size {w} x {h}")
+    except Exception as exc:  # decoder libraries raise many types for bad files
+        raise ImageError(p, f"cannot decode {fmt.upper()} pixels (corrupt or truncated file): "
+                            f"{' '.join(str(exc).split())}") from None
     if img.dtype == np.uint8:
         return np.ascontiguousarray(img)
     return _sanitise(p, np.ascontiguousarray(img, dtype=np.float32), nonfinite, negative)
 
 
-def sanitise_pixels(path, img: np.ndarray, nonfinite: str = "error", negative: str = "clamp") -> np.ndarray:
-    """The float-pixel validation every input goes through (files here, Blender's images in the add-on):
-    NaN/Inf refused ("error") or repaired ("repair"), negative radiance clamped ("clamp", a warning) or
-    refused ("error"); ``path`` names the source in messages. Returns float32 (H, W, 3), repaired in a
-    copy (the caller's array is not changed)."""
-    return _sanitise(path, np.array(img, dtype=np.float32, copy=True), nonfinite, negative)
-
-
-def preflight(path) -> None:
-    """Checks that need no decoder library (they run inside a stock Blender before it opens a file):
-    ImageError for a JPEG without its end marker (truncated: Blender would show grey) and for a
-    multi-part EXR (Blender can crash on some; the CLI reads them part by part)."""
+def preflight(path, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS) -> tuple[int, int] | None:
+    """Checks before Blender opens a file (Blender decodes it whole, with no budget of its own): the
+    header's size against the decode budget, a JPEG's data against its claimed size, a JPEG without its
+    end marker (truncated: Blender would show grey) and a multi-part EXR (Blender can crash on some; the
+    CLI reads them part by part). The size comes from OpenImageIO where it is installed (Blender ships
+    it); without it only the byte-level checks run. Returns the upright (height, width), or None."""
     p = Path(path)
     fmt = sniff_format(p)
     if fmt == "jpeg":
@@ -352,42 +75,40 @@ def preflight(path) -> None:
         if len(head) == 8 and int.from_bytes(head[4:8], "little") & 0x1000:
             raise ImageError(p, "a multi-part EXR: Blender cannot always read these; estimate it with "
                                 "'panolight estimate', or save its panorama part as a single-part EXR")
+    if not read_oiio.available():
+        return None
+    with read_oiio.Opened(p, fmt) as opened:
+        h, w = opened.size
+    check_size(p, h, w, True, max_megapixels)
+    if fmt == "jpeg":
+        check_jpeg_data(p, h, w)
+    return h, w
 
 
-_BLOCK_ROWS = 256  # row blocks for full-resolution passes: temporaries stay a few MB at any width
-
-
-def _sanitise(path, img: np.ndarray, nonfinite: str, negative: str) -> np.ndarray:
-    """Row block by row block, in place (img is this reader's own array): no full-size temporary."""
-    n_bad = n_neg = 0
-    top, low = -np.inf, 0.0
-    for r in range(0, img.shape[0], _BLOCK_ROWS):
-        b = img[r:r + _BLOCK_ROWS]
-        finite = np.isfinite(b)
-        if not finite.all():
-            n_bad += int((~finite).any(axis=-1).sum())
-        if finite.any():
-            top = max(top, float(b[finite].max()))
-        neg = (b < 0) & finite  # -Inf is a non-finite pixel (repaired to 0), not a negative one
-        if neg.any():
-            n_neg += int(neg.any(axis=-1).sum())
-            low = min(low, float(b[neg].min()))
-    if n_bad:
-        if nonfinite == "error":
-            raise ImageError(path, f"{n_bad} pixel(s) contain NaN or Inf (pass nonfinite='repair' / "
-                                   f"--repair-nonfinite to replace them)")
-        top = top if np.isfinite(top) else 0.0
-        for r in range(0, img.shape[0], _BLOCK_ROWS):
-            np.nan_to_num(img[r:r + _BLOCK_ROWS], copy=False, nan=0.0, posinf=top, neginf=0.0)
-        warnings.warn(f"{path}: replaced NaN/Inf in {n_bad} pixel(s) (NaN, -Inf -> 0; +Inf -> {top:g})",
-                      PanoLightWarning, stacklevel=3)
-    if n_neg:
-        if negative == "error":
-            raise ImageError(path, f"{n_neg} pixel(s) have negative radiance (minimum {low:g})")
-        for r in range(0, img.shape[0], _BLOCK_ROWS):
-            np.maximum(img[r:r + _BLOCK_ROWS], 0.0, out=img[r:r + _BLOCK_ROWS])
-        warnings.warn(f"{path}: clamped negative radiance to 0 in {n_neg} pixel(s) (minimum was {low:g})",
-                      PanoLightWarning, stacklevel=3)
+def _decode(p: Path, fmt: str, equirect: bool, max_megapixels: float, as_uint8: bool) -> np.ndarray:
+    if fmt == "exr" and read_exr.luminance_chroma(p):
+        reader = read_exr.read_luminance_chroma(p)
+        check_size(p, *next(reader), equirect, max_megapixels)
+        return next(reader)
+    if not read_oiio.available():
+        if fmt != "hdr":
+            raise ImageError(p, f"reading {fmt.upper()} files needs OpenImageIO (pip install openimageio)")
+        data = p.read_bytes()
+        h, w, _ = _hdr.parse_header(data)
+        check_size(p, h, w, equirect, max_megapixels)
+        return _hdr.decode(data)
+    with read_oiio.Opened(p, fmt) as opened:
+        h, w = opened.size
+        check_size(p, h, w, equirect, max_megapixels)
+        if fmt == "jpeg":
+            check_jpeg_data(p, h, w)
+            if opened.orientation == 1:
+                rgb = read_jpeg.decode(p)  # the fast path for colour JPEGs (None: OpenImageIO reads it)
+                if rgb is not None:
+                    return rgb if as_uint8 else read_oiio.srgb8_to_linear(rgb)
+        img = opened.pixels(as_uint8=as_uint8 and fmt in LDR_FORMATS)
+    if img.shape != (h, w, 3):
+        raise ImageError(p, f"decoded shape {img.shape} does not match header size {w} x {h}")
     return img
 
 

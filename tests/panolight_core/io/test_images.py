@@ -302,23 +302,24 @@ def test_srgb8_pixels_are_written_as_they_are(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.jpg", "a.png"]  # no temporary files left
 
 
-def test_large_images_are_copied_out_in_strips_with_the_same_pixels():
+def test_large_images_are_read_by_row_blocks_with_the_same_pixels(tmp_path):
+    """More rows than one block (io.checks.BLOCK_ROWS): PNG and EXR read block by block into one array."""
     from PIL import Image
 
-    from panolight_core.io import images
+    from panolight_core.io.checks import BLOCK_ROWS
 
-    y, x = np.mgrid[0:64, 0:128]
-    px = np.stack([x * 2, y * 4, (x + y) % 256], -1).astype(np.uint8)
-    with Image.fromarray(px) as im:
-        assert np.array_equal(images._pil_rgb(im), px)
-    big = np.tile(px, (50, 50, 1))  # 3200 x 6400 = 20 MP: above the strip threshold (16.8 MP)
-    with Image.fromarray(big) as im:
-        assert np.array_equal(images._pil_rgb(im), big)
+    y, x = np.mgrid[0:BLOCK_ROWS + 44, 0:2 * (BLOCK_ROWS + 44)]
+    px = np.stack([x % 256, y % 256, (x + y) % 256], -1).astype(np.uint8)
+    Image.fromarray(px).save(tmp_path / "big.png")
+    assert np.array_equal(read_image(tmp_path / "big.png", ldr_as_uint8=True), px)
+    hdr = (px / 7.0).astype(np.float32)
+    assert np.array_equal(read_image(write_image(tmp_path / "big.exr", hdr)), hdr)
 
 
 @pytest.mark.parametrize("options", [{"quality": 90}, {"quality": 95, "subsampling": 0},
                                      {"quality": 75, "subsampling": 1}, {"quality": 85, "progressive": True}])
 def test_jpegs_decode_to_pillows_pixels_with_or_without_simplejpeg(tmp_path, monkeypatch, options):
+    """simplejpeg (the fast path) and OpenImageIO (Blender's reader) give Pillow's pixels exactly."""
     from PIL import Image
 
     rng = np.random.default_rng(3)
@@ -329,13 +330,13 @@ def test_jpegs_decode_to_pillows_pixels_with_or_without_simplejpeg(tmp_path, mon
     with Image.open(path) as im:
         expected = np.asarray(im.convert("RGB"))
     fast = read_image(path, ldr_as_uint8=True)
-    monkeypatch.setitem(sys.modules, "simplejpeg", None)  # not installed: Pillow decodes
+    monkeypatch.setitem(sys.modules, "simplejpeg", None)  # not installed: OpenImageIO decodes
     slow = read_image(path, ldr_as_uint8=True)
     assert np.array_equal(fast, expected) and np.array_equal(slow, expected)
     assert np.array_equal(read_image(path), SRGB8_TO_LINEAR[expected])
 
 
-def test_jpegs_simplejpeg_refuses_fall_back_to_pillow(tmp_path):
+def test_jpegs_simplejpeg_does_not_take_go_to_openimageio_and_corrupt_ones_are_refused(tmp_path):
     from PIL import Image
 
     grey = tmp_path / "grey.jpg"
@@ -347,6 +348,6 @@ def test_jpegs_simplejpeg_refuses_fall_back_to_pillow(tmp_path):
     ok = tmp_path / "ok.jpg"
     Image.fromarray((np.random.default_rng(0).random((64, 128, 3)) * 255).astype(np.uint8)).save(ok)
     data = ok.read_bytes()
-    (tmp_path / "cut.jpg").write_bytes(data[:len(data) // 2])  # simplejpeg refuses; Pillow words the error
+    (tmp_path / "cut.jpg").write_bytes(data[:len(data) // 2])  # refused, never padded with grey
     with pytest.raises(ImageError, match="cut.jpg: cannot decode JPEG pixels"):
         read_image(tmp_path / "cut.jpg")

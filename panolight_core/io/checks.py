@@ -1,0 +1,125 @@
+"""Checks on image files and pixels that need no decoder library (numpy only: they run inside a stock
+Blender too): what a file is (by content), whether its size fits the decode budget, whether a JPEG's
+data can hold the size it claims, and the validation every float pixel goes through."""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ImageError, PanoLightWarning
+from ..sh.grid import MAX_SIDE  # larger images are refused as absurd
+
+MAX_PIXELS = 1 << 29  # 32768 x 16384: no size above this is read at all
+DEFAULT_MAX_MEGAPIXELS = 140.0  # the decode budget: 16384 x 8192 (134 MP, the largest common HDRI) fits
+HDR_FORMATS = ("exr", "hdr")
+LDR_FORMATS = ("png", "jpeg")
+BLOCK_ROWS = 256  # row blocks for full-resolution passes: temporaries stay a few MB at any width
+# a JPEG codes every 8 x 8 luma block with at least one bit (its DC difference, even in progressive
+# scans): fewer bytes than pixels / 512 cannot hold the picture; half that is refused as corrupt
+JPEG_MIN_PIXELS_PER_BYTE = 1024
+
+
+def sniff_format(path) -> str:
+    """'exr' | 'hdr' | 'png' | 'jpeg' from the file's first bytes; raises ImageError otherwise."""
+    import stat
+
+    p = Path(path)
+    try:
+        st = p.stat()
+        if stat.S_ISDIR(st.st_mode):
+            raise ImageError(p, "is a directory, not an image file")
+        if st.st_size == 0:
+            raise ImageError(p, "file is empty (0 bytes)")
+        with open(p, "rb") as f:
+            head = f.read(16)
+    except FileNotFoundError:
+        raise ImageError(p, "file not found") from None
+    except OSError as exc:  # a symlink loop, no permission, a name too long
+        raise ImageError(p, f"cannot be opened ({exc.strerror or exc})") from None
+    if head.startswith(b"\x76\x2f\x31\x01"):
+        return "exr"
+    if head.startswith(b"#?RADIANCE") or head.startswith(b"#?RGBE"):
+        return "hdr"
+    if head.startswith(b"\x89PNG\r\n\x1a\n"):
+        return "png"
+    if head.startswith(b"\xff\xd8\xff"):
+        return "jpeg"
+    raise ImageError(p, f"not a supported image (OpenEXR, Radiance .hdr, PNG or JPEG); starts with {head[:8]!r}")
+
+
+def is_hdr(path) -> bool:
+    """True for OpenEXR / Radiance files (by content)."""
+    return sniff_format(path) in HDR_FORMATS
+
+
+def is_hdr(path) -> bool:
+    """True for OpenEXR / Radiance files (by content)."""
+    return sniff_format(path) in HDR_FORMATS
+
+
+def check_size(path, h: int, w: int, equirect: bool, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS):
+    """ImageError unless (h, w) is a size worth decoding: not zero, within the decode budget
+    (``max_megapixels``) and MAX_PIXELS, and 2:1 when ``equirect``."""
+    if h <= 0 or w <= 0:
+        raise ImageError(path, f"image has zero size ({w} x {h})")
+    if h * w > max_megapixels * 1e6 and h * w <= MAX_PIXELS:
+        raise ImageError(path, f"image is {w} x {h} = {h * w / 1e6:.0f} megapixels, above the decode budget of "
+                               f"{max_megapixels:g} (raise it with --max-megapixels if the file is real)")
+    if h > MAX_SIDE or w > MAX_SIDE or h * w > MAX_PIXELS:
+        raise ImageError(path, f"image size {w} x {h} is larger than supported ({MAX_SIDE} per side, "
+                               f"{MAX_PIXELS} pixels)")
+    if equirect and w != 2 * h:
+        raise ImageError(path, f"equirectangular panoramas must be 2:1 (width = 2 x height); got {w} x {h}")
+
+
+def check_jpeg_data(path, h: int, w: int) -> None:
+    """ImageError when a JPEG's file is too small for the size its frame header claims (a patched or
+    truncated header: decoders would pad the missing picture with grey)."""
+    size = Path(path).stat().st_size
+    if size * JPEG_MIN_PIXELS_PER_BYTE < h * w:
+        raise ImageError(path, f"the JPEG claims {w} x {h} pixels but holds only {size} bytes, too few for that "
+                               f"picture (corrupt or truncated file)")
+
+
+def sanitise_pixels(path, img: np.ndarray, nonfinite: str = "error", negative: str = "clamp") -> np.ndarray:
+    """The float-pixel validation every input goes through (files here, Blender's images in the add-on):
+    NaN/Inf refused ("error") or repaired ("repair"), negative radiance clamped ("clamp", a warning) or
+    refused ("error"); ``path`` names the source in messages. Returns float32 (H, W, 3), repaired in a
+    copy (the caller's array is not changed)."""
+    return _sanitise(path, np.array(img, dtype=np.float32, copy=True), nonfinite, negative)
+
+
+def _sanitise(path, img: np.ndarray, nonfinite: str, negative: str) -> np.ndarray:
+    """Row block by row block, in place (img is this reader's own array): no full-size temporary."""
+    n_bad = n_neg = 0
+    top, low = -np.inf, 0.0
+    for r in range(0, img.shape[0], BLOCK_ROWS):
+        b = img[r:r + BLOCK_ROWS]
+        finite = np.isfinite(b)
+        if not finite.all():
+            n_bad += int((~finite).any(axis=-1).sum())
+        if finite.any():
+            top = max(top, float(b[finite].max()))
+        neg = (b < 0) & finite  # -Inf is a non-finite pixel (repaired to 0), not a negative one
+        if neg.any():
+            n_neg += int(neg.any(axis=-1).sum())
+            low = min(low, float(b[neg].min()))
+    if n_bad:
+        if nonfinite == "error":
+            raise ImageError(path, f"{n_bad} pixel(s) contain NaN or Inf (pass nonfinite='repair' / "
+                                   f"--repair-nonfinite to replace them)")
+        top = top if np.isfinite(top) else 0.0
+        for r in range(0, img.shape[0], BLOCK_ROWS):
+            np.nan_to_num(img[r:r + BLOCK_ROWS], copy=False, nan=0.0, posinf=top, neginf=0.0)
+        warnings.warn(f"{path}: replaced NaN/Inf in {n_bad} pixel(s) (NaN, -Inf -> 0; +Inf -> {top:g})",
+                      PanoLightWarning, stacklevel=3)
+    if n_neg:
+        if negative == "error":
+            raise ImageError(path, f"{n_neg} pixel(s) have negative radiance (minimum {low:g})")
+        for r in range(0, img.shape[0], BLOCK_ROWS):
+            np.maximum(img[r:r + BLOCK_ROWS], 0.0, out=img[r:r + BLOCK_ROWS])
+        warnings.warn(f"{path}: clamped negative radiance to 0 in {n_neg} pixel(s) (minimum was {low:g})",
+                      PanoLightWarning, stacklevel=3)
+    return img

@@ -1,0 +1,198 @@
+"""Reading panoramas with OpenImageIO, the VFX standard reader: the one path the CLI (the ``openimageio``
+wheel) and Blender (the module it ships) take, so both see the same pixels.
+
+The size is known from the header before anything is allocated; pixels are read by row blocks straight
+into the one array returned (the peak is that array plus a block, whatever the format: PNG, tiled or
+scanline EXR, Radiance .hdr). Quirks handled by the book:
+- several subimages (multi-part EXR): the largest full-frame colour part, 2:1 preferred, said in a warning;
+- a data window that is a crop of the display window: refused (a panorama covers the whole sphere);
+- orientation (EXIF 1-8 of JPEG/PNG, a Radiance ``+Y`` resolution line): applied, the size is the upright one;
+- integer EXR channels (UINT): their values, not OpenImageIO's normalisation to [0, 1];
+- 16-bit PNG: display-referred LDR (as 8 bits for the estimators, or sRGB-decoded to linear);
+- grey (Y) and grey + alpha images: the grey channel three times;
+- Radiance RGBE: the half-step offset of Radiance's own decoder ((mantissa + 0.5) 2^(e - 136));
+- any decoder complaint (a JPEG padded with grey past its data, a short file): refused, not kept.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..camera.color import SRGB8_TO_LINEAR, srgb_to_linear
+from ..errors import ImageError, PanoLightWarning
+from .checks import BLOCK_ROWS
+
+
+def available() -> bool:
+    try:
+        import OpenImageIO  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+class Opened:
+    """An open panorama file: ``size`` (upright (height, width)), ``orientation`` (EXIF 1-8), then
+    ``pixels()`` once. Close with ``close()`` (or use it as a context manager)."""
+
+    def __init__(self, path, fmt: str):
+        import OpenImageIO as oiio
+
+        self.oiio, self.path, self.fmt = oiio, path, fmt
+        self.inp = oiio.ImageInput.open(str(path))
+        if self.inp is None:
+            raise ImageError(path, f"cannot read {fmt.upper()} header (corrupt or truncated file): "
+                                   f"{_clean(oiio.geterror())}")
+        try:
+            self.subimage, self.spec = self._choose_subimage()
+            self.channels = _colour_channels(path, self.spec)
+            self.orientation = int(self.spec.get_int_attribute("Orientation", 1))
+            if self.orientation not in range(1, 9):
+                self.orientation = 1
+        except BaseException:
+            self.close()
+            raise
+        h, w = self.spec.height, self.spec.width
+        self.size = (w, h) if self.orientation >= 5 else (h, w)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self):
+        if self.inp is not None:
+            self.inp.close()
+            self.inp = None
+
+    def _choose_subimage(self):
+        """(index, spec) of the part holding the panorama; refuses crops, warns when choosing among parts."""
+        found, specs = [], []
+        i = 0
+        while self.inp.seek_subimage(i, 0):
+            spec = self.inp.spec()
+            specs.append(spec)
+            if _colour_layout(spec.channelnames) is not None:
+                full = (spec.x, spec.y, spec.width, spec.height) == \
+                       (spec.full_x, spec.full_y, spec.full_width, spec.full_height)
+                found.append((full, spec.width == 2 * spec.height, spec.width * spec.height, -i, i))
+            i += 1
+            if i > 64:
+                break
+        if not found:
+            names = sorted({c for s in specs for c in s.channelnames})
+            raise ImageError(self.path, f"no R, G, B (or Y) channels in any part; channels are {names}")
+        full, _, _, _, i = max(found)
+        spec = specs[i]
+        if not full:
+            raise ImageError(self.path, f"its data window ({spec.x},{spec.y}) {spec.width} x {spec.height} is a crop "
+                                        f"of its display window ({spec.full_x},{spec.full_y}) {spec.full_width} x "
+                                        f"{spec.full_height}; a panorama must cover the whole sphere")
+        if len(specs) > 1:
+            name = spec.get_string_attribute("name") or str(i)
+            warnings.warn(PanoLightWarning(f"{self.path}: {len(specs)} parts; using part {i} ({name!r}, "
+                                           f"{spec.width} x {spec.height} {_colour_layout(spec.channelnames)}), "
+                                           f"the largest full-frame colour part"))
+        self.inp.seek_subimage(i, 0)
+        return i, spec
+
+    def pixels(self, as_uint8: bool = False) -> np.ndarray:
+        """(H, W, 3) upright: uint8 sRGB values (8-bit files, or 16-bit PNGs rounded, with ``as_uint8``),
+        else float32 linear (8/16-bit files sRGB-decoded; HDR files as stored, integer channels as their
+        values)."""
+        spec, oiio = self.spec, self.oiio
+        h, w = spec.height, spec.width
+        base = str(spec.format)
+        integer_ldr = self.fmt in ("png", "jpeg")
+        if integer_ldr and base == "uint8":
+            kind, out_dtype = "uint8", np.uint8
+        elif integer_ldr and base == "uint16":
+            kind, out_dtype = "uint16", (np.uint8 if as_uint8 else np.float32)
+        elif base in ("uint", "uint32"):  # an EXR's integer channels: their values
+            kind, out_dtype = "uint32", np.float32
+        else:
+            kind, out_dtype = "float", np.float32
+        out = np.empty((h, w, 3), out_dtype)
+        first, last = min(self.channels), max(self.channels)
+        pick = [c - first for c in self.channels]
+        for r0 in range(0, h, BLOCK_ROWS):
+            r1 = min(h, r0 + BLOCK_ROWS)
+            block = self.inp.read_scanlines(self.subimage, 0, spec.y + r0, spec.y + r1, 0, first, last + 1, kind)
+            if block is None or self.inp.has_error:
+                raise ImageError(self.path, f"cannot decode {self.fmt.upper()} pixels (corrupt or truncated file): "
+                                            f"{_clean(self.inp.geterror())}")
+            block = np.asarray(block).reshape(r1 - r0, w, last - first + 1)[..., pick]
+            out[r0:r1] = _convert(block, kind, as_uint8) if kind == "uint16" else block
+        if self.fmt == "hdr":
+            _radiance_half_step(out)
+        if self.inp.has_error:  # a warning the last block raised (libjpeg's "premature end", ...)
+            raise ImageError(self.path, f"cannot decode {self.fmt.upper()} pixels (corrupt or truncated file): "
+                                        f"{_clean(self.inp.geterror())}")
+        if integer_ldr and out.dtype == np.uint8 and not as_uint8:
+            out = srgb8_to_linear(out)
+        return upright(out, self.orientation)
+
+
+def _convert(block: np.ndarray, kind: str, as_uint8: bool) -> np.ndarray:
+    """16-bit LDR values -> 8-bit (rounded) or linear float32."""
+    v = block.astype(np.float32) / np.float32(65535.0)
+    if as_uint8:
+        return np.round(v * 255.0).astype(np.uint8)
+    return srgb_to_linear(v).astype(np.float32)
+
+
+def srgb8_to_linear(rgb8: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 sRGB -> float32 linear, by row blocks (no full-size temporary beyond the result)."""
+    out = np.empty(rgb8.shape, np.float32)
+    for r in range(0, rgb8.shape[0], BLOCK_ROWS):
+        out[r:r + BLOCK_ROWS] = SRGB8_TO_LINEAR[rgb8[r:r + BLOCK_ROWS]]
+    return out
+
+
+def _radiance_half_step(img: np.ndarray) -> None:
+    """OpenImageIO decodes RGBE as mantissa 2^(e - 136); Radiance's own decoder (and the format's
+    definition of a stored value as the middle of its step) adds half a step: (mantissa + 0.5) 2^(e - 136).
+    The step follows from the pixel's largest channel (its mantissa is 128-255). In place, by row blocks."""
+    for r in range(0, img.shape[0], BLOCK_ROWS):
+        b = img[r:r + BLOCK_ROWS]
+        peak = b.max(axis=-1, keepdims=True)
+        _, e = np.frexp(peak)
+        half = np.where(peak > 0, np.ldexp(np.float32(0.5), e - 8), 0).astype(np.float32)
+        b += half
+
+
+def upright(img: np.ndarray, orientation: int) -> np.ndarray:
+    """Pixels as displayed, from the stored ones and the EXIF orientation (1-8; Pillow's exif_transpose)."""
+    if orientation in (0, 1):
+        return img
+    view = {2: lambda a: a[:, ::-1], 3: lambda a: a[::-1, ::-1], 4: lambda a: a[::-1],
+            5: lambda a: np.swapaxes(a, 0, 1), 6: lambda a: np.rot90(a, -1),
+            7: lambda a: np.swapaxes(a[::-1, ::-1], 0, 1), 8: lambda a: np.rot90(a, 1)}[orientation](img)
+    return np.ascontiguousarray(view)
+
+
+def _colour_layout(names) -> str | None:
+    names = set(names)
+    if {"R", "G", "B"} <= names:
+        return "RGB"
+    if {"Y", "RY", "BY"} <= names:
+        return "YC"
+    return "Y" if "Y" in names or len(names) in (1, 2) else None
+
+
+def _colour_channels(path, spec) -> list[int]:
+    """Channel indices of R, G, B (a grey image's one channel three times)."""
+    names = list(spec.channelnames)
+    if {"R", "G", "B"} <= set(names):
+        return [names.index(c) for c in "RGB"]
+    if "Y" in names and not {"RY", "BY"} & set(names):
+        return [names.index("Y")] * 3
+    if len(names) in (1, 2):  # grey, grey + alpha (PNG)
+        return [0, 0, 0]
+    raise ImageError(path, f"no R, G, B (or Y) channels; channels are {names}")
+
+
+def _clean(message: str) -> str:
+    return " ".join(str(message).split()) or "the decoder gave no reason"
