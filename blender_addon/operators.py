@@ -95,11 +95,15 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         path = Path(bpy.path.abspath(self.filepath))
         if not path.is_file():
             raise Error(f"{path}: file not found")
-        core.io.images.preflight(path)  # what Blender would read wrong or crash on
-        try:
-            image = W.load_panorama(str(path))
-        except RuntimeError as exc:  # bpy's own "cannot read" error
-            raise Error(f"{path}: {str(exc).strip()}") from None
+        # what Blender would read wrong, crash on, or decode past the budget (it has none of its own)
+        upright = core.io.images.preflight(path)
+        if upright is not None and upright[2] != 1:  # Blender ignores EXIF orientation and +Y .hdr files
+            image = W.upright_panorama(str(path), core.io.images.read_image(path))
+        else:
+            try:
+                image = W.load_panorama(str(path))
+            except RuntimeError as exc:  # bpy's own "cannot read" error
+                raise Error(f"{path}: {str(exc).strip()}") from None
         w, h = image.size
         if w == 0 or h == 0:
             raise Error(f"{path}: Blender could not read this image")

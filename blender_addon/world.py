@@ -9,9 +9,9 @@ Explicit lights of the adaptive model become sun lamps (with their angular size)
 """
 from __future__ import annotations
 
-import math
-
 import json
+import math
+from pathlib import Path
 
 import bpy
 import numpy as np
@@ -25,6 +25,7 @@ HDRI_IMAGE_NAME = "PanoLight HDRI"
 TAG = "panolight"
 PANORAMA_KEY = "panolight_panorama"  # world ID property: the panorama image itself (an ID pointer: renames follow)
 LIGHTING_KEY = "panolight_lighting"  # world ID property: the estimate, a lighting.json document as JSON
+SOURCE_KEY = "panolight_source"  # image ID property: the file an upright copy was made from
 ESTIMATE_KEY = "panolight_estimate"  # world and HDRI image ID property: which estimate the HDRI is of
 
 
@@ -91,35 +92,35 @@ def image_pixels(image) -> np.ndarray:
 
 
 def file_pixels(image):
-    """``image_pixels`` read from the image's file by scanlines with the OpenImageIO module Blender ships,
-    or None where that does not apply (no OpenImageIO, a packed, generated or edited image, a missing
-    file, a layout other than Blender's). No float copy of the image is made: a 16K JPEG costs its 0.4 GB
-    of uint8 pixels instead of a 2.1 GB RGBA float read (the same values, tested)."""
-    try:
-        import OpenImageIO as oiio
-    except ImportError:
+    """``image_pixels`` read from the image's file by the core's reader (io.images.read_image, on the
+    OpenImageIO module Blender ships): the CLI's pixels exactly, with its decode budget, by row blocks
+    (a 16K JPEG costs its 0.4 GB of uint8 pixels, not a 2.1 GB RGBA float read). None for a packed,
+    generated or edited image, or a missing file: Blender's own pixels are then read."""
+    source = image.get(SOURCE_KEY)  # PanoLight's upright copy of a turned file: read the file itself
+    if source is None:
+        if image.source != "FILE" or image.packed_file is not None or image.is_dirty:
+            return None
+        source = bpy.path.abspath(image.filepath)
+    path = Path(source)
+    if not path.is_file():
         return None
-    if image.source != "FILE" or image.packed_file is not None or image.is_dirty:
-        return None
-    path = bpy.path.abspath(image.filepath)
-    inp = oiio.ImageInput.open(path)
-    if inp is None:
-        return None
-    try:
-        spec = inp.spec()
-        if spec.nchannels < 3 or (spec.width, spec.height) != tuple(image.size) or inp.spec(1, 0).width:
-            return None  # several subimages, or not the image Blender shows
-        w, h = spec.width, spec.height
-        out = np.empty((h, w, 3), np.float32 if image.is_float else np.uint8)
-        fmt = oiio.FLOAT if image.is_float else oiio.UINT8
-        for r0, r1 in core.camera.resample.row_blocks(h, w):
-            block = inp.read_scanlines(0, 0, r0, r1, 0, 0, 3, fmt)
-            if block is None or block.shape[:2] != (r1 - r0, w):
-                return None
-            out[r0:r1] = block.reshape(r1 - r0, w, -1)[..., :3]
-        return out
-    finally:
-        inp.close()
+    return core.io.images.read_image(path, ldr_as_uint8=True)
+
+
+def upright_panorama(filepath: str, pixels: np.ndarray):
+    """PanoLight's own packed float image of a file Blender would show turned (an EXIF orientation, a
+    Radiance ``+Y`` file: Blender ignores both): the core's upright linear pixels (H, W, 3), so the
+    background and the estimate agree. The file's path is kept (``file_pixels`` reads it again)."""
+    h, w = pixels.shape[:2]
+    image = bpy.data.images.new(Path(filepath).name, w, h, alpha=False, float_buffer=True)
+    image[TAG] = "panorama"
+    image[SOURCE_KEY] = str(filepath)
+    image.colorspace_settings.name = "Linear Rec.709"
+    rgba = np.ones((h, w, 4), np.float32)
+    rgba[..., :3] = pixels[::-1]  # Blender's rows are bottom-up
+    image.pixels.foreach_set(rgba.ravel())
+    image.pack()
+    return image
 
 
 def ours(collection, name: str):

@@ -6,6 +6,7 @@ import sys
 
 from ..errors import printable
 
+MAX_MAP_HEIGHT = 2048  # radiance.exr / irradiance.exr: at most 4096 x 2048
 HelpFormatter = argparse.RawDescriptionHelpFormatter  # epilogs keep their examples' line breaks
 
 
@@ -15,11 +16,13 @@ def stderr_log(quiet: bool):
 
 
 def resolution(text: str) -> tuple[int, int]:
-    """An argparse type: '512x256' -> (512, 256), 2:1 with height 1..8192."""
+    """An argparse type: '512x256' -> (512, 256), 2:1 with height 1..MAX_MAP_HEIGHT (the SH maps are smooth:
+    4096 x 2048 resolves every order PanoLight fits many times over; larger maps only cost memory)."""
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise argparse.ArgumentTypeError(f"resolution must look like 512x256, got {text!r}") from None
-    if w != 2 * h or h < 1 or h > 8192:
-        raise argparse.ArgumentTypeError(f"resolution must be 2:1 with height 1..8192, got {text!r}")
+    if w != 2 * h or h < 1 or h > MAX_MAP_HEIGHT:
+        raise argparse.ArgumentTypeError(f"resolution must be 2:1 with height 1..{MAX_MAP_HEIGHT} (the SH maps are "
+                                         f"smooth; hdr.exr keeps the input's full resolution), got {text!r}")
     return w, h

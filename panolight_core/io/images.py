@@ -55,12 +55,13 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     return _sanitise(p, np.ascontiguousarray(img, dtype=np.float32), nonfinite, negative)
 
 
-def preflight(path, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS) -> tuple[int, int] | None:
+def preflight(path, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS) -> tuple[int, int, int] | None:
     """Checks before Blender opens a file (Blender decodes it whole, with no budget of its own): the
     header's size against the decode budget, a JPEG's data against its claimed size, a JPEG without its
     end marker (truncated: Blender would show grey) and a multi-part EXR (Blender can crash on some; the
     CLI reads them part by part). The size comes from OpenImageIO where it is installed (Blender ships
-    it); without it only the byte-level checks run. Returns the upright (height, width), or None."""
+    it); without it only the byte-level checks run. Returns the upright (height, width) and the EXIF
+    orientation (1: as stored), or None."""
     p = Path(path)
     fmt = sniff_format(p)
     if fmt == "jpeg":
@@ -78,11 +79,11 @@ def preflight(path, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS) -> tuple[int
     if not read_oiio.available():
         return None
     with read_oiio.Opened(p, fmt) as opened:
-        h, w = opened.size
+        (h, w), orientation = opened.size, opened.orientation
     check_size(p, h, w, True, max_megapixels)
     if fmt == "jpeg":
         check_jpeg_data(p, h, w)
-    return h, w
+    return h, w, orientation
 
 
 def _decode(p: Path, fmt: str, equirect: bool, max_megapixels: float, as_uint8: bool) -> np.ndarray:

@@ -12,10 +12,12 @@ that is needed, and zero where the ringing was.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from .basis import basis
-from .grid import pixel_directions, pixel_solid_angles
+from .grid import directions_at, pixel_directions, pixel_solid_angles, row_solid_angles
 from .transform import reconstruct
 
 
@@ -78,16 +80,77 @@ def _solve(r, y, wy, lam, max_iterations, tolerance):
 
 def emitter_map(coeffs: np.ndarray, height: int, width: int, keep_lmax: int = 2) -> tuple[np.ndarray, dict]:
     """The emitter of SH radiance ``coeffs`` (K, C) on an equirect (height, width) grid (Blender world
-    frame, pixel centres): ``nonnegative`` of its reconstruction, with the pixels' solid angles."""
+    frame, pixel centres): ``nonnegative`` of its reconstruction with the pixels' solid angles, as float64
+    (H, W, C). Solved on a coarse grid first, then refined and applied by row blocks on the full grid, so
+    the memory is the map plus a block whatever the size."""
     c = np.asarray(coeffs, dtype=np.float64)
-    start = None
-    if height > COARSE:  # Newton on a coarse grid first: the fine grid then needs one or two steps
-        coarse = reconstruct(c, COARSE, 2 * COARSE)
-        start = nonnegative(coarse, pixel_directions(COARSE, 2 * COARSE), pixel_solid_angles(COARSE, 2 * COARSE),
-                            keep_lmax)[1]["lam"]
     rad = reconstruct(c, height, width)
-    return nonnegative(rad, pixel_directions(height, width), pixel_solid_angles(height, width), keep_lmax,
-                       start=start)
+    k = (keep_lmax + 1) ** 2
+    negative = sum(int((rad[r0:r1].min(axis=-1) < 0).sum()) for r0, r1 in _blocks(height, width))
+    info = {"negative_fraction": negative / (height * width), "iterations": 0, "moment_error": 0.0,
+            "lam": np.zeros((k, c.shape[-1]))}
+    if not negative:
+        return rad, info
+    ch = min(height, COARSE)
+    coarse = reconstruct(c, ch, 2 * ch)
+    lam = nonnegative(coarse, pixel_directions(ch, 2 * ch), pixel_solid_angles(ch, 2 * ch), keep_lmax)[1]["lam"]
+    lam, sweeps, err, dark = _refine(rad, height, width, keep_lmax, lam)
+    for r0, r1 in _blocks(height, width):  # the emitter, in place
+        y = _block_basis(r0, r1, height, width, keep_lmax)
+        np.maximum(rad[r0:r1] + (y @ lam).reshape(r1 - r0, width, -1), 0.0, out=rad[r0:r1])
+        rad[r0:r1, :, dark] = 0.0  # no non-negative map has a mean <= 0: no light
+    err = 1.0 if dark.any() else err
+    info.update(iterations=sweeps, moment_error=err, lam=lam)
+    return rad, info
 
 
 COARSE = 64  # rows of emitter_map's first solve
+BLOCK = 1 << 18  # pixels per row block of emitter_map's full-grid passes
+
+
+def _blocks(height: int, width: int):
+    step = max(1, BLOCK // width)
+    return [(r, min(height, r + step)) for r in range(0, height, step)]
+
+
+@lru_cache(maxsize=4)
+def _block_basis(r0: int, r1: int, height: int, width: int, keep_lmax: int) -> np.ndarray:
+    """(n, K') real SH of bands 0..keep_lmax at the pixel centres of rows r0..r1 (the last few blocks
+    are kept: a default-size map is one block, made once for all the passes)."""
+    rows, cols = np.meshgrid(np.arange(r0, r1), np.arange(width), indexing="ij")
+    y = basis(directions_at(rows.ravel(), cols.ravel(), height, width), keep_lmax, check_unit=False)
+    y.setflags(write=False)
+    return y
+
+
+def _refine(rad, height, width, keep_lmax, lam, sweeps: int = 8, tolerance: float = 1e-9):
+    """Newton sweeps of ``_solve`` on the full grid, accumulated by row blocks. Returns (lam, sweeps,
+    moment error relative to band 0, the channels whose mean is <= 0)."""
+    n_c = rad.shape[-1]
+    row_w = row_solid_angles(height, width)
+    target = np.zeros_like(lam)
+    for r0, r1 in _blocks(height, width):
+        y = _block_basis(r0, r1, height, width, keep_lmax)
+        wy = np.repeat(row_w[r0:r1], width)[:, None] * y
+        target += wy.T @ rad[r0:r1].reshape(-1, n_c)
+    scale = np.maximum(np.abs(target[0]), np.finfo(float).tiny)
+    lam = np.where(target[0] > 0, lam, 0.0)
+    err, done = np.inf, 0
+    for done in range(sweeps + 1):
+        g = -target.copy()
+        jac = np.zeros((n_c,) + (lam.shape[0],) * 2)
+        for r0, r1 in _blocks(height, width):
+            y = _block_basis(r0, r1, height, width, keep_lmax)
+            wy = np.repeat(row_w[r0:r1], width)[:, None] * y
+            f = rad[r0:r1].reshape(-1, n_c) + y @ lam
+            g += wy.T @ np.maximum(f, 0.0)
+            for ch in range(n_c):
+                active = f[:, ch] > 0
+                jac[ch] += wy[active].T @ y[active]
+        live = target[0] > 0  # a channel of no light stays at zero
+        err = float(np.max(np.abs(g[:, live]) / scale[live])) if live.any() else 0.0
+        if err <= tolerance or done == sweeps:
+            break
+        for ch in np.flatnonzero(live):
+            lam[:, ch] -= np.linalg.lstsq(jac[ch] + 1e-12 * scale[ch] * np.eye(lam.shape[0]), g[:, ch], rcond=None)[0]
+    return lam, done, err, ~(target[0] > 0)

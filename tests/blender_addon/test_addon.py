@@ -497,3 +497,70 @@ def test_the_panorama_is_tracked_by_identity_not_by_name(tmp_path):
     with pytest.raises(RuntimeError, match="no panorama loaded"):
         bpy.ops.panolight.estimate_lighting()
     bpy.data.images.remove(impostor)
+
+
+def _cli_l00(path):
+    from panolight_core.io import read_image
+    from panolight_core.pipeline.estimate import estimate_lighting
+    from panolight_core.pipeline.settings import Settings
+
+    return np.asarray(estimate_lighting(read_image(path, ldr_as_uint8=True),
+                                        Settings(model="sh", lmax=2)).document["coefficients"][0])
+
+
+def test_blender_reads_every_file_with_the_clis_reader(tmp_path):
+    """Issue 23: Blender read a 16-bit PNG as linear (L00 2.07 against 1.17), a UINT EXR as 0, accepted a
+    cropped EXR and a +Y .hdr the CLI refused, and refused an EXIF-rotated JPEG the CLI accepted."""
+    import struct
+
+    import OpenEXR
+    import png
+    from PIL import Image
+
+    from panolight_core.io import hdr as hdr_codec
+
+    rng = np.random.default_rng(5)
+    upright = (rng.random((32, 64, 3)) * 200).astype(np.uint8)
+    upright[4:8, 40:46] = 255
+    files = {}
+    with open(tmp_path / "p16.png", "wb") as f:
+        png.Writer(64, 32, bitdepth=16, greyscale=False).write(f, (upright.astype(np.uint16) * 257).reshape(32, -1).tolist())
+    files["16-bit PNG"] = tmp_path / "p16.png"
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                      {"RGB": upright.astype(np.uint32) * 7}) as f:
+        f.write(str(tmp_path / "uint.exr"))
+    files["UINT EXR"] = tmp_path / "uint.exr"
+    im = Image.fromarray(np.ascontiguousarray(np.rot90(upright, 1)))
+    exif = im.getexif()
+    exif[0x0112] = 6
+    im.save(tmp_path / "rot.jpg", exif=exif, quality=95)
+    files["EXIF-rotated JPEG"] = tmp_path / "rot.jpg"
+    data = hdr_codec.encode(upright[::-1].astype(np.float64) / 50.0)  # stored bottom row first ...
+    (tmp_path / "plusy.hdr").write_bytes(data.replace(b"-Y 32 +X 64", b"+Y 32 +X 64"))  # ... as +Y says
+    files["+Y .hdr"] = tmp_path / "plusy.hdr"
+    _configure(lmax="2", model="sh")
+    for what, path in files.items():
+        assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}, what
+        _configure(lmax="2", model="sh")
+        assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}, what
+        got = np.asarray(blender_addon.world.stored_lighting(bpy.context.scene.world)["coefficients"][0])
+        np.testing.assert_allclose(got, _cli_l00(path), rtol=1e-6, err_msg=what)
+    shown = blender_addon.world.stored_panorama(bpy.context.scene.world)
+    assert tuple(shown.size) == (64, 32)  # the +Y file is shown upright too, not as Blender decodes it
+    # a cropped EXR is refused, as by the CLI
+    with OpenEXR.File([OpenEXR.Part({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                                     "displayWindow": ((0, 0), (31, 15)), "dataWindow": ((0, 0), (15, 7))},
+                                    {"RGB": np.ones((8, 16, 3), np.float32)}, name="crop")]) as f:
+        f.write(str(tmp_path / "crop.exr"))
+    with pytest.raises(RuntimeError, match="crop.exr: .*a crop of its display window"):
+        bpy.ops.panolight.load_panorama(filepath=str(tmp_path / "crop.exr"))
+    # a 630-byte JPEG claiming 20000 x 10000 or 16000 x 8000 is refused before Blender decodes it
+    Image.fromarray(np.full((8, 16, 3), 120, np.uint8)).save(tmp_path / "small.jpg", quality=90)
+    for (w, h), said in (((20000, 10000), "above the decode budget"), ((16000, 8000), "holds only")):
+        b = bytearray((tmp_path / "small.jpg").read_bytes())
+        struct.pack_into(">HH", b, b.find(b"\xff\xc0") + 5, h, w)
+        (tmp_path / "claim.jpg").write_bytes(bytes(b))
+        n = len(bpy.data.images)
+        with pytest.raises(RuntimeError, match=f"claim.jpg: .*{said}"):
+            bpy.ops.panolight.load_panorama(filepath=str(tmp_path / "claim.jpg"))
+        assert len(bpy.data.images) == n  # Blender never opened it
