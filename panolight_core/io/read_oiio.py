@@ -154,13 +154,16 @@ def srgb8_to_linear(rgb8: np.ndarray) -> np.ndarray:
 def _radiance_half_step(img: np.ndarray) -> None:
     """OpenImageIO decodes RGBE as mantissa 2^(e - 136); Radiance's own decoder (and the format's
     definition of a stored value as the middle of its step) adds half a step: (mantissa + 0.5) 2^(e - 136).
-    The step follows from the pixel's largest channel (its mantissa is 128-255). In place, by row blocks."""
+    The pixel's largest channel has the mantissa 128-255, so its float32 exponent field E gives the half
+    step as the float of exponent field E - 8 (made from the bits: frexp/ldexp cost 2.5x the decode).
+    In place, by row blocks."""
     for r in range(0, img.shape[0], BLOCK_ROWS):
         b = img[r:r + BLOCK_ROWS]
-        peak = b.max(axis=-1, keepdims=True)
-        _, e = np.frexp(peak)
-        half = np.where(peak > 0, np.ldexp(np.float32(0.5), e - 8), 0).astype(np.float32)
-        b += half
+        e = np.maximum(np.maximum(b[..., 0], b[..., 1]), b[..., 2]).view(np.int32) >> 23  # sign bit is 0
+        e -= 8
+        np.maximum(e, 0, out=e)  # zero pixels (and steps below float32's range) get nothing
+        e <<= 23
+        b += e.view(np.float32)[..., None]
 
 
 def upright(img: np.ndarray, orientation: int) -> np.ndarray:

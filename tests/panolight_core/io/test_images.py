@@ -351,3 +351,22 @@ def test_jpegs_simplejpeg_does_not_take_go_to_openimageio_and_corrupt_ones_are_r
     (tmp_path / "cut.jpg").write_bytes(data[:len(data) // 2])  # refused, never padded with grey
     with pytest.raises(ImageError, match="cut.jpg: cannot decode JPEG pixels"):
         read_image(tmp_path / "cut.jpg")
+
+
+def test_radiance_files_read_by_openimageio_equal_radiances_own_decoding(tmp_path):
+    """OpenImageIO decodes RGBE without Radiance's half-step offset; the reader adds it, so its pixels
+    equal the numpy decoder's (Radiance's convention) bit for bit, RLE and flat, zeros and tiny values."""
+    import OpenImageIO as oiio
+
+    rng = np.random.default_rng(9)
+    img = (rng.random((64, 128, 3)) * 10.0 ** rng.integers(-20, 6, (64, 128, 1))).astype(np.float32)
+    img[:4] = 0.0
+    img[10, 10] = [5e4, 1e-3, 0.0]
+    path = tmp_path / "rle.hdr"
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(128, 64, 3, "float"))
+    out.write_image(img)
+    out.close()
+    np.testing.assert_array_equal(read_image(path), hdr_codec.decode(path.read_bytes()))
+    flat = write_image(tmp_path / "flat.hdr", img)
+    np.testing.assert_array_equal(read_image(flat), hdr_codec.decode(flat.read_bytes()))
