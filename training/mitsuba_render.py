@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core import sh
+from panolight_core.camera.resample import sample_equirect
 from panolight_core.errors import PanoLightError
 
 EYE_HEIGHT = 1.0
@@ -182,23 +183,6 @@ def perspective_rays(width: int, height: int, fov_deg: float, yaw_deg: float, pi
     ys = ((np.arange(height) + 0.5) / height * 2 - 1) * t * height / width
     d = fwd[None, None, :] + xs[None, :, None] * right[None, None, :] - ys[:, None, None] * up[None, None, :]
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
-
-
-def sample_equirect(image: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-    """Bilinear lookup of an (H, W, 3) equirect image (CONVENTIONS.md) at unit directions (..., 3)."""
-    h, w = image.shape[:2]
-    u = (0.5 - np.arctan2(dirs[..., 1], dirs[..., 0]) / (2 * np.pi)) % 1.0
-    v = np.arccos(np.clip(dirs[..., 2], -1, 1)) / np.pi
-    x = u * w - 0.5
-    y = np.clip(v * h - 0.5, 0, h - 1)
-    x0 = np.floor(x).astype(int)
-    y0 = np.floor(y).astype(int)
-    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
-    x0 %= w
-    x1 = (x0 + 1) % w
-    y1 = np.minimum(y0 + 1, h - 1)
-    return (image[y0, x0] * (1 - fx) * (1 - fy) + image[y0, x1] * fx * (1 - fy)
-            + image[y1, x0] * (1 - fx) * fy + image[y1, x1] * fx * fy)
 
 
 def _sensor(width, height, fov, yaw, pitch, spp):

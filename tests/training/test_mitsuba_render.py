@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from panolight_core import sh
+from panolight_core.camera.resample import sample_equirect
 from panolight_core.errors import PanoLightError
 from training import mitsuba_render as mr
 
@@ -151,7 +152,7 @@ def test_figure_smoke(tmp_path):
     for f in res["renders"]:
         assert np.all(np.isfinite(read_image(f, equirect=False)))
     mirror = read_image(tmp_path / "fig" / "sunset-estimated-mirror.exr", equirect=False)
-    bg = mr.sample_equirect(hdr.astype(np.float64), mr.perspective_rays(40, 30, 50.0, 0.0, -12.0))
+    bg = sample_equirect(hdr.astype(np.float64), mr.perspective_rays(40, 30, 50.0, 0.0, -12.0))
     # above the horizon (no ground, no object) the composite is the panorama itself
     np.testing.assert_allclose(mirror[:3], bg[:3], rtol=1e-5, atol=1e-6)
     emitters = mr.scene_emitters(*mr.load_input(studio_hdri("sunset"))[:2])
