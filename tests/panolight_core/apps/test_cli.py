@@ -449,3 +449,27 @@ def test_radiance_exr_holds_no_negative_light_and_keeps_the_diffuse_lighting(tmp
     ringing = doc["model"]["ringing"]
     assert "the SH radiance dips to" in ringing["why"] and ringing["emitter"]["negative_fraction"] > 0.05
     assert "nearest non-negative map" in ringing["emitters"]
+
+
+def test_a_tiny_jpeg_claiming_a_huge_size_and_huge_output_maps_are_refused_at_once(tmp_path, capsys):
+    """Issue 23: a 633-byte JPEG whose frame header claims 16000 x 8000 decoded to 5.1 GB of grey (exit 0,
+    `project` 7.9 GB); --resolution 16384x8192 on a small JPEG peaked at 4.7 GB."""
+    import struct
+
+    from PIL import Image
+
+    Image.fromarray(np.full((8, 16, 3), 120, np.uint8)).save(tmp_path / "small.jpg", quality=90)
+    for w, h in ((16000, 8000), (16384, 8192)):
+        data = bytearray((tmp_path / "small.jpg").read_bytes())
+        struct.pack_into(">HH", data, data.find(b"\xff\xc0") + 5, h, w)
+        claim = tmp_path / f"claim{w}.jpg"
+        claim.write_bytes(bytes(data))
+        for command in ("estimate", "project"):
+            assert main([command, str(claim), "-o", str(tmp_path / command), "-q"]) == 1
+            err = capsys.readouterr().err
+            assert f"the JPEG claims {w} x {h} pixels but holds only" in err and err.count("\n") == 1
+            assert not (tmp_path / command).exists()
+    Image.fromarray(np.full((256, 512, 3), 120, np.uint8)).save(tmp_path / "ok.jpg", quality=90)
+    with pytest.raises(SystemExit):
+        main(["estimate", str(tmp_path / "ok.jpg"), "-o", str(tmp_path / "o"), "--resolution", "16384x8192"])
+    assert "height 1..2048" in capsys.readouterr().err and not (tmp_path / "o").exists()
