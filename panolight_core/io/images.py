@@ -80,6 +80,8 @@ def preflight(path, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS) -> tuple[int
         return None
     with read_oiio.Opened(p, fmt) as opened:
         (h, w), orientation = opened.size, opened.orientation
+        if opened.luminance_chroma and not read_exr.available():  # Blender: its chroma would be misread
+            opened.pixels()  # raises ImageError, naming the file and the remedy
     check_size(p, h, w, True, max_megapixels)
     if fmt == "jpeg":
         check_jpeg_data(p, h, w)

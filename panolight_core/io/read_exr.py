@@ -8,6 +8,14 @@ import numpy as np
 from ..camera.color import LUMINANCE_WEIGHTS
 
 
+def available() -> bool:
+    try:
+        import OpenEXR  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 def luminance_chroma(path) -> bool:
     """Whether this single- or multi-part EXR's first colour part is luminance/chroma (header only);
     False when the OpenEXR package is missing."""

@@ -47,6 +47,7 @@ class Opened:
         try:
             self.subimage, self.spec = self._choose_subimage()
             self.channels = _colour_channels(path, self.spec)
+            self.luminance_chroma = bool(self.spec.get_int_attribute("openexr:luminancechroma", 0))
             self.orientation = int(self.spec.get_int_attribute("Orientation", 1))
             if self.orientation not in range(1, 9):
                 self.orientation = 1
@@ -102,7 +103,10 @@ class Opened:
         """(H, W, 3) upright: uint8 sRGB values (8-bit files, or 16-bit PNGs rounded, with ``as_uint8``),
         else float32 linear (8/16-bit files sRGB-decoded; HDR files as stored, integer channels as their
         values)."""
-        spec, oiio = self.spec, self.oiio
+        spec = self.spec
+        if self.luminance_chroma:  # OpenImageIO's Python reader fails on these (or, elsewhere, misreads them)
+            raise ImageError(self.path, "a luminance/chroma (Y, RY, BY) EXR, which needs the OpenEXR package to be "
+                                        "read here; estimate it with 'panolight estimate', or save it as RGB")
         h, w = spec.height, spec.width
         base = str(spec.format)
         integer_ldr = self.fmt in ("png", "jpeg")

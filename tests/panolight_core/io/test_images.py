@@ -370,3 +370,21 @@ def test_radiance_files_read_by_openimageio_equal_radiances_own_decoding(tmp_pat
     np.testing.assert_array_equal(read_image(path), hdr_codec.decode(path.read_bytes()))
     flat = write_image(tmp_path / "flat.hdr", img)
     np.testing.assert_array_equal(read_image(flat), hdr_codec.decode(flat.read_bytes()))
+
+
+def test_a_luminance_chroma_exr_without_the_openexr_package_is_refused_not_misread(tmp_path, monkeypatch):
+    """Blender has OpenImageIO but not the OpenEXR package: such a file is refused at Load, with the remedy."""
+    import OpenEXR
+
+    from panolight_core.io import images, read_exr
+
+    y = np.full((8, 16), 0.5, np.float32)
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                      {"Y": y, "RY": np.zeros_like(y), "BY": np.zeros_like(y)}) as f:
+        f.write(str(tmp_path / "yc.exr"))
+    np.testing.assert_allclose(read_image(tmp_path / "yc.exr"), 0.5, rtol=1e-6)  # the CLI has OpenEXR
+    monkeypatch.setattr(read_exr, "available", lambda: False)
+    monkeypatch.setattr(read_exr, "luminance_chroma", lambda path: False)
+    for read in (images.preflight, read_image):
+        with pytest.raises(ImageError, match="yc.exr: a luminance/chroma .* needs the OpenEXR package"):
+            read(tmp_path / "yc.exr")
