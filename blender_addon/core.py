@@ -14,5 +14,5 @@ else:  # a development checkout or a pip install: no bundled copy beside this fi
     import panolight_core as core
 
 for _name in ("camera.resample", "errors", "estimators", "io.images", "io.lighting", "io.ownership", "lighting.order", "pipeline",
-              "pipeline.hdri", "pipeline.settings", "sh"):
+              "pipeline.hdri", "pipeline.settings", "sh", "threads"):
     importlib.import_module(f"{core.__name__}.{_name}")  # core.io.lighting, core.pipeline.hdri, ...

@@ -131,6 +131,8 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     _timer = None
     _result = None
     _error = None
+    _stop = None
+    _world_name = ""
 
     def _inputs(self, context):
         world = context.scene.world
@@ -160,11 +162,16 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     def invoke(self, context, event):
         if bpy.app.background:
             return self.execute(context)
-        self._world, pixels, settings = self._inputs(context)
+        world, pixels, settings = self._inputs(context)
+        # the world's name, looked up again at the end: an undo while the estimate runs frees the datablock
+        self._world_name = world.name
+        self._stop = threading.Event()
+        stop = self._stop
 
         def work():
             try:
-                self._result = _fit(pixels, settings)
+                with core.threads.cancellable(stop):  # Esc stops it at its next block, not only the modal
+                    self._result = _fit(pixels, settings)
             except Exception as exc:  # handed to modal, which reports it (or raises it, if it is a bug)
                 self._error = exc
 
@@ -187,6 +194,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     @reports_errors
     def modal(self, context, event):
         if event.type == "ESC":
+            self._stop.set()  # the worker stops at its next block; its result, if any, is dropped
             self._finish(context)
             self.report({"WARNING"}, "PanoLight: estimation cancelled")
             return {"CANCELLED"}
@@ -199,7 +207,11 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
         self._finish(context)
         if self._error is not None:
             raise self._error
-        self._store(context, self._world, self._result)
+        world = bpy.data.worlds.get(self._world_name)
+        if world is None:
+            raise Error(f"the world {self._world_name!r} was removed or renamed while estimating; nothing was "
+                        f"stored: run Estimate lighting again")
+        self._store(context, world, self._result)
         return {"FINISHED"}
 
 
@@ -244,20 +256,29 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         return {"FINISHED"}
 
     def _hdri_now(self, context, world, panorama, doc):
-        """The HDRI of the stored estimate, made now: the panorama is read and estimated again with the
-        panel's settings (the estimators are deterministic); if those settings have changed since, the
-        new estimate replaces the stored one, so the HDRI and the stored lighting always agree."""
+        """The HDRI of the stored estimate, made now (it is not kept in the .blend): the panorama is read
+        and estimated again (the estimators are deterministic). If the panel's settings have changed since
+        Estimate lighting, that would be another estimate: refused, so the stored lighting is never
+        replaced behind the user's back."""
         pixels = _read_panorama(panorama)
         result = _fit(pixels, _settings(context).estimate_settings())
-        if not _same_lighting(result.document, doc):
-            W.store_lighting(world, result.document)
-            self.report({"WARNING"}, "PanoLight: the settings changed since Estimate lighting: re-estimated")
+        if not same_lighting(result.document, doc):
+            raise Error("the panel's settings changed since Estimate lighting, so the HDRI would belong to "
+                        "another estimate: run Estimate lighting again (or restore the settings)")
         return _make_hdri(world, pixels, result)
 
 
-def _same_lighting(a: dict, b: dict) -> bool:
-    return np.allclose(a["coefficients"], b["coefficients"], rtol=1e-9, atol=1e-12) and \
-        len(a.get("lights", [])) == len(b.get("lights", []))
+def same_lighting(a: dict, b: dict) -> bool:
+    """Whether two lighting documents describe the same lighting: the coefficients, and every light's
+    type, direction, intensity, colour and size (to 1e-9 relative)."""
+    def close(x, y):
+        return np.shape(x) == np.shape(y) and np.allclose(x, y, rtol=1e-9, atol=1e-12)
+
+    la, lb = a.get("lights", []), b.get("lights", [])
+    return close(a["coefficients"], b["coefficients"]) and len(la) == len(lb) and all(
+        x.get("type") == y.get("type") and all(close(x.get(k, 0.0), y.get(k, 0.0))
+                                              for k in ("direction", "intensity", "color", "angle"))
+        for x, y in zip(la, lb))
 
 
 class PANOLIGHT_OT_export_lighting(bpy.types.Operator, ExportHelper):

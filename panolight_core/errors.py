@@ -28,6 +28,10 @@ class LightingFileError(PanoLightError, ValueError):
         super().__init__(f"{self.path}: {problem}")
 
 
+class Cancelled(PanoLightError):
+    """Work stopped because its caller asked (``threads.cancellable``): Blender's Esc."""
+
+
 class PanoLightWarning(UserWarning):
     """Input was repaired (clamped negatives, replaced NaN/Inf, ...): the message says what."""
 

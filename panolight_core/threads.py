@@ -8,7 +8,9 @@ CPU, run with one). Results come back in the blocks' order, so they never depend
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import os
+import threading
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
@@ -50,10 +52,44 @@ def limited(n: int):
         _limit = before
 
 
+_stop: contextvars.ContextVar = contextvars.ContextVar("panolight_stop", default=None)
+
+
+@contextlib.contextmanager
+def cancellable(stop: threading.Event):
+    """The passes run inside (in this thread) stop with ``errors.Cancelled`` at their next block once
+    ``stop`` is set: how Blender's Esc stops an estimate running in a worker thread."""
+    token = _stop.set(stop)
+    try:
+        yield
+    finally:
+        _stop.reset(token)
+
+
+def check_cancelled() -> None:
+    """Raise ``errors.Cancelled`` when the caller's ``cancellable`` event is set (a block boundary)."""
+    stop = _stop.get()
+    if stop is not None and stop.is_set():
+        from .errors import Cancelled
+
+        raise Cancelled("stopped on request")
+
+
 def imap(fn, items, ahead: int | None = None):
     """``fn(item)`` for each item, yielded in order, computed by ``count()`` threads with at most
     ``ahead`` (default: the thread count) results waiting: a consumer that streams the results (a file
-    writer) bounds the memory in flight. With one thread, or one item, it runs in the caller's thread."""
+    writer) bounds the memory in flight. With one thread, or one item, it runs in the caller's thread.
+    Inside ``cancellable`` every item first checks the event (``check_cancelled``)."""
+    stop = _stop.get()
+    if stop is not None:
+        inner = fn
+
+        def fn(item):
+            if stop.is_set():
+                from .errors import Cancelled
+
+                raise Cancelled("stopped on request")
+            return inner(item)
     items = list(items)
     n = min(count(), len(items))
     if n <= 1:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import sh
+from .. import sh, threads
 from ..errors import PanoLightError
 from ..estimators import Estimate, estimate
 from ..estimators.highlights import CLIP_LEVEL
@@ -28,7 +28,9 @@ def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model:
     deringing: None = the model's default ("auto" with lights, "none" for SH only)."""
     check_choice("model", model, MODELS)
     lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
+    threads.check_cancelled()
     est = estimate(pixels, DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax), estimator)
+    threads.check_cancelled()
     return fit_estimate(est, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
                         tolerance=tolerance, deringing=deringing), est
 
@@ -117,6 +119,7 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Re
     t1 = time.perf_counter()
     fitted, est = fit_pixels(pixels, lmax=settings.order, estimator=settings.estimator, model=settings.model,
                              tolerance=settings.tolerance, deringing=None if settings.window == "none" else "none")
+    threads.check_cancelled()
     coeffs, window_info = fitted.coeffs, fitted.info["ringing"]["window"]
     if settings.window == "auto":
         width = sh.auto_window_width(coeffs, target="radiance")

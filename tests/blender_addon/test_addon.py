@@ -433,11 +433,28 @@ def test_the_hdri_is_made_only_for_lighting_with_it_and_follows_the_estimate(tmp
     assert bpy.ops.panolight.build_environment() == {"FINISHED"}  # up to date: reused, not made again
     assert W.own_image(W.HDRI_IMAGE_NAME) == hdri
     bpy.data.images.remove(hdri)
-    s.exposure = 1.0  # settings changed after estimating: the HDRI made now and the stored estimate agree
+    s.exposure = 1.0  # settings changed after estimating: the HDRI would be another estimate's
+    with pytest.raises(RuntimeError, match="settings changed since Estimate lighting"):
+        bpy.ops.panolight.build_environment()
+    assert np.allclose(W.stored_lighting(world)["coefficients"], before)  # never replaced behind the user's back
+    assert W.own_image(W.HDRI_IMAGE_NAME) is None
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}  # the user re-estimates: then it builds
     assert bpy.ops.panolight.build_environment() == {"FINISHED"}
     assert np.allclose(W.stored_lighting(world)["coefficients"], 2.0 * np.asarray(before))
     assert W.own_image(W.HDRI_IMAGE_NAME)[W.ESTIMATE_KEY] == world[W.ESTIMATE_KEY]
     s.exposure, s.lighting_source = 0.0, "SH"
+
+
+def test_same_lighting_compares_every_light_not_only_their_number():
+    from blender_addon.operators import same_lighting
+
+    sun = {"type": "sun", "direction": [0.0, 0.6, 0.8], "intensity": 3.0, "color": [1.0, 0.9, 0.8], "angle": 0.01}
+    a = {"coefficients": [[1.0, 1.0, 1.0]], "lights": [sun]}
+    assert same_lighting(a, {"coefficients": [[1.0, 1.0, 1.0]], "lights": [dict(sun)]})
+    for change in ({"intensity": 6.0}, {"direction": [0.0, 0.8, 0.6]}, {"color": [1.0, 1.0, 1.0]},
+                   {"angle": 0.2}, {"type": "area"}):
+        assert not same_lighting(a, {"coefficients": [[1.0, 1.0, 1.0]], "lights": [dict(sun, **change)]}), change
+    assert not same_lighting(a, {"coefficients": [[1.0, 1.0, 1.1]], "lights": [sun]})
 
 
 def _blender_site_packages():

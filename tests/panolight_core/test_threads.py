@@ -71,3 +71,34 @@ def test_work_maps_are_the_same_on_one_thread_and_many(monkeypatch):
     with threads.limited(4):
         many = work_maps(ldr)
     assert all(np.array_equal(a, b) for a, b in zip(one, many))
+
+
+def test_cancellable_passes_stop_at_their_next_block():
+    import threading
+
+    import numpy as np
+    import pytest
+
+    from panolight_core import threads
+    from panolight_core.errors import Cancelled
+    from panolight_core.pipeline.estimate import estimate_lighting
+
+    stop = threading.Event()
+    done = []
+
+    def block(i):
+        if i == 3:
+            stop.set()  # Esc pressed while block 3 runs
+        done.append(i)
+        return i
+
+    with threads.limited(1), threads.cancellable(stop), pytest.raises(Cancelled):
+        threads.map_ordered(block, range(50))
+    assert done == [0, 1, 2, 3]  # nothing after the block that saw Esc
+    assert threads.map_ordered(block, range(5)) == [0, 1, 2, 3, 4]  # outside the scope: untouched
+    ldr = np.full((64, 128, 3), 120, np.uint8)
+    with threads.cancellable(stop), pytest.raises(Cancelled):
+        estimate_lighting(ldr)
+    stop.clear()
+    with threads.cancellable(stop):
+        assert estimate_lighting(ldr).document["lmax"] >= 0
