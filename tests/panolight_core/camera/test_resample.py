@@ -43,3 +43,32 @@ def test_the_lut_mean_is_area_downsample_of_the_lut_image_to_the_bit(rng):
         img = rng.integers(0, 256, shape, dtype=np.uint8)
         want = area_downsample(SRGB8_TO_LINEAR[img], height)
         assert np.array_equal(area_mean_lut(img, height, SRGB8_TO_LINEAR), want), shape
+
+
+def test_sizes_that_are_not_whole_multiples_are_downsampled_by_slabs_with_the_same_numbers():
+    """Issue 23: a 16000 x 8000 photo (31.25 input rows per work-map row) went through a whole-image
+    float64 copy (5.4 GB); slabs of rows give the same numbers with a small fraction of that memory."""
+    import tracemalloc
+
+    from panolight_core.camera.color import SRGB8_TO_LINEAR
+    from panolight_core.camera.resample import area_downsample_rows, area_mean_lut
+
+    rng = np.random.default_rng(4)
+    img = rng.integers(0, 256, (3000, 6000, 3), dtype=np.uint8)
+    # the whole-image reference, written out: block means over rounded boundaries (46.9 rows per output row)
+    ys, xs = np.linspace(0, 3000, 65).astype(int), np.linspace(0, 6000, 129).astype(int)
+    rows = np.add.reduceat(SRGB8_TO_LINEAR[img].astype(np.float64), ys[:-1], axis=0) / np.diff(ys)[:, None, None]
+    whole = np.add.reduceat(rows, xs[:-1], axis=1) / np.diff(xs)[None, :, None]
+    del rows
+    tracemalloc.start()
+    got = area_mean_lut(img, 64, SRGB8_TO_LINEAR)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    np.testing.assert_array_equal(got, whole)
+    assert peak < img.size * 8 / 4  # a whole-image float64 copy alone is img.size * 8 bytes (432 MB)
+    small = img[:500, :1000]
+    ys, xs = np.linspace(0, 500, 65).astype(int), np.linspace(0, 1000, 129).astype(int)
+    ref = np.add.reduceat(np.add.reduceat(small * 2.0, ys[:-1], axis=0) / np.diff(ys)[:, None, None], xs[:-1],
+                          axis=1) / np.diff(xs)[None, :, None]
+    np.testing.assert_array_equal(area_downsample_rows(small, 64, lambda b: b * 2.0), ref)
+    np.testing.assert_array_equal(area_downsample(small * 2.0, 64), ref)
