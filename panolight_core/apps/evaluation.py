@@ -15,6 +15,7 @@ direction, else the brightest direction of the model's radiance (256 x 128 grid)
 from __future__ import annotations
 
 import json
+import math
 import statistics
 import time
 import warnings
@@ -91,6 +92,7 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
         gt = sh.project(hdr, lmax)
         true_dir = metrics.dominant_light_direction(hdr)
         true_share = true_sun_share(hdr, true_dir)
+        dominant = metrics.dominant_source(hdr)["dominant"]  # EVALUATION.md: >= 15 % within 5 degrees
         for ev in evs:
             ldr = hdr_to_ldr(hdr, ev, jpeg_quality)
             for name in estimators:
@@ -107,15 +109,19 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                     coeffs = model.project(lmax)
                     share = model_sun_share(model, true_dir) if scene in SUN_SCENES else None
                     d = np.asarray(model.lights[0]["peak_direction"]) if model.lights else estimated_direction(coeffs)
-                hdri_m = None
+                hdri_m = ratio = None
                 if getattr(est, "recovery", None) is not None:  # hdr.exr, scored by its own exact projection
                     from ..pipeline.hdri import hdr_panorama
 
-                    hdri_m = metrics.m_rmse(gt, sh.project(hdr_panorama(ldr, est), lmax))
+                    pano = hdr_panorama(ldr, est)
+                    hdri_m = metrics.m_rmse(gt, sh.project(pano, lmax))
+                    if dominant:  # the dominant source's energy ratio, on hdr.exr at the truth's resolution
+                        ratio = metrics.source_energy_ratio(hdr, pano, true_dir)
                 rows.append({"scene": scene, "ev": ev, "estimator": name, "hdri_m_rmse": hdri_m,
                              "m_rmse": metrics.m_rmse(gt, coeffs), "irr_rmse": metrics.irr_rmse(gt, coeffs),
                              "light_angle_deg": None if d is None else metrics.angle_deg(true_dir, d),
                              "sun_share": share, "true_sun_share": true_share if scene in SUN_SCENES else None,
+                             "dominant": bool(dominant), "energy_ratio": ratio,
                              "ms": 1e3 * statistics.median(times)})
             log(f"{scene} ev {ev:+g}: " + ", ".join(
                 f"{r['estimator']} {r['m_rmse']:.3f}" for r in rows if r["scene"] == scene and r["ev"] == ev))
@@ -136,10 +142,24 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                 "wins_vs_naive": (sum(r["m_rmse"] < naive[r["scene"]]["m_rmse"] for r in sel if r["scene"] in naive)
                                   if naive else None),
                 "mean_sun_angle_deg": float(np.mean(angles)) if angles else None,
+                **_dominant_summary(sel),
                 "median_ms": float(statistics.median([r["ms"] for r in sel]))}
     return {"rows": rows, "summary": summary,
             "settings": {"scenes": list(scenes), "evs": list(evs), "estimators": estimators, "lmax": lmax,
                          "jpeg_quality": jpeg_quality, "repeats": repeats}}
+
+
+def _dominant_summary(rows: list[dict]) -> dict:
+    """EVALUATION.md's dominant-source figures over the rows of scenes with one: the median direction
+    error, the energy ratio's median |log2 r| as "within 2^x", and the worst r (furthest from 1)."""
+    dom = [r for r in rows if r.get("dominant")]
+    ratios = [r["energy_ratio"] for r in dom if r.get("energy_ratio") is not None and r["energy_ratio"] > 0]
+    angles = [r["light_angle_deg"] for r in dom if r.get("light_angle_deg") is not None]
+    logs = [abs(math.log2(v)) for v in ratios]
+    return {"dominant_scenes": len(dom),
+            "dominant_median_angle_deg": float(np.median(angles)) if angles else None,
+            "dominant_energy_within": float(2 ** np.median(logs)) if logs else None,
+            "dominant_energy_worst": max(ratios, key=lambda v: abs(math.log2(v))) if ratios else None}
 
 
 EXACT_ORDER = 24  # "exact" irradiance: A_l at l = 24 is 2e-4 of A_0, far below the errors compared
@@ -256,6 +276,7 @@ def markdown(result: dict) -> str:
         out.append(f"| {m['estimator']} | {m['ev']:+g} | {m['mean_m_rmse']:.3f} | {m['median_m_rmse']:.3f} | "
                    f"{_fmt(m.get('median_hdri_m_rmse'))} | {m['mean_irr_rmse']:.3f} | {m['median_irr_rmse']:.3f} | {wins} | "
                    f"{_fmt(m['mean_sun_angle_deg'], 1)} | {m['median_ms']:.1f} |")
+    out += _markdown_dominant(result)
     shares = [r for r in result["rows"] if r.get("true_sun_share") is not None and r.get("sun_share") is not None]
     if shares:
         out += ["", "## The sun's share of the irradiance facing it (sun scenes; true / estimated)", "",
@@ -269,6 +290,32 @@ def markdown(result: dict) -> str:
                 if any(c != "n/a" for c in cells):
                     out.append(f"| {scene} | {ev:+g} | " + " | ".join(cells) + " |")
     return "\n".join(out) + "\n"
+
+
+def _markdown_dominant(result: dict) -> list[str]:
+    """Per scene with a dominant source: the energy ratio r of each estimator with an hdr.exr, per ev
+    (EVALUATION.md; 1 is exact, 0.02 a vanished sun), then the summary line per estimator and ev."""
+    s = result["settings"]
+    rows = [r for r in result["rows"] if r.get("dominant") and r.get("energy_ratio") is not None]
+    if not rows:
+        return []
+    names = [n for n in s["estimators"] if any(r["estimator"] == n for r in rows)]
+    out = ["", "## The dominant source's energy (EVALUATION.md: r = 1 exact; scenes with a dominant compact source)", "",
+           "cells: energy ratio r on hdr.exr / direction error of the brightest explicit light in degrees", "",
+           "| scene | ev | " + " | ".join(names) + " |", "|---|---:|" + "---:|" * len(names)]
+    for scene in s["scenes"]:
+        for ev in s["evs"]:
+            cells = [next((f"{r['energy_ratio']:.3g} / {_fmt(r['light_angle_deg'], 1)}" for r in rows
+                           if r["scene"] == scene and r["ev"] == ev and r["estimator"] == n), "n/a") for n in names]
+            if any(c != "n/a" for c in cells):
+                out.append(f"| {scene} | {ev:+g} | " + " | ".join(cells) + " |")
+    out += ["", "| estimator | ev | scenes | median direction error | energy within | worst r |", "|---|---:|---:|---:|---:|---:|"]
+    for m in result["summary"].values():
+        if m["estimator"] in names and m.get("dominant_energy_within") is not None:
+            out.append(f"| {m['estimator']} | {m['ev']:+g} | {m['dominant_scenes']} | "
+                       f"{_fmt(m['dominant_median_angle_deg'], 1)} | {m['dominant_energy_within']:.2f}x | "
+                       f"{m['dominant_energy_worst']:.3g} |")
+    return out
 
 
 def plot(result: dict, path) -> None:

@@ -16,6 +16,13 @@ def test_protocol_reproduces_baselines_and_writes_reports(tmp_path):
     assert "| city |" in md and "## Summary" in md
     assert json.loads((tmp_path / "eval.json").read_text())["settings"]["evs"] == [0.0]
     assert (tmp_path / "speed_accuracy.png").stat().st_size > 1000 and len(paths) == 3
+    # EVALUATION.md's dominant source: city has one (its sun), sunset none; r on hdr.exr where there is one
+    assert rows[("city", "sources")]["dominant"] and not rows[("sunset", "sources")]["dominant"]
+    r = rows[("city", "keylight")]["energy_ratio"]
+    assert 0 < r < 10 and rows[("city", "naive")]["energy_ratio"] is None  # naive writes no hdr.exr
+    m = result["summary"]["keylight@+0"]
+    assert m["dominant_scenes"] == 1 and abs(m["dominant_energy_within"] - 2 ** abs(__import__("math").log2(r))) < 1e-9
+    assert "## The dominant source's energy" in md and "| city | +0 |" in md
 
 
 def test_eval_cli_subset(tmp_path, capsys):
