@@ -73,8 +73,9 @@ def input_warnings(pixels: np.ndarray) -> list[str]:
         found.append(f"pixel values reach {peak:.3g}, beyond any real radiance: the lighting carries them "
                      f"(check the file's units, or repair it)")
     if pixels.dtype == np.uint8:
-        step = max(1, int(math.sqrt(pixels.shape[0] * pixels.shape[1] / 1e6)))  # about a million pixels
-        white = float((pixels[::step, ::step].min(axis=2) >= 250).mean())
+        step = max(1, int(math.ceil(math.sqrt(pixels.shape[0] * pixels.shape[1] / 2.0 ** 18))))  # ~260 K pixels
+        sub = pixels[::step, ::step]
+        white = float((np.minimum(np.minimum(sub[..., 0], sub[..., 1]), sub[..., 2]) >= 250).mean())
         if white >= CLIPPED_WHITE:
             found.append(f"{100 * white:.0f}% of the pixels are clipped white: this exposure holds almost no "
                          f"lighting information, and the estimate is a guess (use a darker exposure)")
