@@ -123,34 +123,62 @@ def _block_basis(r0: int, r1: int, height: int, width: int, keep_lmax: int) -> n
     return y
 
 
+@lru_cache(maxsize=4)
+def _block_terms(r0: int, r1: int, height: int, width: int, keep_lmax: int):
+    """(y, w y, its Gram matrix (w y)^T y) of a row block: what every Newton pass needs of the grid."""
+    y = _block_basis(r0, r1, height, width, keep_lmax)
+    wy = np.repeat(row_solid_angles(height, width)[r0:r1], width)[:, None] * y
+    gram = wy.T @ y
+    for a in (wy, gram):
+        a.setflags(write=False)
+    return y, wy, gram
+
+
 def _refine(rad, height, width, keep_lmax, lam, sweeps: int = 8, tolerance: float = 1e-9):
-    """Newton sweeps of ``_solve`` on the full grid, accumulated by row blocks. Returns (lam, sweeps,
-    moment error relative to band 0, the channels whose mean is <= 0)."""
-    n_c = rad.shape[-1]
-    row_w = row_solid_angles(height, width)
-    target = np.zeros_like(lam)
-    for r0, r1 in _blocks(height, width):
-        y = _block_basis(r0, r1, height, width, keep_lmax)
-        wy = np.repeat(row_w[r0:r1], width)[:, None] * y
-        target += wy.T @ rad[r0:r1].reshape(-1, n_c)
-    scale = np.maximum(np.abs(target[0]), np.finfo(float).tiny)
-    lam = np.where(target[0] > 0, lam, 0.0)
+    """Newton sweeps of ``_solve`` on the full grid, accumulated by row blocks (the first also takes the
+    target moments); the Jacobian of the first pass is kept while each step shrinks the error at least
+    tenfold (the active set barely moves after the coarse solve). Returns (lam, sweeps, moment error relative to band 0, the channels whose mean is
+    <= 0)."""
+    n_c, k = rad.shape[-1], lam.shape[0]
+    target = None
     err, done = np.inf, 0
+    last = np.inf
+    jac = np.zeros((n_c, k, k))
+    fresh = True  # the Jacobian is made on the first pass and again only when a step did not pay
     for done in range(sweeps + 1):
-        g = -target.copy()
-        jac = np.zeros((n_c,) + (lam.shape[0],) * 2)
+        first = target is None
+        moments = np.zeros_like(lam) if first else None
+        g = np.zeros_like(lam)
+        if fresh:
+            jac = np.zeros((n_c, k, k))
         for r0, r1 in _blocks(height, width):
-            y = _block_basis(r0, r1, height, width, keep_lmax)
-            wy = np.repeat(row_w[r0:r1], width)[:, None] * y
-            f = rad[r0:r1].reshape(-1, n_c) + y @ lam
-            g += wy.T @ np.maximum(f, 0.0)
-            for ch in range(n_c):
-                active = f[:, ch] > 0
-                jac[ch] += wy[active].T @ y[active]
-        live = target[0] > 0  # a channel of no light stays at zero
+            y, wy, gram = _block_terms(r0, r1, height, width, keep_lmax)
+            r = rad[r0:r1].reshape(-1, n_c)
+            if first:
+                moments += wy.T @ r
+            f = r + y @ lam
+            off = f <= 0
+            np.maximum(f, 0.0, out=f)
+            g += wy.T @ f
+            if fresh:  # the active pixels' Gram: the block's, less the pixels switched off
+                for ch in range(n_c):
+                    idle = off[:, ch]
+                    jac[ch] += gram - wy[idle].T @ y[idle] if idle.any() else gram
+        if first:
+            target = moments
+            live = target[0] > 0  # a channel of no light stays at zero
+            scale = np.maximum(np.abs(target[0]), np.finfo(float).tiny)
+            if not live.all():
+                lam = np.where(live, lam, 0.0)
+                continue
+        g -= target
         err = float(np.max(np.abs(g[:, live]) / scale[live])) if live.any() else 0.0
         if err <= tolerance or done == sweeps:
             break
+        fresh = err > 0.1 * last  # a chord step that shrank the error tenfold keeps its Jacobian
+        last = err
+        if fresh and not first:
+            continue  # make it afresh on the next pass, at this lam
         for ch in np.flatnonzero(live):
-            lam[:, ch] -= np.linalg.lstsq(jac[ch] + 1e-12 * scale[ch] * np.eye(lam.shape[0]), g[:, ch], rcond=None)[0]
-    return lam, done, err, ~(target[0] > 0)
+            lam[:, ch] -= np.linalg.lstsq(jac[ch] + 1e-12 * scale[ch] * np.eye(k), g[:, ch], rcond=None)[0]
+    return lam, done, err, ~live
