@@ -579,6 +579,15 @@ MIN_MEDIAN_RATIO = 0.1
 _DECISION_GRID = (32, 64)
 
 
+@lru_cache(maxsize=4)
+def _grid_basis(h: int, w: int) -> np.ndarray:
+    """(h w, 9) real SH of bands 0-2 at an (h, 2h) grid's pixel centres (the work map's, the decision's):
+    made once per size, read-only."""
+    y = sh.basis(sh.pixel_directions(h, w).reshape(-1, 3), 2)
+    y.setflags(write=False)
+    return y
+
+
 def _weighted_errors(q: np.ndarray, g: np.ndarray, w: np.ndarray) -> np.ndarray:
     """EVALUATION.md's median-scaled relative RMSE for every (candidate, sample) pair.
 
@@ -616,7 +625,7 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     from ..sh.irradiance import convolve_lambert
 
     h, w = regions.labels.shape
-    y = sh.basis(sh.pixel_directions(h, w).reshape(-1, 3), 2)  # (h w, 9)
+    y = _grid_basis(h, w)  # (h w, 9)
     m = (regions.labels >= 0).ravel()
     lab = regions.labels.ravel()[m]
     # SH of each region's fill per unit excess energy (white), as fill_regions spreads it
@@ -635,7 +644,7 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
         return b[None] + (excess @ unit)[:, :, None] * np.ones(3)
 
     gh, gw = _DECISION_GRID
-    grid_y = sh.basis(sh.pixel_directions(gh, gw).reshape(-1, 3), 2)
+    grid_y = _grid_basis(gh, gw)
     wgrid = sh.pixel_solid_angles(gh, gw).ravel() / (4.0 * math.pi)
     qc, gc = coeffs(cand_lr), coeffs(true_lr)
     err = np.zeros((len(SHRINK_CANDIDATES), DECISION_SAMPLES))
