@@ -39,7 +39,7 @@ class Opened:
     def __init__(self, path, fmt: str):
         import OpenImageIO as oiio
 
-        self.oiio, self.path, self.fmt = oiio, path, fmt
+        self.path, self.fmt = path, fmt
         self.inp = oiio.ImageInput.open(str(path))
         if self.inp is None:
             raise ImageError(path, f"cannot read {fmt.upper()} header (corrupt or truncated file): "
@@ -128,7 +128,7 @@ class Opened:
                 raise ImageError(self.path, f"cannot decode {self.fmt.upper()} pixels (corrupt or truncated file): "
                                             f"{_clean(self.inp.geterror())}")
             block = np.asarray(block).reshape(r1 - r0, w, last - first + 1)[..., pick]
-            out[r0:r1] = _convert(block, kind, as_uint8) if kind == "uint16" else block
+            out[r0:r1] = _from_16_bits(block, as_uint8) if kind == "uint16" else block
         if self.fmt == "hdr":
             _radiance_half_step(out)
         if self.inp.has_error:  # a warning the last block raised (libjpeg's "premature end", ...)
@@ -139,7 +139,7 @@ class Opened:
         return upright(out, self.orientation)
 
 
-def _convert(block: np.ndarray, kind: str, as_uint8: bool) -> np.ndarray:
+def _from_16_bits(block: np.ndarray, as_uint8: bool) -> np.ndarray:
     """16-bit LDR values -> 8-bit (rounded) or linear float32."""
     v = block.astype(np.float32) / np.float32(65535.0)
     if as_uint8:
