@@ -31,3 +31,18 @@ def studio_hdri(name: str) -> Path:
     if name not in STUDIO_HDRIS:
         raise PanoLightError(f"unknown studio HDRI {name!r}; choose from {', '.join(STUDIO_HDRIS)}")
     return studio_hdri_dir() / f"{name}.exr"
+
+
+def load_studio_hdri(name: str):
+    """One Blender studio HDRI as (H, W, 3) float64 linear radiance (Blender world frame). The files hold
+    a few tiny negative values (down to -0.0008), clamped to 0 without the warning a user's file gets."""
+    import warnings
+
+    import numpy as np
+
+    from .errors import PanoLightWarning
+    from .io import read_image
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PanoLightWarning)
+        return read_image(studio_hdri(name)).astype(np.float64)

@@ -1,14 +1,10 @@
 """``panolight demo``: a phone-like JPEG made from a bundled HDRI, its lighting estimated and scored."""
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
-import numpy as np
-
 from ..camera import hdr_to_ldr
-from ..data import studio_hdri
-from ..errors import PanoLightWarning
+from ..data import load_studio_hdri
 from ..io import read_image, write_srgb8
 from ..io.lighting import read_lighting
 from ..pipeline import run_estimate
@@ -21,9 +17,7 @@ def run_demo(scene: str, ev: float, out, settings, log, **job) -> dict:
     comparison with the HDR's exact irradiance."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PanoLightWarning)
-        hdr = read_image(studio_hdri(scene)).astype(np.float64)
+    hdr = load_studio_hdri(scene)
     src = write_srgb8(out / "input.jpg", hdr_to_ldr(hdr, ev), quality=90)
     log(f"demo: made {src} from Blender's '{scene}' HDRI (auto exposure, ev {ev:+g}, JPEG q90)")
     run_estimate(src, out, settings, log=log, **job)

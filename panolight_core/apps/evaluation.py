@@ -18,7 +18,6 @@ import json
 import math
 import statistics
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -26,10 +25,8 @@ import numpy as np
 from .. import metrics, sh
 from ..camera import hdr_to_ldr
 from ..camera.color import LUMINANCE_WEIGHTS
-from ..data import STUDIO_HDRIS, studio_hdri
-from ..errors import PanoLightWarning
+from ..data import STUDIO_HDRIS, load_studio_hdri
 from ..estimators import available, estimate
-from ..io import read_image
 from ..pipeline import fit_estimate
 
 SUN_SCENES = ("city", "courtyard", "forest", "sunrise", "sunset")
@@ -86,9 +83,7 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
     estimators = list(estimators or available())
     rows = []
     for scene in scenes:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", PanoLightWarning)  # the HDRIs hold a few tiny negatives
-            hdr = read_image(studio_hdri(scene)).astype(np.float64)
+        hdr = load_studio_hdri(scene)
         gt = sh.project(hdr, lmax)
         true_dir = metrics.dominant_light_direction(hdr)
         true_share = true_sun_share(hdr, true_dir)
@@ -192,9 +187,7 @@ def run_adaptive(scenes=STUDIO_HDRIS, log=None) -> list[dict]:
     rows = []
     normals = sh.pixel_directions(256, 512).reshape(-1, 3)
     for scene in scenes:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", PanoLightWarning)
-            hdr = read_image(studio_hdri(scene)).astype(np.float64)
+        hdr = load_studio_hdri(scene)
         truth = sh.irradiance_map(sh.project(hdr, EXACT_ORDER), metrics.GRID_H, metrics.GRID_W)
         true_dir = metrics.dominant_light_direction(hdr)
         t = time.perf_counter()

@@ -13,7 +13,7 @@ bpy = pytest.importorskip("bpy")
 
 import blender_addon  # noqa: E402
 from panolight_core import metrics, sh  # noqa: E402
-from panolight_core.data import studio_hdri  # noqa: E402
+from panolight_core.data import load_studio_hdri  # noqa: E402
 from panolight_core.io import read_image, write_image  # noqa: E402
 from panolight_core.lighting.lights import light_irradiance  # noqa: E402
 
@@ -30,9 +30,7 @@ def addon():
 
 
 def _small_city(tmp_path, height=64):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        img = read_image(studio_hdri("city"))
+    img = load_studio_hdri("city")
     from panolight_core.camera.resample import area_downsample
 
     path = tmp_path / "city_small.exr"
@@ -283,9 +281,7 @@ def test_build_from_the_reconstructed_hdri(tmp_path):
     from panolight_core.pipeline import fit_pixels
     from PIL import Image
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        hdr = read_image(studio_hdri("city")).astype(np.float64)
+    hdr = load_studio_hdri("city")
     ldr = hdr_to_ldr(hdr, 0.0, 90)
     png = tmp_path / "city.png"  # lossless: Blender and the core read the same pixels
     Image.fromarray(ldr).save(png)

@@ -1,13 +1,11 @@
 import math
-import warnings
 
 import numpy as np
 import pytest
 
 from panolight_core import metrics, sh
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
-from panolight_core.data import studio_hdri
-from panolight_core.io import read_image
+from panolight_core.data import load_studio_hdri
 
 
 def reference_m_rmse(g_coeffs, q_coeffs, irradiance=False):
@@ -64,9 +62,7 @@ AMBIENT = dict(city=1.48, courtyard=1.48, forest=1.39, interior=1.10, night=1.16
 @pytest.mark.parametrize("scene", sorted(NAIVE))
 def test_baselines_reproduce_evaluation_md(scene):
     """All 16 numbers reproduce with JPEG q90 inputs (without JPEG, sunset's naive gives 0.3447)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        hdr = read_image(studio_hdri(scene)).astype(np.float64)
+    hdr = load_studio_hdri(scene)
     gt = sh.project(hdr, 2)
     q = sh.project(ldr_to_linear(hdr_to_ldr(hdr, 0, jpeg_quality=90)).astype(np.float64), 2)
     amb = np.zeros_like(q)

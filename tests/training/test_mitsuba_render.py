@@ -134,16 +134,12 @@ def test_figure_smoke(tmp_path):
     from PIL import Image
 
     from panolight_core.camera import hdr_to_ldr
-    from panolight_core.data import studio_hdri
+    from panolight_core.data import load_studio_hdri, studio_hdri
     from panolight_core.io import read_image
 
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the HDRIs hold a few tiny negative pixels, clamped with a warning
-        hdr = read_image(studio_hdri("sunset"))
-        ldr = tmp_path / "city.jpg"
-        Image.fromarray(hdr_to_ldr(read_image(studio_hdri("city")), 0)).save(ldr, quality=90)
+    hdr = load_studio_hdri("sunset")
+    ldr = tmp_path / "city.jpg"
+    Image.fromarray(hdr_to_ldr(load_studio_hdri("city"), 0)).save(ldr, quality=90)
     res = mr.render_figure([str(studio_hdri("sunset")), str(ldr)], tmp_path / "fig", spp=4, resolution=(40, 30),
                            compare_hdr=True, log=lambda m: None)
     assert len(res["renders"]) == 2 * 3 * 2 + 3  # 2 inputs x 3 materials x 2 views + 3 ground-truth renders
@@ -171,14 +167,14 @@ def test_bad_mesh_is_reported():
 
 def test_figure_from_the_camera_jpeg_has_truth_in_the_jpeg_units(tmp_path):
     """--from-ldr: an HDR input is estimated from its camera JPEG; the truth row is k x HDR."""
-    from panolight_core.camera import auto_exposure
-    from panolight_core.data import studio_hdri
-    from panolight_core.io import read_image
     import warnings
 
+    from panolight_core.camera import auto_exposure
+    from panolight_core.data import load_studio_hdri, studio_hdri
+
+    hdr = load_studio_hdri("city")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        hdr = np.maximum(read_image(studio_hdri("city")).astype(np.float64), 0.0)
         coeffs, lights, pano, label, truth = mr.load_input(studio_hdri("city"), from_ldr=0.0)
     np.testing.assert_allclose(truth, hdr * auto_exposure(hdr, 0.0, robust=True))
     assert pano.max() <= 1.0 + 1e-6 and "JPEG ev +0" in label  # the background is the photograph

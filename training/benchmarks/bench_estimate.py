@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core.camera import hdr_to_ldr
-from panolight_core.data import STUDIO_HDRIS, studio_hdri
+from panolight_core.data import STUDIO_HDRIS, load_studio_hdri
 from panolight_core.estimators import available, estimate
 from panolight_core.io import read_image, write_srgb8
 from panolight_core.pipeline import fit_pixels
@@ -39,7 +39,7 @@ def main(argv=None):
         for scene in args.scenes:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                hdr = read_image(studio_hdri(scene))
+                hdr = load_studio_hdri(scene)
             big = np.repeat(np.repeat(hdr, 2, axis=0), 2, axis=1)
             path = Path(tmp) / f"{scene}.jpg"
             write_srgb8(path, hdr_to_ldr(big, 0), quality=90)

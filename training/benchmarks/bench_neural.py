@@ -11,7 +11,6 @@ import argparse
 import statistics
 import time
 
-import numpy as np
 import torch
 
 from panolight_core.estimators.nn.inputs import CHANNELS
@@ -59,11 +58,10 @@ def main(argv=None):
         s = rows[name]
         print(f"\n{name} vs paper: {p[0] / s[0]:.0f}x faster with torch, {p[1] / s[1]:.0f}x faster with numpy")
     from panolight_core.camera import hdr_to_ldr
-    from panolight_core.data import studio_hdri
+    from panolight_core.data import load_studio_hdri
     from panolight_core.estimators import available, estimate
-    from panolight_core.io import read_image
 
-    ldr = hdr_to_ldr(np.maximum(read_image(studio_hdri("city")).astype(np.float64), 0.0), 0.0, 90)
+    ldr = hdr_to_ldr(load_studio_hdri("city"), 0.0, 90)
     print("\n| whole estimate, 1024x512 LDR in memory | median ms |\n|---|---:|")
     for name in [n for n in ("analytic", "sources", "neural") if n in available()]:
         rows[f"estimate-{name}"] = median_ms(lambda: estimate(ldr, 2, name), args.repeats)

@@ -39,7 +39,7 @@ from panolight_core.data import studio_hdri
 from panolight_core.io import read_image, write_srgb8
 warnings.simplefilter("ignore")
 out, width, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
-hdr = read_image(studio_hdri("city")).astype(np.float64)
+hdr = load_studio_hdri("city")
 rng = np.random.default_rng(0)
 for i in range(count):
     f = max(1, width // 1024)

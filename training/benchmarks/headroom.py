@@ -13,16 +13,13 @@ and 300 (m-RMSE) and about 30 (irr-RMSE).
 from __future__ import annotations
 
 import argparse
-import warnings
 from pathlib import Path
 
 import numpy as np
 
 from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, clipped_mask, hdr_to_ldr, ldr_to_linear
-from panolight_core.data import STUDIO_HDRIS, studio_hdri
-from panolight_core.errors import PanoLightWarning
-from panolight_core.io import read_image
+from panolight_core.data import STUDIO_HDRIS, load_studio_hdri
 
 CAPS = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 1e4, float("inf"))
 
@@ -31,9 +28,7 @@ def run(caps=CAPS, ev: float = 0.0, jpeg_quality: int = 90) -> dict:
     """{cap: [(scene, m_rmse, irr_rmse), ...]} for oracle-filled clipped pixels."""
     out = {c: [] for c in caps}
     for scene in STUDIO_HDRIS:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", PanoLightWarning)
-            hdr = read_image(studio_hdri(scene)).astype(np.float64)
+        hdr = load_studio_hdri(scene)
         gt = sh.project(hdr, 2)
         k = auto_exposure(hdr, ev)
         ldr = hdr_to_ldr(hdr, ev, jpeg_quality)

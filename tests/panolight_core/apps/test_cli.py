@@ -346,11 +346,11 @@ def test_hdr_exr_is_half_floats_for_an_8_bit_input_and_float32_when_it_would_not
     import OpenEXR
 
     from panolight_core.camera import hdr_to_ldr
-    from panolight_core.data import studio_hdri
+    from panolight_core.data import load_studio_hdri
     from panolight_core.io import write_srgb8
     from panolight_core.pipeline import Settings, estimate_lighting
 
-    ldr = hdr_to_ldr(read_image(studio_hdri("sunrise"), negative="clamp").astype(np.float64), 0.0)
+    ldr = hdr_to_ldr(load_studio_hdri("sunrise"), 0.0)
     src = write_srgb8(tmp_path / "in.png", ldr)
 
     def channel_type(folder):

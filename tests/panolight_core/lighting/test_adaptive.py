@@ -1,4 +1,3 @@
-import warnings
 
 import numpy as np
 import pytest
@@ -7,9 +6,8 @@ from panolight_core.apps import evaluation
 from panolight_core import metrics, sh
 from panolight_core.lighting.adaptive import fit_model
 from panolight_core.camera import hdr_to_ldr
-from panolight_core.data import studio_hdri
+from panolight_core.data import load_studio_hdri
 from panolight_core.estimators import estimate
-from panolight_core.io import read_image
 from training.synth.environments import environment
 
 
@@ -79,9 +77,7 @@ def test_public_other_scenes_no_worse_and_choice_reported(scene):
 
 
 def test_ldr_inputs_get_lights_from_recovered_sources():
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        hdr = read_image(studio_hdri("sunrise")).astype(np.float64)
+    hdr = load_studio_hdri("sunrise")
     est = estimate(hdr_to_ldr(hdr, 0), 8, "analytic")
     model = fit_model(est.radiance, light_threshold=0.99)
     assert np.all(np.isfinite(model.coeffs))

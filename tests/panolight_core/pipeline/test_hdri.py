@@ -6,9 +6,8 @@ import pytest
 
 from panolight_core import sh
 from panolight_core.camera import hdr_to_ldr
-from panolight_core.data import studio_hdri
+from panolight_core.data import load_studio_hdri
 from panolight_core.pipeline.hdri import hdr_panorama
-from panolight_core.io import read_image
 from panolight_core.pipeline import fit_pixels
 from panolight_core.camera.resample import area_downsample
 
@@ -17,7 +16,7 @@ from panolight_core.camera.resample import area_downsample
 def city_ldr():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return hdr_to_ldr(read_image(studio_hdri("city")).astype(np.float64), 0.0, 90)
+        return hdr_to_ldr(load_studio_hdri("city"), 0.0, 90)
 
 
 def test_analytic_cell_means_equal_its_work_map(city_ldr):
