@@ -66,9 +66,10 @@ def cancellable(stop: threading.Event):
         _stop.reset(token)
 
 
-def check_cancelled() -> None:
-    """Raise ``errors.Cancelled`` when the caller's ``cancellable`` event is set (a block boundary)."""
-    stop = _stop.get()
+def check_cancelled(stop: threading.Event | None = None) -> None:
+    """Raise ``errors.Cancelled`` when ``stop`` (default: the caller's ``cancellable`` event) is set: a
+    block boundary. Pool threads pass the event itself (context variables do not follow them)."""
+    stop = _stop.get() if stop is None else stop
     if stop is not None and stop.is_set():
         from .errors import Cancelled
 
@@ -85,10 +86,7 @@ def imap(fn, items, ahead: int | None = None):
         inner = fn
 
         def fn(item):
-            if stop.is_set():
-                from .errors import Cancelled
-
-                raise Cancelled("stopped on request")
+            check_cancelled(stop)
             return inner(item)
     items = list(items)
     n = min(count(), len(items))

@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
+
 ROOT = Path(__file__).resolve().parents[1]
 LDR = ROOT.parent / "shared" / "data" / "ldr"
 SUNS = {"field_lowsun.jpg": (0.732, 0.678, 0.072)}  # the README's visible (veiled) sun, CONVENTIONS.md frame
@@ -41,8 +43,6 @@ def key_direction(model) -> tuple[np.ndarray, str]:
     if lights:
         best = max(lights, key=lambda light: light["intensity"])
         return np.asarray(best["direction"], dtype=np.float64), best["type"]
-    from panolight_core.camera.color import LUMINANCE_WEIGHTS
-
     band1 = np.asarray(model.coeffs[1:4], dtype=np.float64) @ LUMINANCE_WEIGHTS  # (y, z, x) order
     d = np.array([band1[2], band1[0], band1[1]])
     return d / max(np.linalg.norm(d), 1e-12), "SH"
@@ -69,15 +69,14 @@ def photo_ratio(name: str, linear: np.ndarray) -> float | None:
     def mean(box):
         r0, r1, c0, c1 = box
         patch = linear[int(r0 * h):int(r1 * h), int(c0 * w):int(c1 * w)]
-        return float(np.mean(patch @ np.array([0.2126, 0.7152, 0.0722])))
+        return float(np.mean(patch @ LUMINANCE_WEIGHTS))
 
     return mean(boxes[0]) / max(mean(boxes[1]), 1e-12)
 
 
 def sphere_shape(yaw_deg: float) -> dict:
-    from training.mitsuba_render import DISTANCE, EYE_HEIGHT, mitsuba, view_basis
+    from training.mitsuba_render import DISTANCE, EYE_HEIGHT, view_basis
 
-    mi = mitsuba()
     fwd, _, _ = view_basis(yaw_deg, 0.0)
     centre = DISTANCE * fwd + np.array([0.0, 0.0, -EYE_HEIGHT + SPHERE_RADIUS])
     return {"sphere": {"type": "sphere", "center": centre.tolist(), "radius": SPHERE_RADIUS,
@@ -108,7 +107,7 @@ def check(photo: Path, estimators, spp: int, size=(320, 240), fov: float = 70.0,
         comp = composite_view(scene_emitters(model.coeffs, model.lights), sphere_shape(yaw), bg,
                               (*size, fov, yaw, pitch), spp)
         ground = (comp["ground_mask"] > 0.99) & (comp["mask"] < 0.01)
-        lum = comp["ratio"] @ np.array([0.2126, 0.7152, 0.0722])
+        lum = comp["ratio"] @ LUMINANCE_WEIGHTS
         rendered = 1.0 / max(float(np.percentile(lum[ground], 1)), 1e-6) if ground.any() else float("nan")
         lit, shadow, ratio = plane_ratio(model)
         keys = [light for light in model.lights if light["type"] in ("sun", "area")]

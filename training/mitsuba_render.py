@@ -318,19 +318,17 @@ def _verified_source(lighting_path: Path, source: dict) -> Path | None:
     """The panorama a lighting file was estimated from, as its background: only when ``source.path``
     is a file whose SHA-256 is ``source.sha256`` (a lighting file cannot make the renderer read any
     other file); otherwise a warning and None (a neutral background)."""
-    import hashlib
     import warnings
 
     from panolight_core.errors import PanoLightWarning
+    from panolight_core.io.ownership import digest as file_digest
 
     path, digest = source.get("path"), source.get("sha256")
     if not path:
         return None
     p = Path(path)
-    try:
-        ok = bool(digest) and p.is_file() and hashlib.sha256(p.read_bytes()).hexdigest() == digest
-    except OSError:
-        ok = False
+    found = file_digest(p) if digest and p.is_file() else None  # None: unreadable
+    ok = found is not None and found["sha256"] == digest
     if not ok:
         warnings.warn(PanoLightWarning(f"{lighting_path}: its source panorama {path} is missing or not the file "
                                        f"it was estimated from (SHA-256 differs); rendering over a grey background"))

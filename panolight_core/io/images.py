@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera.color import linear_to_srgb
+from ..camera.color import SRGB8_TO_LINEAR, linear_to_srgb
 from ..errors import ImageError
 from . import hdr as _hdr
 from . import read_exr, read_jpeg, read_oiio
@@ -108,7 +108,7 @@ def _decode(p: Path, fmt: str, equirect: bool, max_megapixels: float, as_uint8: 
             if opened.orientation == 1:
                 rgb = read_jpeg.decode(p)  # the fast path for colour JPEGs (None: OpenImageIO reads it)
                 if rgb is not None:
-                    return rgb if as_uint8 else read_oiio.srgb8_to_linear(rgb)
+                    return rgb if as_uint8 else SRGB8_TO_LINEAR[rgb]
         img = opened.pixels(as_uint8=as_uint8 and fmt in LDR_FORMATS)
     if img.shape != (h, w, 3):
         raise ImageError(p, f"decoded shape {img.shape} does not match header size {w} x {h}")

@@ -135,7 +135,7 @@ class Opened:
             raise ImageError(self.path, f"cannot decode {self.fmt.upper()} pixels (corrupt or truncated file): "
                                         f"{_clean(self.inp.geterror())}")
         if integer_ldr and out.dtype == np.uint8 and not as_uint8:
-            out = srgb8_to_linear(out)
+            out = SRGB8_TO_LINEAR[out]  # the table gather makes only its output
         return upright(out, self.orientation)
 
 
@@ -145,14 +145,6 @@ def _from_16_bits(block: np.ndarray, as_uint8: bool) -> np.ndarray:
     if as_uint8:
         return np.round(v * 255.0).astype(np.uint8)
     return srgb_to_linear(v).astype(np.float32)
-
-
-def srgb8_to_linear(rgb8: np.ndarray) -> np.ndarray:
-    """(H, W, 3) uint8 sRGB -> float32 linear, by row blocks (no full-size temporary beyond the result)."""
-    out = np.empty(rgb8.shape, np.float32)
-    for r in range(0, rgb8.shape[0], BLOCK_ROWS):
-        out[r:r + BLOCK_ROWS] = SRGB8_TO_LINEAR[rgb8[r:r + BLOCK_ROWS]]
-    return out
 
 
 def _radiance_half_step(img: np.ndarray) -> None:

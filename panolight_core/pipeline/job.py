@@ -170,7 +170,7 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
         # the manifest proves which files are ours: while the set is renamed into place it accepts the
         # replaced files too, so an interruption between two renames never makes our own files foreign
         digests = {name: ownership.digest(stage / name) for name in written}
-        earlier = ownership.current(out_dir, OUTPUT_FILES)
+        earlier = ownership.current(out_dir, OUTPUT_FILES)  # again, under the lock: the run may be long
         ownership.record(out_dir, digests, keep=earlier)
         for name in written[:-1]:
             os.replace(stage / name, out_dir / name)

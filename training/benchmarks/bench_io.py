@@ -14,7 +14,6 @@ format at 16K, against the peers measured in the same run.
 from __future__ import annotations
 
 import argparse
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -22,6 +21,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from training.benchmarks import median_seconds
 
 TARGET_HDR_OVER_EXR = 3.0
 
@@ -62,25 +63,15 @@ def make_files(folder: Path, width: int) -> dict[str, Path]:
     }
 
 
-def median_time(fn, repeats: int) -> float:
-    fn()
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
-
-
 def time_table(width: int, repeats: int) -> list[str]:
     from panolight_core.io import hdr as hdr_codec
     from panolight_core.io import read_image
 
     with tempfile.TemporaryDirectory() as tmp:
         files = make_files(Path(tmp), width)
-        times = {name: median_time(lambda p=p: read_image(p, ldr_as_uint8=True), repeats) for name, p in files.items()}
+        times = {name: median_seconds(lambda p=p: read_image(p, ldr_as_uint8=True), repeats) for name, p in files.items()}
         data = files["hdr (RLE)"].read_bytes()
-        times["hdr (RLE), numpy fallback"] = median_time(lambda: hdr_codec.decode(data), max(1, repeats // 2))
+        times["hdr (RLE), numpy fallback"] = median_seconds(lambda: hdr_codec.decode(data), max(1, repeats // 2))
     peer = times["exr float32 zip"]
     rows = [f"| {name} | {t * 1e3:.0f} | {t / peer:.2f}x |" for name, t in times.items()]
     ratio = times["hdr (RLE)"] / peer

@@ -8,24 +8,17 @@ configuration's input size, medians of repeated runs in one process; then the wh
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import torch
 
 from panolight_core.estimators.nn.inputs import CHANNELS
 from panolight_core.estimators.nn.model import forward
+from training.benchmarks import median_seconds
 from training.models import LightingNet, load_config
 
 
 def median_ms(fn, repeats):
-    fn()
-    ts = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t)
-    return 1e3 * statistics.median(ts)
+    return 1e3 * median_seconds(fn, repeats)
 
 
 def main(argv=None):
