@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 # what the add-on imports (blender_addon/core.py) and what that imports, relative to panolight_core/
 CORE_FILES = ("__init__.py", "_backend.py", "errors.py", "threads.py", "camera/*.py", "estimators/*.py",
-              "estimators/nn/*.py", "lighting/*.py", "pipeline/*.py", "io/*.py", "sh/*.py",
+              "estimators/nn/*.py", "estimators/sources/*.py", "lighting/*.py", "pipeline/*.py", "io/*.py", "sh/*.py",
               "schemas/*.json", "models/*.safetensors", "models/*.md")
 
 

@@ -1,4 +1,4 @@
-"""Training and cross-validating the per-source energy model (panolight_core/estimators/sources.py).
+"""Training and cross-validating the per-source energy model (panolight_core/estimators/sources/).
 
 Data: real HDR panoramas (default ``../shared/data/hdri``, 50 Poly Haven scenes; Blender's eight studio
 HDRIs, the public set, are refused). Each scene is seen through many cameras: yaw rotation, mirroring,

@@ -56,12 +56,7 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS, quick: bool = Fal
 
     def decided(q):
         def run(ldr):
-            keep = sources.WIDE_CONCENTRATION
-            sources.WIDE_CONCENTRATION = q
-            try:
-                return sources.recover(ldr, model).work
-            finally:
-                sources.WIDE_CONCENTRATION = keep
+            return sources.recover(ldr, model, wide_concentration=q).work
         return run
 
     def coarse(rows, clipped_excess):

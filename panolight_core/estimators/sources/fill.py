@@ -1,0 +1,172 @@
+"""Putting a region's recovered energy back: into the work map's cells and into the full-resolution pixels.
+
+Work maps: radiance (h, 2h, 3) linear in clip units (1 = white); full-resolution panoramas (H, W, 3) linear;
+both equirectangular in the Blender world frame (CONVENTIONS.md).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ... import sh
+from ..highlights import CORE_RADIUS
+from .regions import Regions
+
+
+def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray, keys=()) -> np.ndarray:
+    """Work map with each region's excess (r - 1) x held added to its cells by ``Regions.share``, in
+    the region's colour, less the energy of the region's key light (``keys``), which is not in the map.
+    Returns a new (h, w, 3) map."""
+    out = np.array(rad, dtype=np.float64, copy=True)
+    if regions.count == 0:
+        return out
+    excess = (np.exp(np.asarray(log_ratio, dtype=np.float64)) - 1.0) * regions.held
+    for k in keys:
+        excess[k.region] = max(excess[k.region] - k.energy, 0.0)
+    m = regions.labels >= 0
+    lab = regions.labels[m]
+    omega = sh.pixel_solid_angles(*regions.labels.shape)
+    out[m] += (excess[lab] * regions.share[m] / omega[m])[:, None] * regions.color[lab]
+    return out
+
+
+def fill_full_resolution(linear: np.ndarray, clipped: np.ndarray, excess: np.ndarray,
+                         centres=(), exponents=(), labels=None, points=()) -> np.ndarray:
+    """Full-resolution HDR: ``linear`` (H, W, 3) plus the work map's ``excess`` (h, w, 3) put back into
+    the clipped pixels (``clipped`` (H, W) bool). Returns float32 (H, W, 3). (``FullResolutionFill``
+    does the same by row blocks, for panoramas with no room for a second copy.)
+
+    Cells of a region (``labels`` (h, w) ids into ``centres`` (n, 3) and ``exponents`` (n,)): the
+    region's whole excess energy (sum of excess x cell solid angle) goes into its clipped pixels with
+    weight max(t, CORE_RADIUS)^-p, t the angle to its centre: a sun's disk and aureole for a steep glare,
+    an even fill for a flat one (a window). Energy is exact in full-resolution solid angles; only its
+    placement within the region differs from the work map. Other cells: their clipped pixels (all of
+    the cell where none clipped) share the cell's excess evenly, so the cell's pixel mean gains exactly
+    its excess. points: key lights (unit direction, RGB energy), each added at its exact direction.
+    """
+    out = np.array(linear, dtype=np.float32, copy=True)
+    fill = FullResolutionFill(np.nonzero(clipped), clipped.shape, excess, centres, exponents, labels, points)
+    fill.apply(out, 0, clipped)
+    return out
+
+
+class FullResolutionFill:
+    """``fill_full_resolution`` split into a plan, made from the clipped pixels' coordinates (ys, xs) of an
+    (H, W) panorama, and ``apply`` to any row block of the linearised panorama, in place."""
+
+    def __init__(self, clipped_yx, shape, excess: np.ndarray, centres=(), exponents=(), labels=None, points=()):
+        H, W = shape
+        h, w = excess.shape[:2]
+        self.clipped_yx_cache = clipped_yx
+        self.shape, self.work_shape = (H, W), (h, w)
+        has = excess.max(axis=-1) > 0
+        self.pixels = None  # (ys, xs, add (n, 3) float32) for region pixels
+        self.cells = []  # (r0, r1, c0, c1, excess (3,) float32) of the other cells
+        self.points = self._splats(points)  # (ys, xs, add (n, 3) float32) of the key lights
+        if not has.any():
+            return
+        in_region = np.zeros((h, w), bool) if labels is None else (labels >= 0) & (labels < len(centres))
+        if in_region.any():
+            cell_sr = sh.pixel_solid_angles(h, w)
+            n = len(centres)
+            lab = labels[in_region]
+            energy = np.stack([np.bincount(lab, (excess[..., c] * cell_sr)[in_region], n) for c in range(3)], -1)
+            ys, xs = clipped_yx
+            pl = labels[(ys * h) // H, (xs * w) // W]
+            keep = pl >= 0
+            ys, xs, pl = ys[keep], xs[keep], pl[keep]
+            if ys.size:
+                d = sh.grid.directions_at(ys, xs, H, W)
+                t = np.arccos(np.clip(np.einsum("ij,ij->i", d, np.asarray(centres, dtype=np.float64)[pl]), -1.0,
+                                      1.0))
+                wt = np.maximum(t, CORE_RADIUS) ** (-np.asarray(exponents, dtype=np.float64)[pl])
+                om = sh.row_solid_angles(H, W)[ys]
+                norm = np.bincount(pl, wt * om, n)
+                got = norm > 0
+                scale = np.where(got, 1.0 / np.maximum(norm, 1e-300), 0.0)
+                self.pixels = (ys, xs, (energy[pl] * (wt * scale[pl])[:, None]).astype(np.float32))
+                in_region &= got[np.maximum(labels, 0)]  # a region without a clipped pixel falls back to its cells
+        ys_full = (np.arange(H) * h) // H  # work row of each full row
+        xs_full = (np.arange(W) * w) // W
+        row0, row1 = np.searchsorted(ys_full, np.arange(h)), np.searchsorted(ys_full, np.arange(h), side="right")
+        col0, col1 = np.searchsorted(xs_full, np.arange(w)), np.searchsorted(xs_full, np.arange(w), side="right")
+        for y, x in zip(*np.nonzero(has & ~in_region)):
+            self.cells.append((row0[y], row1[y], col0[x], col1[x], excess[y, x].astype(np.float32)))
+
+    def _splats(self, points):
+        """Key lights (unit direction (3,), RGB energy (3,)) as pixel additions: each energy split over the
+        2 x 2 pixels around its direction by bilinear weights (their weighted centre is the direction),
+        divided by each pixel's solid angle, so the panorama gains exactly the light's energy there."""
+        H, W = self.shape
+        ys, xs, adds = [], [], []
+        omega = sh.row_solid_angles(H, W)
+        for d, rgb in points:
+            y, x = sh.grid.pixel_coordinates(np.asarray(d, dtype=np.float64)[None], H, W)
+            y = float(np.clip(y[0], 0.0, H - 1.0))
+            y0, x0 = min(int(math.floor(y)), H - 2) if H > 1 else 0, int(math.floor(x[0]))
+            fy, fx = y - y0, x[0] - x0
+            for dy, wy in ((0, 1.0 - fy), (1, fy)):
+                for dx, wx in ((0, 1.0 - fx), (1, fx)):
+                    if wy * wx > 0 and y0 + dy < H:
+                        ys.append(y0 + dy)
+                        xs.append((x0 + dx) % W)
+                        adds.append(np.asarray(rgb, dtype=np.float64) * wy * wx / omega[y0 + dy])
+        if not ys:
+            return None
+        return np.array(ys), np.array(xs), np.array(adds, dtype=np.float32)
+
+    def peak(self) -> float:
+        """An upper bound of the energy ``apply`` adds to any one pixel (per channel, linear units)."""
+        top = float(self.pixels[2].max()) if self.pixels is not None and self.pixels[2].size else 0.0
+        if self.points is not None:
+            top += float(self.points[2].sum(axis=0).max())
+        if self.cells:
+            ys, xs = self.clipped_yx_cache
+            (H, W), (h, w) = self.shape, self.work_shape
+            clipped = np.bincount((ys * h // H) * w + xs * w // W, minlength=h * w)
+            for c_r0, c_r1, c0, c1, exc in self.cells:
+                n = (c_r1 - c_r0) * (c1 - c0)
+                k = clipped[(c_r0 * h // H) * w + c0 * w // W]  # the cell's clipped pixels (0: all share)
+                top = max(top, float(exc.max()) * (n / k if k else 1.0))
+        return top
+
+    def apply(self, block: np.ndarray, r0: int, clipped_block: np.ndarray) -> None:
+        """Add the recovered energy to rows r0 .. r0 + len(block) of the panorama: ``block`` float32
+        (n, W, 3) linear, in place; ``clipped_block`` (n, W) bool, those rows' clipped pixels."""
+        r1 = r0 + block.shape[0]
+        for found in (self.pixels, self.points):
+            if found is not None:
+                ys, xs, add = found
+                sel = (ys >= r0) & (ys < r1)
+                np.add.at(block, (ys[sel] - r0, xs[sel]), add[sel])
+        for c_r0, c_r1, c0, c1, exc in self.cells:
+            if c_r1 <= r0 or c_r0 >= r1:
+                continue
+            # the cell's pixel mean gains excess: pixel j gets excess x n_pixels x weight_j / sum(weight); the
+            # weights are over the whole cell, which may span two blocks
+            cell_clipped = self._cell_clipped(c_r0, c_r1, c0, c1, r0, clipped_block)
+            weight = cell_clipped.astype(np.float32) if cell_clipped.any() else np.ones(cell_clipped.shape, np.float32)
+            part = weight * (cell_clipped.size / weight.sum())
+            a, b = max(c_r0, r0), min(c_r1, r1)
+            block[a - r0:b - r0, c0:c1] += part[a - c_r0:b - c_r0][..., None] * exc
+
+    def _cell_clipped(self, c_r0, c_r1, c0, c1, r0, clipped_block):
+        r1 = r0 + clipped_block.shape[0]
+        if c_r0 >= r0 and c_r1 <= r1:
+            return clipped_block[c_r0 - r0:c_r1 - r0, c0:c1]
+        ys, xs = self.clipped_yx_cache
+        sel = (ys >= c_r0) & (ys < c_r1) & (xs >= c0) & (xs < c1)
+        cell = np.zeros((c_r1 - c_r0, c1 - c0), bool)
+        cell[ys[sel] - c_r0, xs[sel] - c0] = True
+        return cell
+
+
+def key_deposits(keys, shape) -> np.ndarray:
+    """(h, w, 3) the key lights' energy as ``Recovery.work`` holds it: each in the cell holding its direction."""
+    out = np.zeros(shape)
+    omega = sh.pixel_solid_angles(*shape[:2])
+    for k in keys:
+        y, x = sh.grid.pixel_at(k.direction, *shape[:2])
+        out[y, x] += k.energy * k.color / omega[y, x]
+    return out
