@@ -23,11 +23,9 @@ import math
 import statistics
 from pathlib import Path
 
-import numpy as np
-
 from panolight_core import metrics
 from panolight_core.camera import auto_exposure, hdr_to_ldr
-from panolight_core.estimators import keylight, sources
+from panolight_core.estimators import keylight
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.source_energy import DEFAULT_HDRI, load_hdr, scene_files
@@ -103,11 +101,16 @@ def correction_cv(rows, files) -> dict:
     return out
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m training.keylight_cv", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+def real_hdri_parser(prog: str, doc: str) -> argparse.ArgumentParser:
+    """The options every key-light study over the real HDRs takes: --hdri and --evs."""
+    ap = argparse.ArgumentParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas (default: %(default)s)")
-    ap.add_argument("--evs", type=float, nargs="+", default=[-2.0, 0.0, 2.0])
+    ap.add_argument("--evs", type=float, nargs="+", default=[-2.0, 0.0, 2.0], help="camera exposures (default: -2 0 2)")
+    return ap
+
+
+def main(argv=None) -> int:
+    ap = real_hdri_parser("python -m training.keylight_cv", __doc__)
     ap.add_argument("--estimator", default="keylight", help="estimator to score (default: %(default)s; "
                     "'sources' gives the baseline)")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")

@@ -9,9 +9,10 @@ region that holds at least KEY_SHARE of the scene's predicted energy and makes i
   circle fitted to the region's sky-side boundary (median 3.4 degrees against 3.2-11).
 - how much: for a sun in a clear sky, the Hosek-Wilkie fit of the visible sky (``sky``) weighs the solar
   disk in camera units, times SKY_CORRECTION, the median of true / physical over the real HDRs'
-  un-clipped suns (``training/keylight_cv.py``, by scene); otherwise (a lamp, a veiled sun, a cloudy
-  sky) the per-source model's mean prediction for the region, unshrunk: the decision rule still governs
-  the region's diffuse fill, but it no longer makes the key light vanish.
+  un-clipped suns (``training/keylight_cv.py``, by scene), capped at the per-source model's mean for the
+  region; otherwise (a lamp, a window, a veiled sun, a cloudy sky) the energy the decision rule reports
+  for the region (ENERGY_RULE "hybrid": over the real HDRs it halves the mean m-RMSE of "capped", which
+  gave lamps the model's unshrunk mean; ``training/keylight_rules.py``).
 - shape and colour: a sun is a 0.53 degree disk in the fitted sun's colour (a sunset stays warm); a lamp
   takes the size of its clipped core and the colour of its glare (the unclipped ring), unless that ring
   is blue sky.
@@ -26,6 +27,7 @@ import numpy as np
 
 from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
+from ..errors import PanoLightError
 from . import sky as clear_sky
 
 SUN_DIAMETER_DEG = 0.53  # the sun's angular diameter seen from the earth
@@ -34,7 +36,8 @@ MAX_KEYS = 3
 SKY_CORRECTION = 2.25  # true / physical sun energy: the median over 25 real suns (training/keylight_cv.py; folds 2.05-2.81)
 SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)
 LAMP_MIN_DIAMETER_DEG = 1.0
-ENERGY_RULE = "capped"  # decided | capped | physical: docs/keylight.md
+ENERGY_RULES = ("decided", "capped", "physical", "hybrid")
+ENERGY_RULE = "hybrid"  # decided | capped | physical | hybrid: docs/keylight.md (training/keylight_rules.py)
 
 
 @dataclass
@@ -86,6 +89,8 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     keys = []
     cell = math.pi / h
     rule = rule or ENERGY_RULE
+    if rule not in ENERGY_RULES:
+        raise PanoLightError(f"unknown key-light energy rule {rule!r}: one of {', '.join(ENERGY_RULES)}")
     for i in np.argsort(-predicted):
         if len(keys) == MAX_KEYS or predicted[i] < KEY_SHARE * scene:
             break
@@ -110,9 +115,9 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
             method = "per-source model"
             # a lamp (or a veiled sun) as wide as a third of its clipped core
             angle = max(math.radians(LAMP_MIN_DIAMETER_DEG), 2.0 * math.sqrt(regions.clipped_sr[i] / math.pi) / 3.0)
-        if rule == "decided":
+        if rule == "decided" or (rule == "hybrid" and physical is None):
             energy = decided
-        elif rule == "capped":
+        elif rule in ("capped", "hybrid"):
             energy = min(energy, max(decided, learned))
         if not energy > 0:
             continue

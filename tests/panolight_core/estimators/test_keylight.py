@@ -86,3 +86,27 @@ def test_off_by_default_and_sources_unchanged():
     assert len(keyed.lights) == 1
     # the key light carries the per-source model's mean energy, never less than the decided fill it replaces
     assert float(keyed.coeffs[0] @ LUMINANCE_WEIGHTS) >= float(plain.coeffs[0] @ LUMINANCE_WEIGHTS) - 1e-9
+
+
+def test_energy_rules_give_a_lamp_the_decided_energy_and_name_bad_rules():
+    from panolight_core.errors import PanoLightError
+    from panolight_core.estimators import keylight
+
+    ldr = hdr_to_ldr(_lamps([(0.3, -0.2, -0.2)]), 0.0)  # below the horizon: no clear-sky fit, a lamp
+    rad, fa, fb = sources.work_maps(ldr)
+    reg = sources.region_features(rad, fa, fb)
+    mu, sigma, _ = sources.load_source_model().predict(reg.features)
+    reported = np.maximum(mu - 1.0 * sigma ** 2, 0.0)  # a shrunk decision, below the model's mean
+    held = reg.held
+
+    def energies(rule):
+        return {k.region: k.energy for k in keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule=rule)}
+
+    hybrid, decided, capped = energies("hybrid"), energies("decided"), energies("capped")
+    assert hybrid and all(k.method == "per-source model" for k in
+                          keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="hybrid"))
+    for i, e in hybrid.items():  # a lamp (no clear-sky fit): the decision's energy, not the model's mean
+        assert e == pytest.approx((math.exp(reported[i]) - 1.0) * held[i]) == pytest.approx(decided[i])
+        assert capped[i] == pytest.approx((math.exp(mu[i]) - 1.0) * held[i]) and capped[i] > e
+    with pytest.raises(PanoLightError, match="unknown key-light energy rule 'loud'.*hybrid"):
+        keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="loud")
