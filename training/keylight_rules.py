@@ -44,14 +44,11 @@ CONE_DEG = metrics.SOURCE_CONE_DEG
 
 
 def _energies(rule: str, keys: list[dict]) -> list[float]:
-    """Each key light's energy under ``rule`` from its candidates (physical, learned, decided)."""
-    out = []
-    for k in keys:
-        capped = min(k["physical"] or k["learned"], max(k["decided"], k["learned"]))
-        out.append({"sources": 0.0, "decided": k["decided"], "capped": capped,
-                    "physical": k["physical"] or k["learned"],
-                    "hybrid": capped if k["physical"] else k["decided"]}[rule])
-    return out
+    """Each key light's energy under ``rule`` from its candidates (physical, learned, decided); none for
+    the baseline ``sources``."""
+    if rule == "sources":
+        return [0.0] * len(keys)
+    return [keylight.rule_energy(rule, k["physical"], k["learned"], k["decided"]) for k in keys]
 
 
 def score_scene(hdr: np.ndarray, ev: float, model) -> dict:

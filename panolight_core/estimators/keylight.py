@@ -75,6 +75,18 @@ def _ring_color(rad, frac_any, labels, region, direction, extent_cos) -> np.ndar
     return rgb / y if y > 0 else np.ones(3)
 
 
+def rule_energy(rule: str, physical: float | None, learned: float, decided: float) -> float:
+    """A key light's energy under an ENERGY_RULE from its candidates (luminance x sr, camera units): the
+    clear-sky fit's (x SKY_CORRECTION; None where there is none), the per-source model's mean and the
+    decided fill's."""
+    capped = min(learned if physical is None else physical, max(decided, learned))
+    energies = {"decided": decided, "capped": capped, "physical": learned if physical is None else physical,
+                "hybrid": decided if physical is None else capped}
+    if rule not in energies:
+        raise PanoLightError(f"unknown key-light energy rule {rule!r}: one of {', '.join(ENERGY_RULES)}")
+    return energies[rule]
+
+
 def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, rule: str | None = None) -> list[KeyLight]:
     """Key lights of a work map's clipped regions (``sources.Regions``) given the per-source model's
     (mu, sigma) per region (natural log of the energy ratio): the regions holding at least KEY_SHARE of the
@@ -89,8 +101,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     keys = []
     cell = math.pi / h
     rule = rule or ENERGY_RULE
-    if rule not in ENERGY_RULES:
-        raise PanoLightError(f"unknown key-light energy rule {rule!r}: one of {', '.join(ENERGY_RULES)}")
+    rule_energy(rule, None, 1.0, 1.0)  # an unknown rule is refused before any work
     for i in np.argsort(-predicted):
         if len(keys) == MAX_KEYS or predicted[i] < KEY_SHARE * scene:
             break
@@ -115,10 +126,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
             method = "per-source model"
             # a lamp (or a veiled sun) as wide as a third of its clipped core
             angle = max(math.radians(LAMP_MIN_DIAMETER_DEG), 2.0 * math.sqrt(regions.clipped_sr[i] / math.pi) / 3.0)
-        if rule == "decided" or (rule == "hybrid" and physical is None):
-            energy = decided
-        elif rule in ("capped", "hybrid"):
-            energy = min(energy, max(decided, learned))
+        energy = rule_energy(rule, physical, learned, decided)
         if not energy > 0:
             continue
         keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),
