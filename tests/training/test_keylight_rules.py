@@ -20,19 +20,21 @@ def test_rules_choose_among_the_candidates():
     assert got["hybrid"] == [3.0, 1.0]  # capped for the sun, decided for the lamp
 
 
-def test_a_scored_sunny_scene(tmp_path):
-    h = 64
+def test_a_scored_sunny_scene():
+    h = 128
     d = sh.pixel_directions(h, 2 * h)
     sun = np.array([0.4, 0.3, 0.866])
     hdr = np.full((h, 2 * h, 3), 0.3)
     hdr[d[..., 2] < 0] = 0.1
-    core = d @ sun > math.cos(math.radians(2.0))
+    core = d @ sun > math.cos(math.radians(3.0))
     hdr[core] = 2000.0  # a dominant compact source
     row = keylight_rules.score_scene(hdr, 0.0, sources.load_source_model())
-    assert row["dominant"] and set(row["rules"]) == set(keylight_rules.RULES)
+    assert row["dominant"] and row["keys"] and set(row["rules"]) == set(keylight_rules.RULES)
     for rule, got in row["rules"].items():
         assert len(got) == 3 and all(np.isfinite(got)) and got[0] >= 0 and got[2] > 0
-    # the baseline puts no light: its work map's cone holds only the region's decided fill
+    # a clipped compact source: the baseline's cone holds only the clip level and the decided fill, the
+    # key lights put more there
+    assert row["rules"]["capped"][2] > row["rules"]["sources"][2]
     s = keylight_rules.summary([dict(row, scene="x")], lambda r: r["rules"]["hybrid"])
     assert s["scenes"] == 1 and s["dominant"] == 1 and s["within"] >= 1.0
     assert s["m_rmse_median"] == pytest.approx(row["rules"]["hybrid"][0] / row["naive"][0])
