@@ -23,6 +23,7 @@ the other folds' scenes, 5 folds by scene) that turns the key lights on or off.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 import math
 import statistics
 from pathlib import Path
@@ -33,7 +34,7 @@ from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
-from panolight_core.estimators.sources.fill import key_deposits
+from panolight_core.estimators.sources.fill import fill_with_keys
 from panolight_core.pipeline import fit_radiance
 from training.keylight_cv import clipped_truth, real_hdri_parser
 from training.source_energy import load_hdr, scene_files
@@ -56,16 +57,14 @@ def score_scene(hdr: np.ndarray, ev: float, model) -> dict:
     ds = metrics.dominant_source(hdr)
     gt = sh.project(hdr, 2)
     ldr = hdr_to_ldr(hdr, ev, 90, robust=True)
-    rad, frac_any, frac_all = sources.work_maps(ldr)
-    reg = sources.region_features(rad, frac_any, frac_all)
+    rad, frac_any, frac_all = maps = sources.work_maps(ldr)
+    rec = sources.recover(ldr, model, maps=maps)  # the default's regions, prediction and decision
+    reg, mu, sigma, reported = rec.regions, rec.mu, rec.sigma, rec.log_ratio
     naive = sh.project(ldr_to_linear(ldr), 2)
     row = {"ev": ev, "dominant": bool(ds["dominant"]), "naive": [metrics.m_rmse(gt, naive), metrics.irr_rmse(gt, naive)],
            "keys": [], "rules": {}}
-    reported, found = np.zeros(0), []
+    found = []
     if reg.count:
-        mu, sigma, _ = model.predict(reg.features)
-        c, _ = sources.choose_shrink(rad, reg, mu, sigma)
-        reported = np.zeros_like(mu) if math.isinf(c) else np.maximum(mu - c * sigma ** 2, 0.0)
         found = keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported, rule="physical")
         for k in found:
             j = k.region
@@ -81,10 +80,8 @@ def score_scene(hdr: np.ndarray, ev: float, model) -> dict:
         cone = sh.pixel_directions(h, w) @ np.asarray(ds["direction"]) > math.cos(math.radians(CONE_DEG + 90.0 / h))
         truth = float(ds["energy"]) * auto_exposure(hdr, ev, robust=True)
     for rule in RULES:
-        keys = [keylight.KeyLight(k.direction, e, k.color, k.angle, k.energy_68, k.region, k.method)
-                for k, e in zip(found, _energies(rule, row["keys"])) if e > 0]
-        diffuse = sources.fill_regions(rad, reg, reported, keys) if reg.count else rad
-        work = diffuse + key_deposits(keys, diffuse.shape) if keys else diffuse
+        keys = [replace(k, energy=e) for k, e in zip(found, _energies(rule, row["keys"])) if e > 0]
+        work = fill_with_keys(rad, reg, reported, keys)[1]
         q = fit_radiance(work, hdr_input=False).project(2)
         got = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
         if cone is not None:

@@ -79,12 +79,15 @@ def rule_energy(rule: str, physical: float | None, learned: float, decided: floa
     """A key light's energy under an ENERGY_RULE from its candidates (luminance x sr, camera units): the
     clear-sky fit's (x SKY_CORRECTION; None where there is none), the per-source model's mean and the
     decided fill's."""
+    _check_rule(rule)
     capped = min(learned if physical is None else physical, max(decided, learned))
-    energies = {"decided": decided, "capped": capped, "physical": learned if physical is None else physical,
-                "hybrid": decided if physical is None else capped}
-    if rule not in energies:
+    return {"decided": decided, "capped": capped, "physical": learned if physical is None else physical,
+            "hybrid": decided if physical is None else capped}[rule]
+
+
+def _check_rule(rule: str) -> None:
+    if rule not in ENERGY_RULES:
         raise PanoLightError(f"unknown key-light energy rule {rule!r}: one of {', '.join(ENERGY_RULES)}")
-    return energies[rule]
 
 
 def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, rule: str | None = None) -> list[KeyLight]:
@@ -101,7 +104,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     keys = []
     cell = math.pi / h
     rule = rule or ENERGY_RULE
-    rule_energy(rule, None, 1.0, 1.0)  # an unknown rule is refused before any work
+    _check_rule(rule)
     for i in np.argsort(-predicted):
         if len(keys) == MAX_KEYS or predicted[i] < KEY_SHARE * scene:
             break

@@ -25,6 +25,12 @@ MIN_MEDIAN_RATIO = 0.1
 _DECISION_GRID = (32, 64)
 
 
+def shrunk(mu: np.ndarray, sigma: np.ndarray, c: float) -> np.ndarray:
+    """(n,) the log ratios reported for shrink c: max(mu - c sigma^2, 0); c = inf keeps every region at its
+    clip level (0)."""
+    return np.zeros_like(mu) if math.isinf(c) else np.maximum(mu - c * sigma ** 2, 0.0)
+
+
 @lru_cache(maxsize=4)
 def _grid_basis(h: int, w: int) -> np.ndarray:
     """(h w, 9) real SH of bands 0-2 at an (h, 2h) grid's pixel centres (the work map's, the decision's):
@@ -82,8 +88,7 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     z0 = rng.standard_normal((DECISION_SAMPLES, 1))
     z = DECISION_CORRELATION * z0 + math.sqrt(1 - DECISION_CORRELATION ** 2) * rng.standard_normal((DECISION_SAMPLES, n))
     true_lr = np.maximum(mu[None, :] + sigma[None, :] * z, 0.0)
-    cand_lr = np.stack([np.zeros(n) if math.isinf(c) else np.maximum(mu - c * sigma ** 2, 0.0)
-                        for c in SHRINK_CANDIDATES])
+    cand_lr = np.stack([shrunk(mu, sigma, c) for c in SHRINK_CANDIDATES])
 
     def coeffs(lr):  # (X, n) log ratios -> (X, 9, 3)
         excess = (np.exp(lr) - 1.0) * regions.held[None, :]

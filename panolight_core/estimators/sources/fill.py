@@ -31,6 +31,13 @@ def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray, keys=
     return out
 
 
+def fill_with_keys(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray, keys=()):
+    """(diffuse, work): ``fill_regions`` (each region's fill less its key light's energy) and the same map
+    with the key lights' energy deposited in their cells (``key_deposits``); both (h, w, 3)."""
+    diffuse = fill_regions(rad, regions, log_ratio, keys)
+    return diffuse, (diffuse + key_deposits(keys, diffuse.shape) if keys else diffuse)
+
+
 def fill_full_resolution(linear: np.ndarray, clipped: np.ndarray, excess: np.ndarray,
                          centres=(), exponents=(), labels=None, points=()) -> np.ndarray:
     """Full-resolution HDR: ``linear`` (H, W, 3) plus the work map's ``excess`` (h, w, 3) put back into

@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .decision import choose_shrink
+from .decision import choose_shrink, shrunk
 from .features import region_features
-from .fill import fill_regions, key_deposits
+from .fill import fill_with_keys
 from .regions import WIDE_CONCENTRATION, WORK_HEIGHT, Regions, work_maps
 from .trees import SourceModel, load_source_model
 
@@ -57,6 +57,7 @@ class Recovery:
         (luminance, clip units x sr), ratio with its 68 % interval, angular radius (extent, degrees),
         colour and glare exponent."""
         r = self.regions
+        extent = r.extent_deg()
         out = []
         for i in range(r.count):
             out.append({"direction": [round(float(v), 6) for v in r.centre[i]],
@@ -65,7 +66,7 @@ class Recovery:
                         "ratio": float(math.exp(self.log_ratio[i])),
                         "ratio_68": [float(math.exp(max(self.mu[i] - self.sigma[i], 0.0))),
                                      float(math.exp(self.mu[i] + self.sigma[i]))],
-                        "extent_deg": float(r.extent_deg()[i]),
+                        "extent_deg": float(extent[i]),
                         "color": [round(float(v), 6) for v in r.color[i]], "exponent": float(r.exponent[i])})
         return out
 
@@ -93,15 +94,14 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
         if decide and regions.count:
             c, expected = choose_shrink(rad, regions, mu, sigma, tolerance=tolerance,
                                         min_median_ratio=min_median_ratio)
-            reported = np.zeros_like(mu) if math.isinf(c) else np.maximum(mu - c * sigma ** 2, 0.0)
+            reported = shrunk(mu, sigma, c)
             decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
     keys = []
     if key_lights and log_ratio_fn is None and regions.count:
         from ..keylight import find_key_lights
 
         keys = find_key_lights(rad, frac, frac_all, regions, mu, sigma, reported)
-    diffuse = fill_regions(rad, regions, reported, keys)
-    work = diffuse + key_deposits(keys, diffuse.shape) if keys else diffuse
+    diffuse, work = fill_with_keys(rad, regions, reported, keys)
     return Recovery(work, rad, frac_all, regions, mu, sigma, reported, decision, keys, diffuse)
 
 
