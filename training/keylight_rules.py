@@ -16,9 +16,13 @@ Rules (``keylight.ENERGY_RULES``) and the baseline:
 
 The trees were trained on 50 of these scenes, so the absolute numbers favour all rules alike; the rules'
 differences are what this measures. ``--gate`` adds a scene-level gate (one feature threshold, chosen on
-the other folds' scenes, 5 folds by scene) that turns the key lights on or off.
+the other folds' scenes, 5 folds by scene) that turns the key lights on or off; ``--plateaus`` scores the
+shipped rule with other plateau extents (``keylight.PLATEAU_EXTENT_DEG``: how wide a region may be and still
+make a light without a clear-sky sun in it). The summary also lists the clear-sky fits' blueness (the kept
+sky's blue/red over the model's; ``sky.MIN_BLUENESS``) for real suns (a dominant source within 10 degrees)
+and for every other region it was tried on.
 
-    python -m training.keylight_rules [--evs -2 0 2] [--out docs/keylight_rules.json]
+    python -m training.keylight_rules [--evs -2 0 2] [--gate] [--plateaus 15 30 60] [--out docs/keylight_rules.json]
 """
 from __future__ import annotations
 
@@ -34,6 +38,7 @@ from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
+from panolight_core.estimators import sky as clear_sky
 from panolight_core.estimators.sources.fill import fill_with_keys
 from panolight_core.pipeline import fit_radiance
 from training.keylight_cv import clipped_truth, real_hdri_parser
@@ -52,8 +57,9 @@ def _energies(rule: str, keys: list[dict]) -> list[float]:
     return [keylight.rule_energy(rule, k["physical"], k["learned"], k["decided"]) for k in keys]
 
 
-def score_scene(hdr: np.ndarray, ev: float, model) -> dict:
-    """One scene at one ev: the key lights' candidates and every rule's scores."""
+def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
+    """One scene at one ev: the key lights' candidates and every rule's scores; for each of ``plateaus``
+    (degrees) the shipped rule's scores with that ``find_key_lights`` plateau_deg (the sensitivity check)."""
     ds = metrics.dominant_source(hdr)
     gt = sh.project(hdr, 2)
     ldr = hdr_to_ldr(hdr, ev, 90, robust=True)
@@ -72,6 +78,9 @@ def score_scene(hdr: np.ndarray, ev: float, model) -> dict:
                                 "learned": float((math.exp(mu[j]) - 1.0) * reg.held[j]),
                                 "decided": float((math.exp(reported[j]) - 1.0) * reg.held[j]),
                                 "extent_deg": float(reg.extent_deg()[j]),
+                                "blueness": k.sky.blueness if k.sky is not None else None,
+                                "sky_fits": k.sky is not None and k.sky.rms <= clear_sky.CLEAR_RMS
+                                and k.sky.sky_sr >= clear_sky.MIN_SKY_SR,
                                 "features": {n: float(v) for n, v in zip(reg.names, reg.features[j])},
                                 "angle_deg": metrics.angle_deg(k.direction, ds["direction"]) if ds["dominant"] else None})
     h, w = rad.shape[:2]
@@ -79,14 +88,20 @@ def score_scene(hdr: np.ndarray, ev: float, model) -> dict:
     if ds["dominant"]:
         cone = sh.pixel_directions(h, w) @ np.asarray(ds["direction"]) > math.cos(math.radians(CONE_DEG + 90.0 / h))
         truth = float(ds["energy"]) * auto_exposure(hdr, ev, robust=True)
-    for rule in RULES:
-        keys = [replace(k, energy=e) for k, e in zip(found, _energies(rule, row["keys"])) if e > 0]
+
+    def scores(keys):
         work = fill_with_keys(rad, reg, reported, keys)[1]
         q = fit_radiance(work, hdr_input=False).project(2)
         got = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
         if cone is not None:
             got.append(float(((work @ LUMINANCE_WEIGHTS) * sh.pixel_solid_angles(h, w))[cone].sum()) / truth)
-        row["rules"][rule] = got
+        return got
+
+    for rule in RULES:
+        row["rules"][rule] = scores([replace(k, energy=e) for k, e in zip(found, _energies(rule, row["keys"])) if e > 0])
+    row["plateau"] = {f"{t:g}": scores(keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported,
+                                                               plateau_deg=t) if reg.count else [])
+                      for t in plateaus}
     return row
 
 
@@ -134,6 +149,18 @@ def summary(rows: list[dict], get) -> dict:
             "worst_low": min(dom) if dom else None, "worst_high": max(dom) if dom else None}
 
 
+def blueness(rows: list[dict]) -> dict:
+    """The blueness (sorted) of the clear-sky fits that pass the gate's other tests (residual, visible sky), at
+    real suns (a dominant source within 10 degrees) and elsewhere."""
+    out = {"suns": [], "others": []}
+    for r in rows:
+        for k in r["keys"]:
+            if k["sky_fits"]:
+                sun = k["angle_deg"] is not None and k["angle_deg"] <= 10.0
+                out["suns" if sun else "others"].append(round(k["blueness"], 3))
+    return {name: sorted(v) for name, v in out.items()}
+
+
 def table(result: dict) -> list[str]:
     lines = ["| ev | rule | scenes | m-RMSE / naive, median | mean | irr-RMSE / naive, mean | dominant energy within | worst r |",
              "|---|---|---:|---:|---:|---:|---:|---|"]
@@ -147,6 +174,8 @@ def table(result: dict) -> list[str]:
 def main(argv=None) -> int:
     ap = real_hdri_parser("python -m training.keylight_rules", __doc__)
     ap.add_argument("--gate", action="store_true", help="also score a cross-validated one-threshold gate")
+    ap.add_argument("--plateaus", type=float, nargs="*", default=[],
+                    help="also score the shipped rule with these plateau extents (degrees; keylight.PLATEAU_EXTENT_DEG)")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
@@ -158,11 +187,11 @@ def main(argv=None) -> int:
             continue
         hdr = load_hdr(p)
         for ev in args.evs:
-            row = dict(score_scene(hdr, ev, model), scene=p.stem)
+            row = dict(score_scene(hdr, ev, model, args.plateaus), scene=p.stem)
             rows.append(row)
             print(f"[{i}/{len(files)}] {p.stem:28s} ev {ev:+g}: " + "  ".join(
                 f"{rule} {row['rules'][rule][0]:.3f}" for rule in RULES), flush=True)
-    result = {"summary": {}, "gates": None}
+    result = {"summary": {}, "gates": None, "blueness": blueness(rows)}
     gate = None
     if args.gate:
         names = sorted(next((r["keys"][0]["features"] for r in rows if r["keys"]), {}))
@@ -173,8 +202,13 @@ def main(argv=None) -> int:
         per = {rule: summary(sel, lambda r, rule=rule: r["rules"][rule]) for rule in RULES}
         if gate:
             per["hybrid, gated (CV)"] = summary(sel, lambda r: gate["scores"][(r["scene"], r["ev"])])
+        for t in args.plateaus:
+            per[f"{keylight.ENERGY_RULE}, plateau {t:g} deg"] = summary(sel, lambda r, t=t: r["plateau"][f"{t:g}"])
         result["summary"][f"{ev:+g}"] = per
     print("\n".join(table(result)))
+    for name, v in result["blueness"].items():
+        print(f"clear-sky blueness, {name}: {len(v)} fits, " + (f"min {v[0]:.2f}, median {statistics.median(v):.2f}, "
+                                                                 f"max {v[-1]:.2f}" if v else "none"))
     if args.out:
         args.out.write_text(json.dumps(dict(result, rows=rows), indent=1) + "\n", encoding="utf-8")
         print(f"wrote {args.out}")

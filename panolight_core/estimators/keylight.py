@@ -13,9 +13,13 @@ region that holds at least KEY_SHARE of the scene's predicted energy and makes i
   region; otherwise (a lamp, a window, a veiled sun, a cloudy sky) the energy the decision rule reports
   for the region (ENERGY_RULE "hybrid": over the real HDRs it halves the mean m-RMSE of "capped", which
   gave lamps the model's unshrunk mean; ``training/keylight_rules.py``).
+- which: a region wider than PLATEAU_EXTENT_DEG makes a key light only when a clear-sky sun is in it (the
+  fit passes the cloudiness gate: its residual, the sky it rests on and its colour, ``sky.MIN_BLUENESS``); a
+  wide patch of overcast sky or a white wall is lit evenly, and a point light there would cast a shadow
+  the scene does not have.
 - shape and colour: a sun is a 0.53 degree disk in the fitted sun's colour (a sunset stays warm); a lamp
-  takes the size of its clipped core and the colour of its glare (the unclipped ring), unless that ring
-  is blue sky.
+  takes the size of its clipped core and the colour of its glare (the unclipped ring's excess over the
+  background just beyond it), unless that is blue sky.
 Work maps: (h, 2h, 3) linear, clip units (1 = white), Blender world frame (CONVENTIONS.md).
 """
 from __future__ import annotations
@@ -36,6 +40,9 @@ MAX_KEYS = 3
 SKY_CORRECTION = 2.25  # true / physical sun energy: the median over 25 real suns (training/keylight_cv.py; folds 2.05-2.81)
 SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)
 LAMP_MIN_DIAMETER_DEG = 1.0
+SHOULDER = 0.75  # linear (clip level 1; sRGB 225): above it a channel sits on the camera's highlight shoulder
+PLATEAU_EXTENT_DEG = 30.0  # a region this wide (angular radius) with no clear-sky sun in it is a plateau (an
+# overcast sky, a window wall), not a compact source: its even fill stays and it makes no light (docs/keylight.md)
 ENERGY_RULES = ("decided", "capped", "physical", "hybrid")
 ENERGY_RULE = "hybrid"  # decided | capped | physical | hybrid: docs/keylight.md (training/keylight_rules.py)
 
@@ -53,6 +60,7 @@ class KeyLight:
     region: int
     method: str
     physical: float | None = None  # the clear-sky fit's energy x SKY_CORRECTION, before ENERGY_RULE
+    sky: clear_sky.SkyFit | None = None  # the clear-sky fit tried at its direction (clear or not); None below the horizon
 
     def as_light(self) -> dict:
         """A lighting-file light dict (energy as intensity)."""
@@ -62,15 +70,31 @@ class KeyLight:
                 "energy_68": [float(v) for v in self.energy_68], "source": self.method}
 
 
-def _ring_color(rad, frac_any, labels, region, direction, extent_cos) -> np.ndarray:
-    """Colour (luminance 1) of the unclipped cells just outside a region, near its source: its glare."""
+def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
+    """Colour (luminance 1) of a region's glare: the mean of the unclipped cells within 3 work cells outside
+    its angular ``radius`` (radians) around ``direction``, less the mean of the next 3 cells out (the
+    background the glare sits on: a grey wall under a sodium lamp would wash its colour out), both without
+    cells on the camera's shoulder (a channel above SHOULDER, where channels compress toward white). The
+    plain inner ring's colour where that difference is not a positive colour (no glare falloff); white
+    where no ring is seen. A synthetic sodium lamp keeps its chromaticity to 0.03 (tests)."""
     h, w = labels.shape
-    dirs = sh.pixel_directions(h, w)
-    near = (dirs @ direction > extent_cos) & (labels != region) & (frac_any == 0)
-    if near.sum() < 2:
+    cell = math.pi / h
+    cos_t = sh.pixel_directions(h, w) @ direction
+    free = (labels != region) & (frac_any == 0)
+    inner = free & (cos_t > math.cos(radius + 3 * cell))
+    outer = free & ~inner & (cos_t > math.cos(radius + 6 * cell))
+    om = sh.pixel_solid_angles(h, w)
+
+    def mean(cells):
+        return (rad[cells] * om[cells][:, None]).sum(0) / om[cells].sum() if cells.sum() >= 2 else None
+
+    rgb = mean(inner)
+    if rgb is None:
         return np.ones(3)
-    om = sh.pixel_solid_angles(h, w)[near]
-    rgb = (rad[near] * om[:, None]).sum(0)
+    below = rad.max(axis=-1) < SHOULDER
+    a, b = mean(inner & below), mean(outer & below)
+    if a is not None and b is not None and (a - b).min() > 0:
+        rgb = a - b
     y = float(rgb @ LUMINANCE_WEIGHTS)
     return rgb / y if y > 0 else np.ones(3)
 
@@ -90,10 +114,12 @@ def _check_rule(rule: str) -> None:
         raise PanoLightError(f"unknown key-light energy rule {rule!r}: one of {', '.join(ENERGY_RULES)}")
 
 
-def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, rule: str | None = None) -> list[KeyLight]:
+def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, rule: str | None = None,
+                    plateau_deg: float = PLATEAU_EXTENT_DEG) -> list[KeyLight]:
     """Key lights of a work map's clipped regions (``sources.Regions``) given the per-source model's
     (mu, sigma) per region (natural log of the energy ratio): the regions holding at least KEY_SHARE of the
-    scene's predicted energy, largest first, at most MAX_KEYS, each located and weighed (module doc)."""
+    scene's predicted energy, largest first, at most MAX_KEYS, each located and weighed (module doc); a
+    region wider than ``plateau_deg`` (angular radius, degrees) only where a clear-sky sun is in it."""
     if regions.count == 0:
         return []
     h, w = regions.labels.shape
@@ -102,9 +128,9 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     predicted = regions.held * np.exp(mu)
     scene = float((lum * omega).sum()) + float((predicted - regions.held).sum())
     keys = []
-    cell = math.pi / h
     rule = rule or ENERGY_RULE
     _check_rule(rule)
+    extent = regions.extent_deg()
     for i in np.argsort(-predicted):
         if len(keys) == MAX_KEYS or predicted[i] < KEY_SHARE * scene:
             break
@@ -113,17 +139,18 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         lo, hi = (math.exp(max(mu[i] - sigma[i], 0.0)) - 1.0) * regions.held[i], \
             (math.exp(mu[i] + sigma[i]) - 1.0) * regions.held[i]
         fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
-        extent_cos = math.cos(math.sqrt(regions.clipped_sr[i] / math.pi) + 3 * cell)  # the region's ring
         decided = (math.exp(reported[i]) - 1.0) * regions.held[i] if reported is not None else learned
         physical = None
         if fit is not None and fit.clear:
-            energy = physical = SKY_CORRECTION * fit.sun_energy
+            physical = SKY_CORRECTION * fit.sun_energy
             color = fit.sun_rgb / max(fit.sun_energy, 1e-30)
-            lo, hi = energy / SKY_SPREAD, energy * SKY_SPREAD
+            lo, hi = physical / SKY_SPREAD, physical * SKY_SPREAD
             method, angle = f"clear-sky fit (turbidity {fit.turbidity:g})", math.radians(SUN_DIAMETER_DEG)
         else:
-            energy = learned
-            ring = _ring_color(rad, frac_any, regions.labels, int(i), direction, extent_cos)
+            if extent[i] > plateau_deg:
+                continue
+            ring = _ring_color(rad, frac_any, regions.labels, int(i), direction,
+                               math.sqrt(regions.clipped_sr[i] / math.pi))
             # a blue ring is sky around a sun, not the source's own glare: keep the camera's white then
             color = ring if ring[2] <= ring[0] else np.ones(3)
             method = "per-source model"
@@ -133,6 +160,6 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         if not energy > 0:
             continue
         keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),
-                             float(angle), (float(lo), float(hi)), int(i), method, physical))
+                             float(angle), (float(lo), float(hi)), int(i), method, physical, fit))
     return keys
 

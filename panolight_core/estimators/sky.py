@@ -25,6 +25,8 @@ MIN_SKY_ELEVATION_DEG = 3.0  # sky pixels used in the fit: above this elevation 
 OCCLUDER_LOG = -0.7  # a pixel this far (natural log) below the fitted sky is an occluder (tree, building, cloud shadow)
 CLEAR_RMS = 0.35  # the cloudiness gate: a fit whose sky residual is above this (natural log RMS) is not a clear sky
 MIN_SKY_SR = 0.3  # ... nor one resting on less visible sky than this (sr)
+MIN_BLUENESS = 0.85  # ... nor one whose kept sky is redder than this times the model's blue/red: a grey room, a
+# night sky under sodium light (docs/keylight.md: real skies measured at 0.93 or bluer, false fits at 0.83 or redder)
 
 
 @dataclass(frozen=True)
@@ -95,7 +97,8 @@ class SkyFit:
     """A clear-sky fit: scale (camera units per Mitsuba unit), turbidity, the sky residual's RMS (natural
     log, over the sky pixels kept), the solid angle of sky it rests on (sr), the sun's RGB energy in camera
     units (radiance x sr, in the model's colour: re-balancing it by the sky's observed colour made five
-    real suns' colours worse, docs/keylight.md) and whether the sky is clear enough to trust it (the cloudiness gate)."""
+    real suns' colours worse, docs/keylight.md), the kept sky's blue/red over the model's (blueness) and
+    whether the sky is clear enough to trust it (the cloudiness gate: residual, visible sky and blueness)."""
 
     scale: float
     turbidity: float
@@ -103,6 +106,7 @@ class SkyFit:
     sky_sr: float
     sun_rgb: np.ndarray
     clear: bool
+    blueness: float = 1.0
 
     @property
     def sun_energy(self) -> float:
@@ -118,8 +122,10 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
     clipped in every channel, which the fitted sky must reach (a censored observation: its radiance is at
     least the clip level). For each table turbidity the scale is the solid-angle weighted mean log ratio
     of the sky cells above MIN_SKY_ELEVATION_DEG, after dropping occluders (cells more than OCCLUDER_LOG
-    below the sky); the turbidity of lowest residual (plus the clipped cells' shortfall) wins. None when
-    the sun is below the horizon or no sky is visible."""
+    below the sky); the turbidity of lowest residual (plus the clipped cells' shortfall) wins. The kept
+    cells' colour then tests that they are a sky at all: a clear sky is blue, and a dim grey room or a night
+    under sodium lamps can match its luminance falloff but not its blue/red. None when the sun is below the
+    horizon or no sky is visible."""
     table = table or load_sky_table()
     sun = np.asarray(sun, dtype=np.float64)
     if sun[2] <= 0:
@@ -136,7 +142,8 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
     d_obs, d_cen = dirs[obs], dirs[cen]
     w_obs, w_cen = omega[obs], omega[cen]
     log_obs = np.log(lum[obs])
-    model = table.sky_radiance(np.concatenate([d_obs, d_cen]), sun) @ LUMINANCE_WEIGHTS  # (T, N)
+    model_rgb = table.sky_radiance(np.concatenate([d_obs, d_cen]), sun)  # (T, N, 3)
+    model = model_rgb @ LUMINANCE_WEIGHTS  # (T, N)
     log_model = np.log(np.maximum(model, 1e-12))
     lm_obs, lm_cen = log_model[:, :obs.sum()], log_model[:, obs.sum():]
     best = None
@@ -159,12 +166,22 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
             short = math.sqrt(float((gap ** 2 * w_cen).sum() / w_cen.sum()))
         score = rms + short
         if best is None or score < best[0]:
-            best = (score, j, s, rms, float(w_obs[keep].sum()))
+            best = (score, j, s, rms, float(w_obs[keep].sum()), keep)
     if best is None:
         return None
-    _, j, s, rms, sky_sr = best
+    _, j, s, rms, sky_sr, keep = best
     scale = math.exp(s)
     elev = math.degrees(math.asin(float(sun[2])))
     sun_rgb = scale * table.sun_energy(elev)[j]
+    blueness = _blueness(rad[obs][keep], model_rgb[j, :obs.sum()][keep], w_obs[keep])
     return SkyFit(scale, float(table.turbidities[j]), rms, sky_sr, sun_rgb,
-                  clear=rms <= CLEAR_RMS and sky_sr >= MIN_SKY_SR)
+                  clear=rms <= CLEAR_RMS and sky_sr >= MIN_SKY_SR and blueness >= MIN_BLUENESS, blueness=blueness)
+
+
+def _blueness(observed: np.ndarray, model: np.ndarray, weights: np.ndarray) -> float:
+    """(B/R of the observed cells (n, 3)) over (B/R of the model's (n, 3)), both weighted by solid angle (n,)."""
+    o = (observed * weights[:, None]).sum(0)
+    m = (model * weights[:, None]).sum(0)
+    if o[0] <= 0 or m[0] <= 0 or m[2] <= 0:
+        return 0.0
+    return float((o[2] / o[0]) / (m[2] / m[0]))

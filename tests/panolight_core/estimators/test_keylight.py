@@ -40,6 +40,9 @@ def test_a_warm_lamp_keeps_its_hue():
     col = np.asarray(res.model.lights[0]["color"])
     assert col[0] > col[1] > col[2] and col[0] / col[2] > 1.4  # warm, not the clipped core's white
     assert float(col @ LUMINANCE_WEIGHTS) == pytest.approx(1.0)
+    # the glare's own colour, not washed out by the grey room it sits on
+    want = np.asarray(sodium) / float(np.asarray(sodium) @ LUMINANCE_WEIGHTS)
+    np.testing.assert_allclose(col, want, atol=0.03)
 
 
 def test_two_identical_lamps_are_two_lights_treated_alike():
@@ -110,3 +113,22 @@ def test_energy_rules_give_a_lamp_the_decided_energy_and_name_bad_rules():
         assert capped[i] == pytest.approx((math.exp(mu[i]) - 1.0) * held[i]) and capped[i] > e
     with pytest.raises(PanoLightError, match="unknown key-light energy rule 'loud'.*hybrid"):
         keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="loud")
+
+
+def test_a_wide_plateau_makes_no_light_unless_a_clear_sky_sun_is_in_it():
+    """A 45 degree (radius) patch of clipped overcast sky over a grey ground: the fill lights it evenly; a
+    point light there would cast a shadow the scene does not have. Below the plateau extent it is a lamp."""
+    from panolight_core.estimators import keylight
+
+    h = 128
+    d = sh.pixel_directions(h, 2 * h)
+    img = np.full((h, 2 * h, 3), 0.15)
+    patch = np.degrees(np.arccos(np.clip(d @ np.array([0.0, 0.6, 0.8]), -1, 1))) < 45.0
+    img[patch] = 4.0
+    rad, fa, fb = sources.work_maps(hdr_to_ldr(img, 0.0))
+    reg = sources.region_features(rad, fa, fb)
+    mu, sigma, _ = sources.load_source_model().predict(reg.features)
+    assert reg.extent_deg().max() > keylight.PLATEAU_EXTENT_DEG
+    assert keylight.find_key_lights(rad, fa, fb, reg, mu, sigma) == []
+    lamps = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, plateau_deg=180.0)
+    assert len(lamps) == 1 and lamps[0].sky is not None and not lamps[0].sky.clear

@@ -76,6 +76,19 @@ def test_cloudiness_gate_refuses_a_broken_sky():
     assert fit is not None and not fit.clear
 
 
+def test_a_grey_room_with_a_skys_falloff_is_no_clear_sky():
+    """The luminance of a clear sky, in grey (a dim room, a night under sodium light): the residual gate alone
+    would take it; its colour does not."""
+    ldr, s, _, _, _ = _clear_sky_ldr()
+    rad, frac_any, frac_all = sources.work_maps(ldr)
+    blue = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
+    grey = np.repeat((rad @ LUMINANCE_WEIGHTS)[..., None], 3, axis=-1)
+    fit = sky.fit_clear_sky(grey, frac_any == 0, frac_all > 0.5, s)
+    assert blue.clear and blue.blueness == pytest.approx(1.0, abs=0.1)
+    assert fit.rms <= sky.CLEAR_RMS and fit.sky_sr >= sky.MIN_SKY_SR  # the luminance alone looks like a sky
+    assert fit.blueness < sky.MIN_BLUENESS and not fit.clear
+
+
 def test_no_fit_for_a_sun_below_the_horizon_and_a_bad_table_is_named(tmp_path):
     ldr, s, _, _, _ = _clear_sky_ldr()
     rad, frac_any, frac_all = sources.work_maps(ldr)
