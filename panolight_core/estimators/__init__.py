@@ -11,7 +11,7 @@ float32 linear radiance for HDR (and 16-bit) files.
             real HDR panoramas predicts for it (the expected-error optimum of its predicted ratio).
 - keylight: ``sources`` plus explicit key lights: each clipped region that holds a compact sun or lamp
             becomes one light at its centroid, weighed by a clear-sky fit or the per-source model
-            (``keylight``; experimental: docs/keylight.md has what it gains and what it costs).
+            (``keylight``; docs/keylight.md has what it gains and what it costs). The default.
 - neural:   the paper's learned estimator (LDR -> HDR autoencoder -> lighting encoder) with the shipped
             weights (panolight_core/models), numpy only; HDR inputs are projected exactly.
 - auto:     the best estimator available (see ``resolve``).
@@ -150,12 +150,13 @@ _REGISTRY = {
     "sources": Entry(per_source, "Per-source energy", "Each clipped sun, lamp or window gets the energy a model "
                      "learned from real HDR panoramas predicts; exact for HDR"),
     "keylight": Entry(per_source_key_lights, "Per-source + key lights", "Per-source energy, and each clipped "
-                      "region holding a compact sun or lamp made one explicit light (experimental; exact for HDR)"),
+                      "region holding a compact sun or lamp made one explicit light that casts shadows (exact for HDR)"),
     "neural": Entry(neural_estimator(), "Neural", "The paper's network (numpy; no torch needed)"),
 }
 BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these
 DESCRIPTIONS = {name: (e.label, e.description) for name, e in _REGISTRY.items()}  # CLI help, Blender menus
-AUTO = "sources"  # what ``auto`` means: the best on the cross-validation over the 50 real HDRs (docs/accuracy.md)
+AUTO = "keylight"  # what ``auto`` means: better than ``sources`` on the 68 real HDRs with an un-clipped truth at
+# ev -2/0/+2 (m-RMSE median and mean, irr-RMSE) and on the dominant source's energy at ev -2/0 (docs/keylight.md)
 
 
 def available() -> tuple[str, ...]:

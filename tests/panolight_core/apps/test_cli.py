@@ -22,7 +22,7 @@ def test_estimate_hdr_writes_its_outputs_and_they_are_right(tmp_path, rng):
     coeffs, doc = read_lighting(out / "lighting.json")
     np.testing.assert_allclose(coeffs, sh.project(img.astype(np.float64), 3), rtol=1e-5, atol=1e-6)
     np.testing.assert_array_equal(read_image(out / "hdr.exr"), img)  # an HDR input is its own HDRI
-    assert doc["source"]["sha256"] and doc["estimator"]["name"] == "sources" and doc["order"]["mode"] == "fixed"
+    assert doc["source"]["sha256"] and doc["estimator"]["name"] == "keylight" and doc["order"]["mode"] == "fixed"
     assert set(doc["timings"]) == {"read_s", "estimate_s", "model_s", "write_s"}
     np.testing.assert_allclose(read_image(out / "radiance.exr"), sh.reconstruct(coeffs, 32, 64), rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(read_image(out / "irradiance.exr", negative="error"),
@@ -357,11 +357,12 @@ def test_hdr_exr_is_half_floats_for_an_8_bit_input_and_float32_when_it_would_not
         with OpenEXR.File(str(folder / "hdr.exr")) as f:
             return f.channels()["RGB"].pixels.dtype
 
-    for ev, dtype in ((0, np.float16), (16, np.float32)):
-        out = tmp_path / f"ev{ev}"
-        assert main(["estimate", str(src), "-o", str(out), "-q", "--exposure", str(ev)]) == 0
+    # sources: no key light; keylight (the default): the sun as a 2 x 2 pixel splat, 7e4 > half's 65504 here
+    for estimator, ev, dtype in (("sources", 0, np.float16), ("sources", 16, np.float32), ("keylight", 0, np.float32)):
+        out = tmp_path / f"{estimator}{ev}"
+        assert main(["estimate", str(src), "-o", str(out), "-q", "--exposure", str(ev), "--estimator", estimator]) == 0
         assert channel_type(out) == dtype
-        want = estimate_lighting(ldr, Settings(exposure_ev=ev)).hdr_panorama(ldr)
+        want = estimate_lighting(ldr, Settings(exposure_ev=ev, estimator=estimator)).hdr_panorama(ldr)
         assert want.max() > 1.0  # energy was recovered
         np.testing.assert_allclose(read_image(out / "hdr.exr"), want, rtol=2 ** -11, atol=0)
 

@@ -80,8 +80,8 @@ def test_block_wise_hdri_is_the_whole_image_fill_even_when_blocks_split_work_cel
     _, est = fit_pixels(ldr)
     rec = est.recovery
     whole = fill_full_resolution(ldr_to_linear(ldr), clipped_mask(ldr, all_channels=True),
-                                 np.maximum(rec.work - rec.base, 0.0), rec.regions.centre,
-                                 rec.regions.shape_exponents(), rec.regions.labels)
+                                 np.maximum(rec.diffuse - rec.base, 0.0), rec.regions.centre,
+                                 rec.regions.shape_exponents(), rec.regions.labels, rec.key_points())
     monkeypatch.setattr(resample, "BLOCK_PIXELS", 600 * 7)  # 7-row blocks
     blocks = list(hdr_blocks(ldr, est))
     assert len(blocks) > 40 and whole.max() > 1.0  # many blocks, and energy was filled in

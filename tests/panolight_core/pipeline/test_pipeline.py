@@ -70,7 +70,7 @@ def test_the_document_is_valid_and_says_its_units(sunny):
     for px, units in ((hdr, "input radiance units"), (ldr, "relative: 1 = the LDR camera's clip level")):
         doc = estimate_lighting(px).document
         validate(doc)
-        assert doc["units"].startswith(units) and doc["estimator"]["name"] == "sources"
+        assert doc["units"].startswith(units) and doc["estimator"]["name"] == "keylight"
         assert set(doc["timings"]) == {"estimate_s", "model_s"} and "source" not in doc
         assert np.allclose(doc["coefficients"], estimate_lighting(px).model.coeffs)
 
