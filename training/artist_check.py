@@ -14,7 +14,7 @@ For each photo (default: every JPEG in ../shared/data/ldr; never trained or tune
   colour (the tunnel's sodium lamps must come out orange).
 Writes OUT/<photo>.png (photo | composite per estimator) and OUT/artist_check.md (the table).
 
-    python -m training.artist_check [--photos a.jpg ...] [--estimators auto keylight] [--spp 64] --out docs/artist_check
+    python -m training.artist_check [--photos a.jpg ...] [--estimators sources auto] [--spp 64] --out docs/artist_check
 """
 from __future__ import annotations
 
@@ -172,7 +172,7 @@ def write(results, out: Path) -> Path:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--photos", nargs="*", default=None, help="JPEGs (default: every one in ../shared/data/ldr)")
-    ap.add_argument("--estimators", nargs="+", default=["auto", "keylight"])
+    ap.add_argument("--estimators", nargs="+", default=["sources", "auto"])
     ap.add_argument("--spp", type=int, default=64, help="samples per pixel of each Mitsuba pass (default 64)")
     ap.add_argument("--out", required=True, help="folder for the pictures and artist_check.md")
     args = ap.parse_args(argv)
