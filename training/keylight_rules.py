@@ -38,7 +38,6 @@ from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
-from panolight_core.estimators import sky as clear_sky
 from panolight_core.estimators.sources.fill import fill_with_keys
 from panolight_core.pipeline import fit_radiance
 from training.keylight_cv import clipped_truth, real_hdri_parser
@@ -79,8 +78,7 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
                                 "decided": float((math.exp(reported[j]) - 1.0) * reg.held[j]),
                                 "extent_deg": float(reg.extent_deg()[j]),
                                 "blueness": k.sky.blueness if k.sky is not None else None,
-                                "sky_fits": k.sky is not None and k.sky.rms <= clear_sky.CLEAR_RMS
-                                and k.sky.sky_sr >= clear_sky.MIN_SKY_SR,
+                                "sky_fits": k.sky is not None and k.sky.luminance_clear,
                                 "features": {n: float(v) for n, v in zip(reg.names, reg.features[j])},
                                 "angle_deg": metrics.angle_deg(k.direction, ds["direction"]) if ds["dominant"] else None})
     h, w = rad.shape[:2]

@@ -26,7 +26,8 @@ OCCLUDER_LOG = -0.7  # a pixel this far (natural log) below the fitted sky is an
 CLEAR_RMS = 0.35  # the cloudiness gate: a fit whose sky residual is above this (natural log RMS) is not a clear sky
 MIN_SKY_SR = 0.3  # ... nor one resting on less visible sky than this (sr)
 MIN_BLUENESS = 0.85  # ... nor one whose kept sky is redder than this times the model's blue/red: a grey room, a
-# night sky under sodium light (docs/keylight.md: real skies measured at 0.93 or bluer, false fits at 0.83 or redder)
+# night sky under sodium light (docs/keylight.md: 25 of 26 real suns' skies at 0.96 or bluer, the other a lamp at
+# night; grey studios, a chapel and night skies at 0.41-0.82)
 
 
 @dataclass(frozen=True)
@@ -97,16 +98,25 @@ class SkyFit:
     """A clear-sky fit: scale (camera units per Mitsuba unit), turbidity, the sky residual's RMS (natural
     log, over the sky pixels kept), the solid angle of sky it rests on (sr), the sun's RGB energy in camera
     units (radiance x sr, in the model's colour: re-balancing it by the sky's observed colour made five
-    real suns' colours worse, docs/keylight.md), the kept sky's blue/red over the model's (blueness) and
-    whether the sky is clear enough to trust it (the cloudiness gate: residual, visible sky and blueness)."""
+    real suns' colours worse, docs/keylight.md) and the kept sky's blue/red over the model's (blueness)."""
 
     scale: float
     turbidity: float
     rms: float
     sky_sr: float
     sun_rgb: np.ndarray
-    clear: bool
     blueness: float = 1.0
+
+    @property
+    def luminance_clear(self) -> bool:
+        """The cloudiness gate's luminance tests alone: a small residual on enough visible sky."""
+        return self.rms <= CLEAR_RMS and self.sky_sr >= MIN_SKY_SR
+
+    @property
+    def clear(self) -> bool:
+        """Whether the sky is clear enough to trust the fit (the cloudiness gate): its luminance tests, and a
+        sky blue enough to be one."""
+        return self.luminance_clear and self.blueness >= MIN_BLUENESS
 
     @property
     def sun_energy(self) -> float:
@@ -174,8 +184,7 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
     elev = math.degrees(math.asin(float(sun[2])))
     sun_rgb = scale * table.sun_energy(elev)[j]
     blueness = _blueness(rad[obs][keep], model_rgb[j, :obs.sum()][keep], w_obs[keep])
-    return SkyFit(scale, float(table.turbidities[j]), rms, sky_sr, sun_rgb,
-                  clear=rms <= CLEAR_RMS and sky_sr >= MIN_SKY_SR and blueness >= MIN_BLUENESS, blueness=blueness)
+    return SkyFit(scale, float(table.turbidities[j]), rms, sky_sr, sun_rgb, blueness)
 
 
 def _blueness(observed: np.ndarray, model: np.ndarray, weights: np.ndarray) -> float:
