@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -51,13 +51,24 @@ class SkyTable:
         i, f = self._bracket(self.elevations, elevation_deg)
         return (1.0 - f) * table[i] + f * table[i + 1]
 
-    def sky_radiance(self, dirs: np.ndarray, sun: np.ndarray) -> np.ndarray:
-        """(T, N, 3) sky radiance for every table turbidity at unit directions ``dirs`` (N, 3) with the sun
-        at unit ``sun`` (3,); 0 below the horizon."""
+    @cached_property
+    def sky_luminance_table(self) -> np.ndarray:
+        """(E, T, NTHETA, NPHI) the sky table's luminance (bilinear interpolation commutes with it)."""
+        return self.sky @ LUMINANCE_WEIGHTS
+
+    def _interpolate(self, table: np.ndarray, dirs: np.ndarray, sun: np.ndarray, turbidity: int | None = None
+                     ) -> np.ndarray:
+        """(T, N, ...) ``table`` (E, T, NTHETA, NPHI, ...) at unit directions ``dirs`` (N, 3) with the sun at
+        unit ``sun`` (3,): linear in elevation, bilinear in (view zenith, azimuth from the sun); 0 below the
+        horizon. ``turbidity``: one table index only (T = 1)."""
         sun = np.asarray(sun, dtype=np.float64)
         elev = math.degrees(math.asin(float(np.clip(sun[2], -1.0, 1.0))))
-        tab = self._at_elevation(self.sky, elev)  # (T, NTHETA, NPHI, 3)
+        if turbidity is not None:
+            table = table[:, turbidity:turbidity + 1]
+        tab = self._at_elevation(table, elev)  # (T, NTHETA, NPHI, ...)
         nt, nph = tab.shape[1:3]
+        # rows = table cells, so each corner is one contiguous gather of (N, T x channels)
+        rows = np.ascontiguousarray(np.moveaxis(tab.reshape(tab.shape[0], nt * nph, -1), 0, 1)).reshape(nt * nph, -1)
         d = np.asarray(dirs, dtype=np.float64)
         theta = np.degrees(np.arccos(np.clip(d[:, 2], -1.0, 1.0)))
         phi = np.degrees(np.abs(np.arctan2(d[:, 1], d[:, 0]) - math.atan2(sun[1], sun[0])))
@@ -65,10 +76,21 @@ class SkyTable:
         x = np.clip(theta / 90.0 * (nt - 1), 0.0, nt - 1 - 1e-9)
         y = np.clip(phi / 180.0 * (nph - 1), 0.0, nph - 1 - 1e-9)
         x0, y0 = x.astype(int), y.astype(int)
-        fx, fy = (x - x0)[None, :, None], (y - y0)[None, :, None]
-        out = ((1 - fx) * (1 - fy) * tab[:, x0, y0] + fx * (1 - fy) * tab[:, x0 + 1, y0]
-               + (1 - fx) * fy * tab[:, x0, y0 + 1] + fx * fy * tab[:, x0 + 1, y0 + 1])
-        return np.where((d[:, 2] > 0)[None, :, None], out, 0.0)
+        fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+        i00 = x0 * nph + y0
+        out = ((1 - fx) * (1 - fy) * rows[i00] + fx * (1 - fy) * rows[i00 + nph]
+               + (1 - fx) * fy * rows[i00 + 1] + fx * fy * rows[i00 + nph + 1])
+        out = np.where((d[:, 2] > 0)[:, None], out, 0.0)
+        return np.moveaxis(out.reshape(d.shape[0], tab.shape[0], *tab.shape[3:]), 1, 0)
+
+    def sky_radiance(self, dirs: np.ndarray, sun: np.ndarray, turbidity: int | None = None) -> np.ndarray:
+        """(T, N, 3) sky radiance for every table turbidity (or the one index ``turbidity``: T = 1) at unit
+        directions ``dirs`` (N, 3) with the sun at unit ``sun`` (3,); 0 below the horizon."""
+        return self._interpolate(self.sky, dirs, sun, turbidity)
+
+    def sky_luminance(self, dirs: np.ndarray, sun: np.ndarray) -> np.ndarray:
+        """(T, N) the sky's luminance (``sky_radiance`` @ LUMINANCE_WEIGHTS, a third of the work)."""
+        return self._interpolate(self.sky_luminance_table, dirs, sun)
 
     def sun_energy(self, elevation_deg: float) -> np.ndarray:
         """(T, 3) the solar disk's RGB energy at this elevation for every table turbidity."""
@@ -152,38 +174,37 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
     d_obs, d_cen = dirs[obs], dirs[cen]
     w_obs, w_cen = omega[obs], omega[cen]
     log_obs = np.log(lum[obs])
-    model_rgb = table.sky_radiance(np.concatenate([d_obs, d_cen]), sun)  # (T, N, 3)
-    model = model_rgb @ LUMINANCE_WEIGHTS  # (T, N)
+    model = table.sky_luminance(np.concatenate([d_obs, d_cen]), sun)  # (T, N)
     log_model = np.log(np.maximum(model, 1e-12))
     lm_obs, lm_cen = log_model[:, :obs.sum()], log_model[:, obs.sum():]
-    best = None
-    for j in range(table.turbidities.size):
-        r = log_obs - lm_obs[j]
-        keep = np.ones(r.shape, bool)
-        for _ in range(3):  # the sky is the upper envelope: occluders sit below it
-            s = float((r * w_obs)[keep].sum() / w_obs[keep].sum())
-            keep = r - s > OCCLUDER_LOG
-            if not keep.any():
-                break
-        if not keep.any():
-            continue
-        s = float((r * w_obs)[keep].sum() / w_obs[keep].sum())
-        res = r[keep] - s
-        rms = math.sqrt(float((res ** 2 * w_obs[keep]).sum() / w_obs[keep].sum()))
-        short = 0.0
-        if cen.any():  # clipped sky the model leaves below the clip level
-            gap = np.minimum(lm_cen[j] + s, 0.0)
-            short = math.sqrt(float((gap ** 2 * w_cen).sum() / w_cen.sum()))
-        score = rms + short
-        if best is None or score < best[0]:
-            best = (score, j, s, rms, float(w_obs[keep].sum()), keep)
-    if best is None:
+    # every table turbidity at once: r (T, N) log residuals, keep (T, N) the sky cells (occluders dropped)
+    r = log_obs[None, :] - lm_obs
+    keep = np.ones(r.shape, bool)
+
+    def level(keep):  # (T,) the weighted mean log ratio over the kept cells (nan where none is kept)
+        wk = np.where(keep, w_obs[None, :], 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return (r * wk).sum(axis=1) / wk.sum(axis=1)
+
+    for _ in range(3):  # the sky is the upper envelope: occluders sit below it
+        keep = r - level(keep)[:, None] > OCCLUDER_LOG  # a row once empty stays empty (nan compares False)
+    s_all = level(keep)
+    wk = np.where(keep, w_obs[None, :], 0.0)
+    sky_sr_all = wk.sum(axis=1)
+    rms_all = np.sqrt(((r - s_all[:, None]) ** 2 * wk).sum(axis=1) / np.where(sky_sr_all > 0, sky_sr_all, 1.0))
+    short = np.zeros_like(rms_all)
+    if cen.any():  # clipped sky the model leaves below the clip level
+        gap = np.minimum(lm_cen + s_all[:, None], 0.0)
+        short = np.sqrt((gap ** 2 * w_cen[None, :]).sum(axis=1) / w_cen.sum())
+    score = np.where(keep.any(axis=1), rms_all + short, np.inf)
+    if not np.isfinite(score).any():
         return None
-    _, j, s, rms, sky_sr, keep = best
+    j = int(np.argmin(score))  # the first of equal scores, as the turbidities ascend
+    s, rms, sky_sr, keep = float(s_all[j]), float(rms_all[j]), float(sky_sr_all[j]), keep[j]
     scale = math.exp(s)
     elev = math.degrees(math.asin(float(sun[2])))
     sun_rgb = scale * table.sun_energy(elev)[j]
-    blueness = _blueness(rad[obs][keep], model_rgb[j, :obs.sum()][keep], w_obs[keep])
+    blueness = _blueness(rad[obs][keep], table.sky_radiance(d_obs[keep], sun, j)[0], w_obs[keep])
     return SkyFit(scale, float(table.turbidities[j]), rms, sky_sr, sun_rgb, blueness)
 
 

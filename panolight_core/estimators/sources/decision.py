@@ -40,19 +40,27 @@ def _grid_basis(h: int, w: int) -> np.ndarray:
     return y
 
 
-def _weighted_errors(q: np.ndarray, g: np.ndarray, w: np.ndarray) -> np.ndarray:
+def _map_medians(c: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(X,) the median over pixels and channels of each of X maps with SH coefficients c (X, 9, 3) on a grid
+    of basis y (N, 9), taken in place in the maps (np.median's copy would cost twice the product)."""
+    maps = np.matmul(y, c)
+    return np.median(maps.reshape(maps.shape[0], -1), axis=1, overwrite_input=True)
+
+
+def _weighted_errors(qc: np.ndarray, gc: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
     """EVALUATION.md's median-scaled relative RMSE for every (candidate, sample) pair.
 
-    q (C, N, 3), g (S, N, 3) maps on a grid with weights w (N,) summing to 1 -> (C, S)."""
-    med_q = np.median(q.reshape(q.shape[0], -1), axis=1)
-    med_g = np.median(g.reshape(g.shape[0], -1), axis=1)
+    qc (C, 9, 3) and gc (S, 9, 3) SH coefficients, y (N, 9) their basis on a grid with weights w (N,) summing
+    to 1 -> (C, S). Only the medians need the maps; the weighted products are taken in coefficient space
+    through the grid's Gram matrix y^T diag(w) y (9, 9)."""
+    med_q, med_g = _map_medians(qc, y), _map_medians(gc, y)
     scale = np.where(med_q[:, None] > 0, med_g[None, :] / np.where(med_q > 0, med_q, 1.0)[:, None], 1.0)
-    qw = q * w[None, :, None]
-    qq = (qw * q).sum(axis=(1, 2)) / 3.0
-    gg = ((g * w[None, :, None]) * g).sum(axis=(1, 2)) / 3.0
-    qg = (qw.reshape(q.shape[0], -1) @ g.reshape(g.shape[0], -1).T) / 3.0
+    gram = y.T @ (y * w[:, None])
+    qq = np.einsum("cik,ij,cjk->c", qc, gram, qc) / 3.0
+    gg = np.einsum("sik,ij,sjk->s", gc, gram, gc) / 3.0
+    qg = np.einsum("cik,ij,sjk->cs", qc, gram, gc) / 3.0
     num = np.sqrt(np.maximum(scale ** 2 * qq[:, None] - 2.0 * scale * qg + gg[None, :], 0.0))
-    den = (g * w[None, :, None]).sum(axis=(1, 2)) / 3.0
+    den = np.einsum("i,sik->s", w @ y, gc) / 3.0
     return num / np.where(np.abs(den) > 0, den, np.inf)[None, :]
 
 
@@ -101,14 +109,13 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     err = np.zeros((len(SHRINK_CANDIDATES), DECISION_SAMPLES))
     for conv in (False, True):
         q, g = (convolve_lambert(qc), convolve_lambert(gc)) if conv else (qc, gc)
-        err += _weighted_errors(np.matmul(grid_y, q), np.matmul(grid_y, g), wgrid)
+        err += _weighted_errors(q, g, grid_y, wgrid)
     expected = err.mean(axis=1)
     # a candidate whose lmax-2 map has a median near zero (its source rings the rest of the sphere
     # down) makes the metric's median scale explode for any truth that does not share it: never report
     # one while a healthier candidate exists (the last candidate, no recovery, is the plain map)
-    qmap = np.matmul(grid_y, qc)
-    med = np.median(qmap.reshape(qmap.shape[0], -1), axis=1)
-    mean = np.einsum("n,cnk->c", wgrid, qmap) / 3.0
+    med = _map_medians(qc, grid_y)
+    mean = np.einsum("i,cik->c", wgrid @ grid_y, qc) / 3.0
     healthy = med >= min_median_ratio * np.maximum(mean, 1e-300)
     healthy[-1] = True
     pool = np.where(healthy, expected, np.inf)

@@ -15,8 +15,8 @@ import numpy as np
 from ... import sh
 from ...camera.color import LUMINANCE_WEIGHTS
 from ..highlights import MAX_EXPONENT, _ring_fit, power_law_gain
-from .regions import (MAX_REGIONS, WIDE_CONCENTRATION, Regions, label_regions, profile_shares, region_centres,
-                      region_sums)
+from .regions import (MAX_REGIONS, WIDE_CONCENTRATION, Regions, label_regions, profile_shares, region_cells,
+                      region_centres, region_sums)
 
 RING_EDGES_DEG = (0.0, 2.0, 5.0, 10.0, 20.0)  # rings beyond the region's edge, degrees
 REGION_FEATURES = (
@@ -65,7 +65,9 @@ def scene_features(rad: np.ndarray, clipped: np.ndarray, count: int, scene_clipp
 def _glare(ang, lum, rad, omega, clear, extent, cell_deg):
     """A region's glare: mean luminance of the four rings beyond its edge (RING_EDGES_DEG, unclipped
     cells), the innermost ring's mean colour (luminance 1) and the power-law exponent fitted out to three
-    times its extent. ang (h, w): angle to the region's centre, radians; extent: its radius, radians."""
+    times its extent. ang (...): angle to the region's centre, radians, of the cells lum (...), rad (..., 3),
+    omega (...) and clear (...) describe (any shape: the whole map or the cells near the region); extent: its
+    radius, radians."""
     rings, ring_rgb = [], None
     for k in range(4):
         lo_a = extent + math.radians(RING_EDGES_DEG[k])
@@ -117,11 +119,24 @@ def region_features(rad: np.ndarray, frac_any: np.ndarray, frac_all: np.ndarray,
 
     rows = [dict(scene) for _ in range(n)]
     exponent = np.zeros(n)
+    flat_dirs = dirs.reshape(-1, 3)
+    cells = region_cells(labels, n)
+    cell = math.pi / h
     for i, f in enumerate(rows):
         c = centre[i]
-        ang = np.arccos(np.clip(dirs @ c, -1.0, 1.0))
-        extent = float(ang[labels == i].max()) + math.radians(0.5 * cell_deg)
-        rings, ring_color, p = _glare(ang, lum, rad, omega, clear, extent, cell_deg)
+        cos_in = flat_dirs[cells[i]] @ c
+        extent = float(np.arccos(np.clip(cos_in, -1.0, 1.0)).max()) + math.radians(0.5 * cell_deg)
+        # the glare lies within the outermost ring and the fit's reach: only the rows that cap crosses are
+        # looked at, their cells in the map's order (the same sums as over the whole map)
+        reach = min(max(extent + math.radians(RING_EDGES_DEG[-1] + cell_deg), 3.0 * extent,
+                        extent + math.radians(3 * cell_deg)), math.pi)
+        polar = math.acos(float(np.clip(c[2], -1.0, 1.0)))
+        r0, r1 = max(0, int((polar - reach) / cell) - 1), min(h, int((polar + reach) / cell) + 2)
+        cos_c = dirs[r0:r1] @ c
+        near = cos_c >= math.cos(reach)
+        ang = np.arccos(np.clip(cos_c[near], -1.0, 1.0))
+        rings, ring_color, p = _glare(ang, lum[r0:r1][near], rad[r0:r1][near], omega[r0:r1][near],
+                                      clear[r0:r1][near], extent, cell_deg)
         exponent[i] = p
         f.update(log_clipped_sr=_log10(clipped_sr[i]), log_region_sr=_log10(region_sr[i]), elevation=c[2],
                  log_any_over_all_clipped=_log10(any_sr[i] / max(clipped_sr[i], 1e-12)),

@@ -106,6 +106,15 @@ def region_sums(labels: np.ndarray, n: int, *values: np.ndarray) -> list[np.ndar
     return out
 
 
+def region_cells(labels: np.ndarray, n: int) -> list:
+    """Each region's cells: n flat index arrays into ``labels`` (h, w), ascending (the map's order, as a
+    boolean mask ``labels == i`` selects them), found in one sort instead of n passes over the map."""
+    flat = labels.ravel()
+    order = np.argsort(flat, kind="stable")
+    bounds = np.searchsorted(flat[order], np.arange(n + 1))
+    return [order[bounds[i]:bounds[i + 1]] for i in range(n)]
+
+
 def region_centres(labels: np.ndarray, frac_all: np.ndarray, n: int) -> np.ndarray:
     """(n, 3) unit clipped-area centroid of each region (straight up for a region with none)."""
     h, w = labels.shape
@@ -124,11 +133,11 @@ def profile_shares(regions: Regions, frac_all: np.ndarray) -> np.ndarray:
         return share
     q = regions.shape_exponents()
     t_floor = max(CORE_RADIUS, math.radians(0.5 * 180.0 / h))
-    dirs = sh.pixel_directions(h, w)
-    weight = sh.pixel_solid_angles(h, w) * frac_all
-    for i in range(regions.count):
-        cells = regions.labels == i
+    dirs = sh.pixel_directions(h, w).reshape(-1, 3)
+    weight = (sh.pixel_solid_angles(h, w) * frac_all).ravel()
+    flat = share.ravel()
+    for i, cells in enumerate(region_cells(regions.labels, regions.count)):
         ang = np.arccos(np.clip(dirs[cells] @ regions.centre[i], -1.0, 1.0))
         wt = weight[cells] * np.maximum(ang, t_floor) ** (-q[i])
-        share[cells] = wt / max(float(wt.sum()), 1e-300)
+        flat[cells] = wt / max(float(wt.sum()), 1e-300)
     return share

@@ -19,7 +19,7 @@ def test_decision_errors_are_the_metric(rng):
     h, w = 16, 32
     grid = sh.basis(sh.pixel_directions(h, w).reshape(-1, 3), 2)
     wts = sh.pixel_solid_angles(h, w).ravel() / (4 * math.pi)
-    got = sources._weighted_errors(np.matmul(grid, q), np.matmul(grid, g), wts)
+    got = sources._weighted_errors(q, g, grid, wts)
     for c in range(3):
         for s in range(2):
             ref = _relative_weighted_rmse(sh.reconstruct(g[s], h, w), sh.reconstruct(q[c], h, w))
