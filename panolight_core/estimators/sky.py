@@ -28,6 +28,10 @@ MIN_SKY_SR = 0.3  # ... nor one resting on less visible sky than this (sr)
 MIN_BLUENESS = 0.85  # ... nor one whose kept sky is redder than this times the model's blue/red: a grey room, a
 # night sky under sodium light (docs/keylight.md: 25 of 26 real suns' skies at 0.96 or bluer, the other a lamp at
 # night; grey studios, a chapel and night skies at 0.41-0.82)
+CONTRAST_RANGE = (0.5, 2.5)  # a sky that fails the gate through sRGB is fitted again through a tone curve: log
+# observed = s + g log model, g in this range (a camera's S-curve steepens the sky's falloff, a tone-mapped look
+# flattens it), and passes when that fit's residual does with g inside the range (a grey studio's walls ask
+# for g held at 0.5)
 
 
 @dataclass(frozen=True)
@@ -88,9 +92,9 @@ class SkyTable:
         directions ``dirs`` (N, 3) with the sun at unit ``sun`` (3,); 0 below the horizon."""
         return self._interpolate(self.sky, dirs, sun, turbidity)
 
-    def sky_luminance(self, dirs: np.ndarray, sun: np.ndarray) -> np.ndarray:
+    def sky_luminance(self, dirs: np.ndarray, sun: np.ndarray, turbidity: int | None = None) -> np.ndarray:
         """(T, N) the sky's luminance (``sky_radiance`` @ LUMINANCE_WEIGHTS, a third of the work)."""
-        return self._interpolate(self.sky_luminance_table, dirs, sun)
+        return self._interpolate(self.sky_luminance_table, dirs, sun, turbidity)
 
     def sun_energy(self, elevation_deg: float) -> np.ndarray:
         """(T, 3) the solar disk's RGB energy at this elevation for every table turbidity."""
@@ -117,8 +121,9 @@ def load_sky_table(path=MODEL_PATH) -> SkyTable:
 
 @dataclass(frozen=True)
 class SkyFit:
-    """A clear-sky fit: scale (camera units per Mitsuba unit), turbidity, the sky residual's RMS (natural
-    log, over the sky pixels kept), the solid angle of sky it rests on (sr), the sun's RGB energy in camera
+    """A clear-sky fit: scale (camera units per Mitsuba unit: the fitted sky's energy over the model's, the
+    per-pixel scale when ``contrast`` is 1), turbidity, the sky residual's RMS (natural log, over the sky
+    pixels kept), the solid angle of sky it rests on (sr), the sun's RGB energy in camera
     units (radiance x sr, in the model's colour: re-balancing it by the sky's observed colour made five
     real suns' colours worse, docs/keylight.md) and the kept sky's blue/red over the model's (blueness)."""
 
@@ -128,6 +133,7 @@ class SkyFit:
     sky_sr: float
     sun_rgb: np.ndarray
     blueness: float = 1.0
+    contrast: float = 1.0  # g of log observed = s + g log model: 1 for the sRGB curve, else the tone curve's
 
     @property
     def luminance_clear(self) -> bool:
@@ -177,35 +183,66 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
     model = table.sky_luminance(np.concatenate([d_obs, d_cen]), sun)  # (T, N)
     log_model = np.log(np.maximum(model, 1e-12))
     lm_obs, lm_cen = log_model[:, :obs.sum()], log_model[:, obs.sum():]
-    # every table turbidity at once: r (T, N) log residuals, keep (T, N) the sky cells (occluders dropped)
-    r = log_obs[None, :] - lm_obs
-    keep = np.ones(r.shape, bool)
+    fit = _fit_turbidities(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast=False)
+    if fit is not None and fit[3] > CLEAR_RMS:  # not a clear sky as sRGB would show it: through a tone curve?
+        curved = _fit_turbidities(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast=True)
+        # a slope held at either bound is no camera's curve: the model does not describe this light
+        if curved is not None and curved[3] <= CLEAR_RMS and CONTRAST_RANGE[0] < curved[2] < CONTRAST_RANGE[1]:
+            fit = curved
+    if fit is None:
+        return None
+    j, s, g, rms, sky_sr, keep = fit
+    elev = math.degrees(math.asin(float(sun[2])))
+    if g == 1.0:
+        ratio = math.exp(s)
+    else:  # the sun keeps its share of the sky's energy: sun / sky of the model, times the fitted sky here
+        m = table.sky_luminance(dirs[upper], sun, j)[0]
+        ratio = float((np.exp(s) * m ** g * omega[upper]).sum() / (m * omega[upper]).sum())
+    sun_rgb = ratio * table.sun_energy(elev)[j]
+    blueness = _blueness(rad[obs][keep], table.sky_radiance(d_obs[keep], sun, j)[0], w_obs[keep])
+    return SkyFit(ratio, float(table.turbidities[j]), rms, sky_sr, sun_rgb, blueness, g)
 
-    def level(keep):  # (T,) the weighted mean log ratio over the kept cells (nan where none is kept)
+
+def _fit_turbidities(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast: bool):
+    """The best turbidity's fit of log sky luminance: log_obs (N,) observed at cells of solid angle w_obs (N,),
+    lm_obs (T, N) the model's log luminance there for every table turbidity, lm_cen (T, M) at the clipped
+    cells (solid angles w_cen (M,)), which the fit must reach. The fit is log_obs = s + g lm_obs with g = 1
+    (a camera with the sRGB curve) or, with ``contrast``, g in CONTRAST_RANGE (a tone curve's contrast), on
+    the sky cells left after dropping occluders (OCCLUDER_LOG below the fit, three passes: the sky is the
+    upper envelope). Score: the residual's RMS plus the clipped cells' shortfall. Returns (turbidity index,
+    s, g, rms, sky solid angle, kept cells (N,) bool) or None when no cell is kept."""
+    keep = np.ones(lm_obs.shape, bool)
+
+    def line(keep):  # (T,) offset s and slope g over the kept cells (nan where none is kept)
         wk = np.where(keep, w_obs[None, :], 0.0)
         with np.errstate(invalid="ignore", divide="ignore"):
-            return (r * wk).sum(axis=1) / wk.sum(axis=1)
+            if not contrast:
+                return ((log_obs[None, :] - lm_obs) * wk).sum(axis=1) / wk.sum(axis=1), np.ones(lm_obs.shape[0])
+            mx, my = (lm_obs * wk).sum(axis=1) / wk.sum(axis=1), (log_obs[None, :] * wk).sum(axis=1) / wk.sum(axis=1)
+            dx = lm_obs - mx[:, None]
+            g = np.clip((wk * dx * (log_obs[None, :] - my[:, None])).sum(axis=1) / (wk * dx ** 2).sum(axis=1),
+                        *CONTRAST_RANGE)
+            return my - g * mx, g
 
-    for _ in range(3):  # the sky is the upper envelope: occluders sit below it
-        keep = r - level(keep)[:, None] > OCCLUDER_LOG  # a row once empty stays empty (nan compares False)
-    s_all = level(keep)
+    def residual(s, g):
+        return log_obs[None, :] - lm_obs if not contrast else log_obs[None, :] - g[:, None] * lm_obs
+    for _ in range(3):  # a row once empty stays empty (nan compares False)
+        s_all, g_all = line(keep)
+        keep = residual(s_all, g_all) - s_all[:, None] > OCCLUDER_LOG
+    s_all, g_all = line(keep)
     wk = np.where(keep, w_obs[None, :], 0.0)
     sky_sr_all = wk.sum(axis=1)
-    rms_all = np.sqrt(((r - s_all[:, None]) ** 2 * wk).sum(axis=1) / np.where(sky_sr_all > 0, sky_sr_all, 1.0))
+    res = residual(s_all, g_all) - s_all[:, None]
+    rms_all = np.sqrt((res ** 2 * wk).sum(axis=1) / np.where(sky_sr_all > 0, sky_sr_all, 1.0))
     short = np.zeros_like(rms_all)
-    if cen.any():  # clipped sky the model leaves below the clip level
-        gap = np.minimum(lm_cen + s_all[:, None], 0.0)
+    if lm_cen.shape[1]:  # clipped sky the model leaves below the clip level
+        gap = np.minimum(g_all[:, None] * lm_cen + s_all[:, None], 0.0)
         short = np.sqrt((gap ** 2 * w_cen[None, :]).sum(axis=1) / w_cen.sum())
     score = np.where(keep.any(axis=1), rms_all + short, np.inf)
     if not np.isfinite(score).any():
         return None
     j = int(np.argmin(score))  # the first of equal scores, as the turbidities ascend
-    s, rms, sky_sr, keep = float(s_all[j]), float(rms_all[j]), float(sky_sr_all[j]), keep[j]
-    scale = math.exp(s)
-    elev = math.degrees(math.asin(float(sun[2])))
-    sun_rgb = scale * table.sun_energy(elev)[j]
-    blueness = _blueness(rad[obs][keep], table.sky_radiance(d_obs[keep], sun, j)[0], w_obs[keep])
-    return SkyFit(scale, float(table.turbidities[j]), rms, sky_sr, sun_rgb, blueness)
+    return j, float(s_all[j]), float(g_all[j]), float(rms_all[j]), float(sky_sr_all[j]), keep[j]
 
 
 def _blueness(observed: np.ndarray, model: np.ndarray, weights: np.ndarray) -> float:

@@ -14,9 +14,10 @@ def _sun(elev_deg, az=1.0):
     return np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
 
 
-def _clear_sky_ldr(elev=40.0, turbidity=3.0, h=256, clip_deg=20.0):
+def _clear_sky_ldr(elev=40.0, turbidity=3.0, h=256, clip_deg=20.0, contrast=1.0):
     """An 8-bit camera picture of the tabulated sky over a grey ground, exposed so that the sky clips out
-    to clip_deg from the sun (a ~40 degree patch). Returns (ldr, sun, exposure k, true sun energy)."""
+    to clip_deg from the sun (a ~40 degree patch), through a tone curve that raises the linear value to
+    ``contrast`` before the sRGB curve (1: plain sRGB). Returns (ldr, sun, exposure k, true sun energy)."""
     t = sky.load_sky_table()
     j = int(np.argmin(abs(t.turbidities - turbidity)))
     s = _sun(elev)
@@ -25,7 +26,7 @@ def _clear_sky_ldr(elev=40.0, turbidity=3.0, h=256, clip_deg=20.0):
     rad[d[..., 2] <= 0] = 0.02
     ring = (abs(np.degrees(np.arccos(np.clip(d @ s, -1, 1))) - clip_deg) < 1.0) & (d[..., 2] > 0)
     k = 1.0 / float(np.median(rad[ring] @ LUMINANCE_WEIGHTS))
-    ldr = np.round(linear_to_srgb(np.clip(k * rad, 0, 1)) * 255).astype(np.uint8)
+    ldr = np.round(linear_to_srgb(np.clip(k * rad, 0, 1) ** contrast) * 255).astype(np.uint8)
     return ldr, s, k, k * float(t.sun_energy(elev)[j] @ LUMINANCE_WEIGHTS), t.turbidities[j]
 
 
@@ -64,6 +65,40 @@ def test_clear_sky_fit_weighs_a_sun_inside_a_40_degree_clipped_patch():
     assert fit.clear and fit.turbidity == pytest.approx(turbidity)
     assert 1 / 1.25 < fit.sun_energy / true_sun < 1.25
     assert fit.sun_rgb[0] > fit.sun_rgb[2]  # a 40 degree sun through the atmosphere is warmer than white
+
+
+def test_a_clear_sky_through_a_steep_tone_curve_is_fitted_and_keeps_the_suns_share():
+    """A camera's S-curve steepens the sky's falloff (log observed = g log true): the sRGB fit fails the gate,
+    the fit with the curve's slope passes, and the sun keeps its share of the sky's energy (the shadow's
+    contrast) in the picture's own units."""
+    g, elev = 1.8, 10.0
+    ldr, s, k, _, turbidity = _clear_sky_ldr(elev=elev, contrast=g)
+    rad, frac_any, frac_all = sources.work_maps(ldr)
+    fit = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
+    assert fit.clear and fit.contrast == pytest.approx(g, abs=0.15)
+    t = sky.load_sky_table()
+    j = int(np.argmin(abs(t.turbidities - turbidity)))
+    d = sh.pixel_directions(*frac_all.shape)
+    om = sh.pixel_solid_angles(*frac_all.shape)
+    upper = d[..., 2] > math.sin(math.radians(sky.MIN_SKY_ELEVATION_DEG))
+    true_sky = t.sky_radiance(d[upper], s)[j] @ LUMINANCE_WEIGHTS
+    share = float(t.sun_energy(elev)[j] @ LUMINANCE_WEIGHTS) / float((true_sky * om[upper]).sum())
+    seen_sky = float(((k * true_sky) ** g * om[upper]).sum())  # the sky in the picture's linear units
+    assert 1 / 1.25 < fit.sun_energy / (share * seen_sky) < 1.25
+    rad, frac_any, frac_all = sources.work_maps(_clear_sky_ldr(elev=elev)[0])
+    plain = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
+    assert plain.clear and plain.contrast == 1.0  # an sRGB camera's sky is fitted as before
+
+
+def test_a_tone_curve_slope_held_at_its_bound_is_refused(monkeypatch):
+    """A slope pinned at CONTRAST_RANGE's bound is no camera's curve but a light the model does not describe
+    (a grey studio asks for the lower bound): with the range cut to 1.5, a 1.8 curve's sky fits with a small
+    residual at g = 1.5, and is still refused."""
+    ldr, s, _, _, _ = _clear_sky_ldr(elev=10.0, contrast=1.8)
+    rad, frac_any, frac_all = sources.work_maps(ldr)
+    monkeypatch.setattr(sky, "CONTRAST_RANGE", (0.5, 1.5))
+    fit = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
+    assert fit is not None and not fit.clear and fit.contrast == 1.0
 
 
 def test_cloudiness_gate_refuses_a_broken_sky():
