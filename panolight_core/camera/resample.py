@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import threads
+from ..sh.grid import pixel_coordinates
 from . import clipped_mask
 
 
@@ -144,10 +145,8 @@ def sample_equirect(img: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Bilinear lookup of an (H, W, C) equirect map (CONVENTIONS.md frame, pixel centres at +0.5) at
     (..., 3) unit directions -> (..., C) float64; columns wrap around, rows clamp at the poles."""
     h, w = img.shape[:2]
-    d = np.asarray(directions, dtype=np.float64)
-    u = (0.5 - np.arctan2(d[..., 1], d[..., 0]) / (2.0 * np.pi)) % 1.0
-    v = np.arccos(np.clip(d[..., 2], -1.0, 1.0)) / np.pi
-    x, y = u * w - 0.5, np.clip(v * h - 0.5, 0.0, h - 1.0)
+    y, x = pixel_coordinates(directions, h, w)
+    y = np.clip(y, 0.0, h - 1.0)
     x0, y0 = np.floor(x).astype(np.int64), np.minimum(np.floor(y).astype(np.int64), h - 2 if h > 1 else 0)
     fx, fy = (x - x0)[..., None], (y - y0)[..., None]
     x0, x1 = x0 % w, (x0 + 1) % w
