@@ -64,12 +64,12 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS, quick: bool = Fal
         per-source model starts from), plus ``clipped_excess`` x the any-channel clipped fraction."""
         def run(ldr):
             from panolight_core.camera.resample import area_downsample
-            from panolight_core.estimators.highlights import ldr_work_maps
+            from panolight_core.estimators.highlights import work_maps
 
             work = sources.recover(ldr, model).work
             work = area_downsample(work, rows) if work.shape[0] > rows else work
             if clipped_excess:
-                work = work + clipped_excess * ldr_work_maps(ldr, work.shape[0])[1][..., None]
+                work = work + clipped_excess * work_maps(ldr, work.shape[0])[1][..., None]
             return work
         return run
 

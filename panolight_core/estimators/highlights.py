@@ -28,6 +28,7 @@ import numpy as np
 from .. import sh
 from ..camera.resample import area_downsample, area_mean_lut, clipped_fractions
 from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
+from ..errors import PanoLightError
 
 CLIP_LEVEL = 0.99  # linear value of sRGB 254/255 is 0.991: at or above counts as clipped
 CORE_RADIUS = math.radians(0.2666)  # the sun's angular radius
@@ -35,6 +36,7 @@ MAX_EXPONENT = 4.0
 RING_FACTOR = 3.0
 RING_GAP = 1.0  # work cells skipped between a blob's edge and its ring: edge cells are partly clipped and JPEG rings within a block of a clipped edge
 MAX_FITTED_BLOBS = 64  # ring fits for the largest clipped regions; smaller speckles keep the clip level
+WORK_HEIGHT = 128  # rows of the per-source model's work map (1.4 degree cells): a 0.5 degree sun still marks its cells
 
 
 def label_blobs(mask: np.ndarray) -> tuple[np.ndarray, int]:
@@ -128,6 +130,36 @@ def component_at(mask: np.ndarray, y: int, x: int) -> np.ndarray:
     return out
 
 
+def region_sums(labels: np.ndarray, n: int, *values: np.ndarray) -> list[np.ndarray]:
+    """Per region, the sum of each (h, w) or (h, w, k) array over its cells: (n,) or (n, k) each."""
+    m = labels >= 0
+    lab = labels[m]
+    out = []
+    for v in values:
+        v = v[m]
+        out.append(np.bincount(lab, v, n) if v.ndim == 1 else
+                   np.stack([np.bincount(lab, v[:, k], n) for k in range(v.shape[1])], -1))
+    return out
+
+
+def region_cells(labels: np.ndarray, n: int) -> list:
+    """Each region's cells: n flat index arrays into ``labels`` (h, w), ascending (the map's order, as a
+    boolean mask ``labels == i`` selects them), found in one sort instead of n passes over the map."""
+    flat = labels.ravel()
+    order = np.argsort(flat, kind="stable")
+    bounds = np.searchsorted(flat[order], np.arange(n + 1))
+    return [order[bounds[i]:bounds[i + 1]] for i in range(n)]
+
+
+def region_centres(labels: np.ndarray, frac_all: np.ndarray, n: int) -> np.ndarray:
+    """(n, 3) unit clipped-area centroid of each region (straight up for a region with none)."""
+    h, w = labels.shape
+    wc = (sh.pixel_solid_angles(h, w) * frac_all)[..., None] * sh.pixel_directions(h, w)
+    centre = region_sums(labels, n, wc)[0]
+    norms = np.linalg.norm(centre, axis=1, keepdims=True)
+    return np.where(norms > 0, centre / np.maximum(norms, 1e-30), np.array([0.0, 0.0, 1.0]))
+
+
 def _ring_fit(ang, lum, wts):
     """Weighted least-squares slope of log(lum) on log(ang): returns -slope (the exponent p)."""
     x, y = np.log(ang), np.log(lum)
@@ -155,9 +187,8 @@ def blob_features(small: np.ndarray, frac: np.ndarray):
     clear = ~mask
     ys, xs = np.nonzero(mask)
     lab = labels[ys, xs]
-    wts = (omega * frac)[ys, xs]
-    area = np.bincount(lab, wts, count)
-    centres = np.stack([np.bincount(lab, wts * dirs[ys, xs, i], count) for i in range(3)], -1)
+    weight = omega * frac
+    area, centres = region_sums(labels, count, weight, weight[..., None] * dirs)
     row_lo = np.full(count, h)
     row_hi = np.zeros(count, dtype=int)
     np.minimum.at(row_lo, lab, ys)
@@ -214,13 +245,17 @@ def power_law_gain(solid_angle: float, exponent: float, core_radius: float = COR
     return max(1.0, energy / (math.pi * t_c * t_c))
 
 
-def ldr_work_maps(ldr: np.ndarray, work_height: int) -> tuple[np.ndarray, np.ndarray]:
-    """uint8 sRGB pixels -> (linear radiance (h, 2h, 3), clipped fraction (h, 2h)) at h = work_height:
-    the area means of the sRGB-decoded pixels and of ``clipped_mask`` (brightest channel 254 or 255),
-    by row blocks on every thread."""
+def work_maps(ldr: np.ndarray, height: int = WORK_HEIGHT):
+    """uint8 sRGB (H, W, 3) -> (radiance (h, 2h, 3) float64 linear, any-channel clipped fraction (h, 2h),
+    all-channels clipped fraction (h, 2h)), the area means of the sRGB-decoded pixels and of
+    ``clipped_mask`` (a channel / every channel at 254 or more), h = min(height, H), by row blocks on every
+    thread: a 16K panorama has no room for full-resolution float copies."""
     a = np.asarray(ldr)
-    h = min(work_height, a.shape[0])
-    return area_mean_lut(a, h, SRGB8_TO_LINEAR), clipped_fractions(a, h)[..., 0]
+    if a.dtype != np.uint8 or a.ndim != 3 or a.shape[-1] != 3:
+        raise PanoLightError(f"work maps need (H, W, 3) uint8 sRGB pixels, got {a.dtype} {a.shape}")
+    h = min(height, a.shape[0])
+    fr = clipped_fractions(a, h)
+    return area_mean_lut(a, h, SRGB8_TO_LINEAR), fr[..., 0], fr[..., 1]
 
 
 def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: float = CORE_RADIUS):
@@ -234,7 +269,7 @@ def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: 
     """
     img = np.asarray(linear)
     if img.dtype == np.uint8:
-        rad, frac = ldr_work_maps(img, work_height)
+        rad, frac, _ = work_maps(img, work_height)
     else:
         sat = np.maximum(np.maximum(img[..., 0], img[..., 1]), img[..., 2]) >= CLIP_LEVEL
         rad = area_downsample(img, work_height)
@@ -243,7 +278,7 @@ def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: 
 
 
 def recover_work_maps(rad: np.ndarray, frac: np.ndarray, core_radius: float = CORE_RADIUS):
-    """``recover_highlights`` on work maps already made (``ldr_work_maps``): rad (h, 2h, 3) linear
+    """``recover_highlights`` on work maps already made (``work_maps``): rad (h, 2h, 3) linear
     radiance, updated in place and returned, frac (h, 2h) clipped fraction. Returns (map, blobs)."""
     labels, feats = blob_features(rad, frac)
     if not feats:

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...camera.color import linear_to_srgb
-from ..highlights import ldr_work_maps, recover_work_maps
+from ..highlights import WORK_HEIGHT, recover_work_maps, work_maps
 
 CHANNELS = 7
 BASE_EXCESS = 0.05
@@ -45,15 +45,11 @@ def network_input(ldr: np.ndarray, height: int, guess: str = "analytic", source_
         rows = np.arange(height) * ldr.shape[0] // height
         cols = np.arange(2 * height) * ldr.shape[1] // (2 * height)
         ldr = ldr[rows][:, cols]
-    maps = None
-    if guess == "sources":
-        from .. import sources
-
-        if height == min(sources.WORK_HEIGHT, ldr.shape[0]):  # the per-source model's own work maps: made once
-            maps = sources.work_maps(ldr, height)
-    lin, frac = maps[:2] if maps is not None else ldr_work_maps(ldr, height)
-    if guess == "sources":
-        recovered = lin + _source_excess(ldr, height, source_model, maps)
+    maps = work_maps(ldr, height)
+    lin, frac = maps[:2]
+    if guess == "sources":  # the per-source model's own work maps when the heights agree: made once
+        own = maps if height == min(WORK_HEIGHT, ldr.shape[0]) else None
+        recovered = lin + _source_excess(ldr, height, source_model, own)
     else:
         recovered, _ = recover_work_maps(lin.copy(), frac)
     frac = frac[..., None]

@@ -3,7 +3,7 @@
 An 8-bit panorama keeps nothing above its clip level, so the energy of a sun or a lamp has to be
 predicted from what the picture does show. One module per job:
 
-- ``regions``: the work maps (128 rows) and the clipped regions: connected sets of cells holding pixels
+- ``regions``: the clipped regions of the work maps (``highlights.work_maps``, 128 rows): connected sets of cells holding pixels
   at 254/255 in all three channels, seam- and pole-aware; how each region's excess spreads over its cells.
 - ``features``: what the LDR shows of each region (FEATURES, by name): its size, its glare, the scene.
 - ``trees``: the learned model (``models/sources.safetensors``: gradient-boosted trees as arrays, trained
@@ -20,7 +20,8 @@ from .decision import (DECISION_CORRELATION, DECISION_SAMPLES, DECISION_TOLERANC
 from .features import FEATURES, RING_EDGES_DEG, region_features
 from .fill import FullResolutionFill, fill_full_resolution, fill_regions
 from .recovery import Recovery, power_law_log_ratio, recover
-from .regions import MAX_REGIONS, SHAPE_MAX_EXTENT_DEG, WIDE_CONCENTRATION, WORK_HEIGHT, Regions, work_maps
+from ..highlights import WORK_HEIGHT, work_maps
+from .regions import MAX_REGIONS, SHAPE_MAX_EXTENT_DEG, WIDE_CONCENTRATION, Regions
 from .trees import MODEL_PATH, SourceModel, TreeEnsemble, ensemble_arrays, load_source_model
 
 __all__ = [

@@ -14,9 +14,8 @@ import numpy as np
 
 from ... import sh
 from ...camera.color import LUMINANCE_WEIGHTS
-from ..highlights import MAX_EXPONENT, _ring_fit, power_law_gain
-from .regions import (MAX_REGIONS, WIDE_CONCENTRATION, Regions, label_regions, profile_shares, region_cells,
-                      region_centres, region_sums)
+from ..highlights import MAX_EXPONENT, _ring_fit, power_law_gain, region_cells, region_centres, region_sums
+from .regions import MAX_REGIONS, WIDE_CONCENTRATION, Regions, label_regions, profile_shares
 
 RING_EDGES_DEG = (0.0, 2.0, 5.0, 10.0, 20.0)  # rings beyond the region's edge, degrees
 REGION_FEATURES = (

@@ -14,7 +14,8 @@ import numpy as np
 from .decision import choose_shrink, shrunk
 from .features import region_features
 from .fill import fill_with_keys
-from .regions import WIDE_CONCENTRATION, WORK_HEIGHT, Regions, work_maps
+from ..highlights import WORK_HEIGHT, work_maps
+from .regions import WIDE_CONCENTRATION, Regions
 from .trees import SourceModel, load_source_model
 
 

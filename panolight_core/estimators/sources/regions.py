@@ -10,28 +10,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import sh
-from ...camera.color import SRGB8_TO_LINEAR
-from ...camera.resample import area_mean_lut, clipped_fractions
-from ...errors import PanoLightError
-from ..highlights import CORE_RADIUS, label_blobs
+from ..highlights import CORE_RADIUS, label_blobs, region_cells, region_sums
 
-WORK_HEIGHT = 128  # rows of the source work map (1.4 degree cells): a 0.5 degree sun still marks its cells
 MAX_REGIONS = 48  # regions modelled, largest clipped area first; smaller speckles keep the clip level
 SHAPE_MAX_EXTENT_DEG = 10.0  # regions up to this radius are shaped by their glare's power law
 WIDE_CONCENTRATION = 0.0  # profile exponent of wider regions (0: an even fill)
-
-
-def work_maps(ldr: np.ndarray, height: int = WORK_HEIGHT):
-    """uint8 sRGB (H, W, 3) -> (radiance (h, 2h, 3) float64 linear, any-channel clipped fraction (h, 2h),
-    all-channels clipped fraction (h, 2h)), area-averaged; h = min(height, H)."""
-    a = np.asarray(ldr)
-    if a.dtype != np.uint8 or a.ndim != 3 or a.shape[-1] != 3:
-        raise PanoLightError(f"source energy needs (H, W, 3) uint8 sRGB pixels, got {a.dtype} {a.shape}")
-    h = min(height, a.shape[0])
-    # by row blocks: a 16K panorama has no room for full-resolution float copies
-    rad = area_mean_lut(a, h, SRGB8_TO_LINEAR)
-    fr = clipped_fractions(a, h)
-    return rad, fr[..., 0], fr[..., 1]
 
 
 @dataclass
@@ -85,43 +68,12 @@ def label_regions(frac_all: np.ndarray, max_regions: int = MAX_REGIONS):
     labels, count = label_blobs(frac_all > 0)
     if count == 0:
         return labels, np.zeros(0), 0
-    omega = sh.pixel_solid_angles(h, w)
     m = labels >= 0
-    clipped_sr = np.bincount(labels[m], (omega * frac_all)[m], count)
+    clipped_sr = region_sums(labels, count, sh.pixel_solid_angles(h, w) * frac_all)[0]
     keep = np.argsort(-clipped_sr)[:max_regions]
     remap = np.full(count, -1)
     remap[keep] = np.arange(keep.size)
     return np.where(m, remap[np.maximum(labels, 0)], -1), clipped_sr[keep], count
-
-
-def region_sums(labels: np.ndarray, n: int, *values: np.ndarray) -> list[np.ndarray]:
-    """Per region, the sum of each (h, w) or (h, w, k) array over its cells: (n,) or (n, k) each."""
-    m = labels >= 0
-    lab = labels[m]
-    out = []
-    for v in values:
-        v = v[m]
-        out.append(np.bincount(lab, v, n) if v.ndim == 1 else
-                   np.stack([np.bincount(lab, v[:, k], n) for k in range(v.shape[1])], -1))
-    return out
-
-
-def region_cells(labels: np.ndarray, n: int) -> list:
-    """Each region's cells: n flat index arrays into ``labels`` (h, w), ascending (the map's order, as a
-    boolean mask ``labels == i`` selects them), found in one sort instead of n passes over the map."""
-    flat = labels.ravel()
-    order = np.argsort(flat, kind="stable")
-    bounds = np.searchsorted(flat[order], np.arange(n + 1))
-    return [order[bounds[i]:bounds[i + 1]] for i in range(n)]
-
-
-def region_centres(labels: np.ndarray, frac_all: np.ndarray, n: int) -> np.ndarray:
-    """(n, 3) unit clipped-area centroid of each region (straight up for a region with none)."""
-    h, w = labels.shape
-    wc = (sh.pixel_solid_angles(h, w) * frac_all)[..., None] * sh.pixel_directions(h, w)
-    centre = region_sums(labels, n, wc)[0]
-    norms = np.linalg.norm(centre, axis=1, keepdims=True)
-    return np.where(norms > 0, centre / np.maximum(norms, 1e-30), np.array([0.0, 0.0, 1.0]))
 
 
 def profile_shares(regions: Regions, frac_all: np.ndarray) -> np.ndarray:
