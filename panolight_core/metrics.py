@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from . import sh
-from .camera.color import luminance
+from .camera.color import LUMINANCE_WEIGHTS, luminance
 
 GRID_H, GRID_W = 128, 256
 
@@ -105,3 +105,65 @@ def source_energy_ratio(truth: np.ndarray, estimate: np.ndarray, direction) -> f
     s = float(np.median(luminance(t))) / med_q if med_q > 0 else 1.0
     e_true = cone_energy(t, direction)
     return s * cone_energy(q, direction) / e_true if e_true > 0 else math.inf
+
+
+# The public set's scores beyond the two RMSEs (``apps.evaluation``): the sun's share of the irradiance facing
+# it, the brightest direction of an SH map, and the relighting error of a whole lighting model.
+SUN_CONE_DEG = 3.0  # the true sun: pixels within this angle of the dominant direction, above their ring
+
+
+def true_sun_share(hdr: np.ndarray, direction) -> float:
+    """Share of the irradiance facing ``direction`` that comes from the source there: the pixels within
+    SUN_CONE_DEG, less the median of the ring out to twice that (HDR ground truth)."""
+    h, w = hdr.shape[:2]
+    dirs = sh.pixel_directions(h, w)
+    omega = sh.pixel_solid_angles(h, w)
+    d = np.asarray(direction, dtype=np.float64)
+    cos = dirs @ d
+    ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    lum = np.asarray(hdr, dtype=np.float64) @ LUMINANCE_WEIGHTS
+    ring = (ang > SUN_CONE_DEG) & (ang < 2 * SUN_CONE_DEG)
+    bg = float(np.median(lum[ring])) if ring.any() else 0.0
+    core = ang <= SUN_CONE_DEG
+    sun = float((np.maximum(lum[core] - bg, 0.0) * omega[core] * np.maximum(cos[core], 0.0)).sum())
+    total = float((lum * omega * np.maximum(cos, 0.0)).sum())
+    return sun / total if total > 0 else 0.0
+
+
+def model_sun_share(model, direction) -> float | None:
+    """Share of the model's irradiance facing ``direction`` carried by its first (brightest) light."""
+    if not model.lights:
+        return 0.0
+    from .lighting.lights import light_irradiance
+
+    n = np.asarray(direction, dtype=np.float64)[None]
+    sun = float(light_irradiance(model.lights[:1], n)[0] @ LUMINANCE_WEIGHTS)
+    total = float(model.irradiance(n)[0] @ LUMINANCE_WEIGHTS)
+    return sun / total if total > 0 else None
+
+
+
+
+def estimated_direction(coeffs: np.ndarray):
+    """Brightest direction of the SH radiance on a 256 x 128 grid; None for a constant map."""
+    c = np.asarray(coeffs, dtype=np.float64)
+    if not np.any(c[1:]):
+        return None
+    lum = sh.reconstruct(c, GRID_H, GRID_W) @ LUMINANCE_WEIGHTS
+    iy, ix = np.unravel_index(np.argmax(lum), lum.shape)
+    return sh.pixel_directions(GRID_H, GRID_W)[iy, ix]
+
+
+EXACT_ORDER = 24  # "exact" irradiance: A_l at l = 24 is 2e-4 of A_0, far below the errors compared
+
+
+def score_lighting(hdr: np.ndarray, coeffs: np.ndarray, lights, ldr_linear: np.ndarray) -> dict:
+    """Diffuse relighting error (irr-RMSE, metrics.GRID) of a lighting model (SH coeffs + lights) against
+    the HDR's exact irradiance, beside the naive lmax 2 projection of the linearised LDR it came from."""
+    from .lighting.adaptive import LightingModel
+
+    grid = (GRID_H, GRID_W)
+    truth = sh.irradiance_map(sh.project(hdr, EXACT_ORDER), *grid)
+    ours = LightingModel(lights, coeffs).irradiance_map(*grid)
+    naive = sh.irradiance_map(sh.project(ldr_linear, 2), *grid)
+    return {"irr_rmse": irr_rmse_maps(truth, ours), "naive_irr_rmse": irr_rmse_maps(truth, naive)}

@@ -27,7 +27,7 @@ pip_install() {
 }
 # torch first, pinned to the local CPU wheel: any other spec would pull several GB of CUDA packages.
 pip_install "torch==2.13.0"
-pip_install -e ".[train,mitsuba,blender,usd,bench,dev]"
+pip_install -e ".[train,mitsuba,blender,usd,bench,dev,plot]"
 # The checkout's own folders (training/, blender_addon/) are not installed as packages; this venv finds
 # them on its path instead, so `panolight train` and `python -m training...` work from any folder.
 site="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"

@@ -147,7 +147,7 @@ def run_batch(args) -> int:
 
 def run_eval(args) -> int:
     from ..estimators import available, register_model
-    from . import evaluation
+    from . import eval_report, evaluation
 
     base = args.estimators or list(available())
     extra = []
@@ -161,11 +161,13 @@ def run_eval(args) -> int:
                             repeats=args.repeats, log=stderr_log(args.quiet))
     if not args.no_adaptive:
         result["adaptive"] = evaluation.run_adaptive(log=stderr_log(args.quiet))
-    paths = evaluation.write(result, args.output)
-    print(evaluation.markdown(result))
+    paths = eval_report.write(result, args.output)
+    print(eval_report.markdown(result))
     if result.get("adaptive"):
-        print(evaluation.markdown_adaptive(result["adaptive"]))
+        print(eval_report.markdown_adaptive(result["adaptive"]))
     print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr)
+    if not any(p.suffix == ".png" for p in paths):
+        print(f"note: {eval_report.PLOT_HINT}", file=sys.stderr)
     return 0
 
 

@@ -90,3 +90,27 @@ def test_dominant_source_and_its_energy_ratio():
     assert not metrics.dominant_source(np.full((h, w, 3), 0.2) + 0.01 * d[..., 2:3])["dominant"]
     with pytest.raises(ValueError, match="same resolution"):
         metrics.source_energy_ratio(img, img[::2, ::2], sun)
+
+
+def test_true_sun_share_of_a_disk_on_a_uniform_sky():
+    """A 2 degree disk of radiance 1 + R over a sky of 1: facing it, the sun gives R x its solid angle (cos ~ 1)
+    of the irradiance pi + R x solid angle; true_sun_share removes the sky under the disk (its ring's median)."""
+    h, w = 512, 1024
+    d = sh.pixel_directions(h, w)
+    om = sh.pixel_solid_angles(h, w)
+    up = np.array([0.0, 0.6, 0.8])
+    disk = d @ up > math.cos(math.radians(2.0))
+    R = 2000.0
+    hdr = np.ones((h, w, 3)) + R * disk[..., None]
+    sun = R * float((om * (d @ up))[disk].sum())
+    total = float((np.maximum(d @ up, 0.0) * om).sum()) + sun
+    assert metrics.true_sun_share(hdr, up) == pytest.approx(sun / total, rel=1e-6)
+    assert metrics.true_sun_share(np.ones((h, w, 3)), up) == 0.0  # no source: nothing above its ring
+
+
+def test_estimated_direction_is_the_sh_maximum_and_none_when_constant():
+    c = np.zeros((9, 3))
+    c[0] = 1.0
+    assert metrics.estimated_direction(c) is None
+    c[2] = 0.5  # Y_1,0 ~ z: brightest straight up
+    assert metrics.estimated_direction(c)[2] > 0.999

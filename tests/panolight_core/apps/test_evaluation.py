@@ -1,6 +1,6 @@
 import json
 
-from panolight_core.apps import evaluation
+from panolight_core.apps import eval_report, evaluation
 from panolight_core.apps.cli import main
 
 
@@ -11,7 +11,7 @@ def test_protocol_reproduces_baselines_and_writes_reports(tmp_path):
     assert round(rows[("sunset", "ambient")]["m_rmse"], 2) == 0.99
     assert rows[("city", "ambient")]["light_angle_deg"] is None
     assert rows[("city", "analytic")]["ms"] > 0
-    paths = evaluation.write(result, tmp_path)
+    paths = eval_report.write(result, tmp_path)
     md = (tmp_path / "eval.md").read_text()
     assert "| city |" in md and "## Summary" in md
     assert json.loads((tmp_path / "eval.json").read_text())["settings"]["evs"] == [0.0]
@@ -58,4 +58,21 @@ def test_summary_has_medians_wins_and_the_hdri_score():
         assert abs(r["hdri_m_rmse"] - r["m_rmse"]) <= 0.02 * r["m_rmse"] + 0.01
     city = next(r for r in rows if r["scene"] == "city")
     assert 0.0 <= city["true_sun_share"] <= 1.0 and city["light_angle_deg"] is not None
-    assert "| sources | +0 |" in evaluation.markdown(result)
+    assert "| sources | +0 |" in eval_report.markdown(result)
+
+
+def test_the_report_without_matplotlib_says_how_to_get_the_plot(tmp_path, monkeypatch):
+    import builtins
+
+    real = builtins.__import__
+
+    def no_matplotlib(name, *args, **kwargs):
+        if name.split(".")[0] == "matplotlib":
+            raise ImportError("No module named 'matplotlib'")
+        return real(name, *args, **kwargs)
+
+    result = evaluation.run(scenes=("city",), evs=(0.0,), estimators=["naive"], repeats=1)
+    monkeypatch.setattr(builtins, "__import__", no_matplotlib)
+    paths = eval_report.write(result, tmp_path)
+    assert [p.name for p in paths] == ["eval.md", "eval.json"] and not (tmp_path / "speed_accuracy.png").exists()
+    assert "pip install -e '.[plot]'" in (tmp_path / "eval.md").read_text()
