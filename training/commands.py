@@ -1,4 +1,6 @@
-"""The checkout's developer commands for ``panolight``: train, synth, sheet and render-mitsuba.
+"""The checkout's commands for ``panolight``: train, synth, sheet and render-mitsuba with their own options
+here, and every other tool of training/ (TOOLS: the studies, the model fits, the benchmarks) under its
+own command line, so that ``panolight --help`` lists them all.
 
 Registered through the ``panolight.commands`` entry point (pyproject.toml), so the core's CLI never
 imports training code; each command imports its module (torch, Mitsuba) only when it runs.
@@ -12,7 +14,7 @@ from panolight_core.pipeline.settings import number
 
 
 def run_render_mitsuba(args) -> int:
-    from training.mitsuba_render import render_figure
+    from training.render.mitsuba import render_figure
 
     res = render_figure(args.inputs, args.out, meshes=args.meshes, spp=args.spp, resolution=args.resolution_wh,
                         yaw=args.yaw, pitch=args.pitch, fov=args.fov, materials=args.materials,
@@ -39,7 +41,7 @@ def run_synth(args) -> int:
 
 
 def run_sheet(args) -> int:
-    from training.contact_sheet import contact_sheet
+    from training.synth.contact_sheet import contact_sheet
 
     path = contact_sheet(args.dataset, args.output, count=args.count, seed=args.seed)
     print(f"sheet: {path}", file=sys.stderr)
@@ -50,7 +52,7 @@ def run_train(args) -> int:
     from panolight_core.errors import PanoLightError
 
     try:
-        from training.train import train
+        from training.neural.train import train
     except ImportError as exc:
         raise PanoLightError(f"train needs torch (pip install -e '.[train]'): {exc}") from None
     res = train(args.config, args.data, args.out, epochs=args.epochs, ae_epochs=args.ae_epochs,
@@ -61,6 +63,44 @@ def run_train(args) -> int:
     print(f"train: weights in {res['weights']}", file=sys.stderr)
     return 0
 
+
+
+# name: (module with main(argv), one line of help). ``panolight NAME --help`` shows the module's own options;
+# ``python -m MODULE`` runs the same main (docs/development.md)
+TOOLS = {
+    "source-energy": ("training.source_energy.fit", "train (ship) or cross-validate (cv) the per-source energy model"),
+    "accuracy-report": ("training.source_energy.report", "docs/accuracy.md and .png from eval.json and the "
+                        "source-energy cross-validation"),
+    "keylight-cv": ("training.keylight.cv", "the key light's direction and energy over the real HDRs, and the "
+                    "clear-sky correction cross-validated"),
+    "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
+    "sky-table": ("training.keylight.sky_table", "tabulate Mitsuba's sunsky into models/sky.safetensors"),
+    "artist-check": ("training.render.artist_check", "a white sphere composited into real photos under each "
+                     "estimate (Mitsuba), with lit/shadow ratios"),
+    "neural-cv": ("training.neural.cv", "leave-scenes-out test of trained networks beside the per-source model"),
+    "ablation": ("training.neural.ablation", "the paper's ablation (Table 1): train and evaluate its variants"),
+    "ship": ("training.neural.ship", "ship a trained run as the learned estimator's weights, with its model card"),
+    "eval-synthetic": ("training.synth.evaluate", "the LDR estimators on procedural skies and rooms"),
+    "bench-estimate": ("training.benchmarks.bench_estimate", "benchmark: decode + estimate of a 2048 x 1024 JPEG"),
+    "bench-io": ("training.benchmarks.bench_io", "benchmark: decode time per format, peak memory per size"),
+    "bench-neural": ("training.benchmarks.bench_neural", "benchmark: the learned estimator's network latency"),
+    "bench-scale": ("training.benchmarks.bench_scale", "benchmark: 16K CLI, 8K/16K Blender and batch throughput"),
+    "bench-sh": ("training.benchmarks.bench_sh", "benchmark: the SH engine against its peers"),
+    "bench-synth": ("training.benchmarks.bench_synth", "benchmark: training-data rendering and relighting speed"),
+    "headroom": ("training.benchmarks.headroom", "oracles: how good any LDR estimator can get on the public set"),
+}
+
+
+def run_tool(args) -> int:
+    """Run a TOOLS module's main with the arguments after the command's name (its usage says panolight NAME)."""
+    import importlib
+
+    module = importlib.import_module(TOOLS[args.command][0])
+    argv0, sys.argv[0] = sys.argv[0], f"panolight {args.command}"
+    try:
+        return module.main(list(args.forwarded)) or 0
+    finally:
+        sys.argv[0] = argv0
 
 
 def register(sub) -> None:
@@ -137,21 +177,24 @@ def register(sub) -> None:
                         epilog="examples:\n"
                                "  panolight train small --data data/synth --out runs/small --max-minutes 60\n"
                                "  panolight train small --procedural 500 --epochs 3 --out /tmp/try   # no Mitsuba data\n"
-                               "  torchrun --nproc_per_node 4 -m training.torchrun paper --data data/synth --out runs/paper\n"
+                               "  torchrun --nproc_per_node 4 -m training.neural.torchrun paper --data data/synth --out runs/paper\n"
                                "A run folder holds checkpoint.pt (resumed automatically), metrics.csv, "
                                "model.safetensors and config.json.")
     add_train_arguments(tr)
     tr.set_defaults(func=run_train)
+    for name, (module, text) in TOOLS.items():
+        t = sub.add_parser(name, help=text, add_help=False, description=f"{text} (python -m {module})")
+        t.set_defaults(func=run_tool, forward=True)
 
 
 def _fold(text: str) -> tuple[int, int]:
-    from training.source_energy_cv import parse_fold  # (imported when a fold is given, not for --help)
+    from training.source_energy.cv import parse_fold  # (imported when a fold is given, not for --help)
 
     return parse_fold(text)
 
 
 def add_train_arguments(tr) -> None:
-    """The options of ``panolight train`` (also ``torchrun -m training.torchrun``)."""
+    """The options of ``panolight train`` (also ``torchrun -m training.neural.torchrun``)."""
     tr.add_argument("config", help="small | paper | ablation/VARIANT (e.g. ablation/full-prior) | a JSON config path")
     tr.add_argument("--data", default=None, help="dataset folder written by 'panolight synth' (optional)")
     tr.add_argument("--hdr", default=None, metavar="DIR",
@@ -162,7 +205,7 @@ def add_train_arguments(tr) -> None:
                          "ev -3..3, tone curves, JPEG; the per-source model's camera); default 0: one plain view")
     tr.add_argument("--hold-out", type=_fold, default=None, metavar="K/N",
                     help="leave fold K of N of the --hdr scenes out of training and validation (the folds of "
-                         "'python -m training.source_energy cv'); score it with 'python -m training.neural_cv'")
+                         "'python -m training.source_energy.fit cv'); score it with 'python -m training.neural.cv'")
     tr.add_argument("--relight-pool", choices=("procedural", "hdr"), default="procedural",
                     help="lightings that relight the --data samples (paper Eq. 5): 256 procedural environments "
                          "(default), or the --hdr panoramas of the same split, 8 yaws each and mirrored, as the "

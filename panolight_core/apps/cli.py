@@ -306,7 +306,12 @@ class _Terminated(KeyboardInterrupt):
 
 def main(argv=None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    # a plugin's tool with its own command line (set_defaults(forward=True)) gets every argument after its
+    # name in args.forwarded; any other command refuses arguments it does not know, as parse_args would
+    args, rest = parser.parse_known_args(argv)
+    if rest and not getattr(args, "forward", False):
+        parser.error(f"unrecognized arguments: {' '.join(rest)}")
+    args.forwarded = rest
     if not getattr(args, "command", None):
         parser.print_help()
         return 2

@@ -29,7 +29,7 @@ from ..camera import linear
 from ..errors import PanoLightError
 from .highlights import recover_highlights
 
-WORK_HEIGHT = 64  # rows of the highlight work map; 64 and 128 score alike on synthetic scenes (training/eval_synthetic.py)
+WORK_HEIGHT = 64  # rows of the highlight work map; 64 and 128 score alike on synthetic scenes (training/synth/evaluate.py)
 
 
 @dataclass

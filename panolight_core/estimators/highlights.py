@@ -14,7 +14,7 @@ level; steep glare (p ~ 2-3) gives back a bright source; a larger clipped area (
 extrapolates further.
 
 Known limits: a source with no glare around it (a lamp behind a diffuser, a sun in a clamped HDRI)
-is under- or over-estimated, since the ring is all the model sees; training/eval_synthetic.py
+is under- or over-estimated, since the ring is all the model sees; training/synth/evaluate.py
 reports its behaviour on synthetic skies and rooms. Everything runs on an area-averaged map of
 ``work_height`` rows (128 by default), so a 16k panorama costs no more than a 1k one beyond decoding.
 """

@@ -9,10 +9,10 @@ region that holds at least KEY_SHARE of the scene's predicted energy and makes i
   circle fitted to the region's sky-side boundary (median 3.4 degrees against 3.2-11).
 - how much: for a sun in a clear sky, the Hosek-Wilkie fit of the visible sky (``sky``) weighs the solar
   disk in camera units, times SKY_CORRECTION, the median of true / physical over the real HDRs'
-  un-clipped suns (``training/keylight_cv.py``, by scene), capped at the per-source model's mean for the
+  un-clipped suns (``training/keylight/cv.py``, by scene), capped at the per-source model's mean for the
   region; otherwise (a lamp, a window, a veiled sun, a cloudy sky) the energy the decision rule reports
   for the region (ENERGY_RULE "hybrid": over the real HDRs it halves the mean m-RMSE of "capped", which
-  gave lamps the model's unshrunk mean; ``training/keylight_rules.py``).
+  gave lamps the model's unshrunk mean; ``training/keylight/rules.py``).
 - which: a region wider than PLATEAU_EXTENT_DEG makes a key light only when a clear-sky sun is in it (the
   fit passes the cloudiness gate: its residual, the sky it rests on and its colour, ``sky.MIN_BLUENESS``); a
   wide patch of overcast sky or a white wall is lit evenly, and a point light there would cast a shadow
@@ -37,14 +37,14 @@ from . import sky as clear_sky
 SUN_DIAMETER_DEG = 0.53  # the sun's angular diameter seen from the earth
 KEY_SHARE = 0.1  # a region whose predicted energy is at least this share of the scene's holds a key light
 MAX_KEYS = 3
-SKY_CORRECTION = 2.25  # true / physical sun energy: the real suns' median (training/keylight_cv.py: 2.23 over 28, folds 2.11-2.81)
+SKY_CORRECTION = 2.25  # true / physical sun energy: the real suns' median (training/keylight/cv.py: 2.23 over 28, folds 2.11-2.81)
 SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)
 LAMP_MIN_DIAMETER_DEG = 1.0
 SHOULDER = 0.75  # linear (clip level 1; sRGB 225): above it a channel sits on the camera's highlight shoulder
 PLATEAU_EXTENT_DEG = 30.0  # a region this wide (angular radius) with no clear-sky sun in it is a plateau (an
 # overcast sky, a window wall), not a compact source: its even fill stays and it makes no light (docs/keylight.md)
 ENERGY_RULES = ("decided", "capped", "physical", "hybrid")
-ENERGY_RULE = "hybrid"  # decided | capped | physical | hybrid: docs/keylight.md (training/keylight_rules.py)
+ENERGY_RULE = "hybrid"  # decided | capped | physical | hybrid: docs/keylight.md (training/keylight/rules.py)
 
 
 @dataclass

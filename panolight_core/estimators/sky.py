@@ -1,5 +1,5 @@
 """A physical clear sky: Hosek-Wilkie sky and solar radiance from one atmosphere, tabulated from Mitsuba
-3.9's ``sunsky`` emitter (``training/sky_table.py``) into ``models/sky.safetensors`` and read with numpy alone.
+3.9's ``sunsky`` emitter (``training/keylight/sky_table.py``) into ``models/sky.safetensors`` and read with numpy alone.
 
 ``fit_clear_sky`` fits the model to the unclipped sky of a linear work map (camera units: 1 = the clip
 level) with the sun at a given direction: a scale and a turbidity. Because the sky and the sun come from

@@ -14,7 +14,7 @@ import torch
 from panolight_core.estimators.nn.inputs import CHANNELS
 from panolight_core.estimators.nn.model import forward
 from training.benchmarks import median_seconds
-from training.models import LightingNet, load_config
+from training.neural.models import LightingNet, load_config
 
 
 def median_ms(fn, repeats):

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from panolight_core import sh
-from training import mitsuba_render as mr
+from training.render import mitsuba as mr
 from training.synth.environments import outdoor as outdoor_sky
 
 FACE_YAW_PITCH = mr.CUBE_FACES

@@ -43,7 +43,7 @@ def load_model(path=DEFAULT_WEIGHTS) -> Model:
     try:
         config = json.loads(meta["config"])
     except (KeyError, TypeError, json.JSONDecodeError, RecursionError):
-        raise PanoLightError(f"{path}: the weights carry no model config (export with training.train.export)") from None
+        raise PanoLightError(f"{path}: the weights carry no model config (export with training.neural.train.export)") from None
     if not isinstance(config, dict):
         raise PanoLightError(f"{path}: the model config is not a JSON object")
     missing = [k for k in REQUIRED if k not in config]

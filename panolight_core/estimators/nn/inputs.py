@@ -8,7 +8,7 @@ therefore has 7 channels per cell:
 - 3:   the fraction a of the cell's pixels the camera clipped (brightest channel >= 254);
 - 4-6: log b, the clipped pixels' mean excess radiance over the clip level as the analytic estimator's
        power-law recovery (panolight_core.estimators.highlights) puts it, plus 0.05 (so log is finite).
-The autoencoder corrects that guess: hdr = linear + a * b * exp(y) (training/models.py), so a network
+The autoencoder corrects that guess: hdr = linear + a * b * exp(y) (training/neural/models.py), so a network
 with y = 0 is exactly the analytic estimator's work map (plus 0.05 a), and training learns where the
 physical model is wrong. Unclipped cells (a = 0) pass through unchanged.
 

@@ -1,6 +1,6 @@
 """The learned estimator's forward pass in numpy (no torch): same weights, same numbers as
-training/models.py (to ~1e-5), so a stock Blender can run it. Weights: {name: array} with the torch
-parameter names; config: the dict of training/configs/*.json."""
+training/neural/models.py (to ~1e-5), so a stock Blender can run it. Weights: {name: array} with the torch
+parameter names; config: the dict of training/neural/configs/*.json."""
 from __future__ import annotations
 
 import numpy as np

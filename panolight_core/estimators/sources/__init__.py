@@ -7,7 +7,7 @@ predicted from what the picture does show. One module per job:
   at 254/255 in all three channels, seam- and pole-aware; how each region's excess spreads over its cells.
 - ``features``: what the LDR shows of each region (FEATURES, by name): its size, its glare, the scene.
 - ``trees``: the learned model (``models/sources.safetensors``: gradient-boosted trees as arrays, trained
-  on real HDR panoramas by ``training/source_energy.py``): features -> log of the region's energy ratio
+  on real HDR panoramas by ``training/source_energy/fit.py``): features -> log of the region's energy ratio
   r = true energy / energy its cells hold, as a mean mu and a spread sigma.
 - ``decision``: which ratio to report, the one of least expected error under the metric itself.
 - ``fill``: the excess put back into the work map and the full-resolution pixels.

@@ -1,6 +1,6 @@
 """The per-source model: gradient-boosted regression trees stored as arrays, and their loading.
 
-``models/sources.safetensors`` (trained on real HDR panoramas by ``training/source_energy.py``) maps a region's
+``models/sources.safetensors`` (trained on real HDR panoramas by ``training/source_energy/fit.py``) maps a region's
 FEATURES to the log of its energy ratio r = true energy / energy its cells hold, as a mean mu and a spread
 sigma (the uncertainty). No pickle: safetensors arrays and a JSON header.
 """
@@ -107,6 +107,6 @@ def load_source_model(path=MODEL_PATH) -> SourceModel:
     feats = tuple(json.loads(meta.get("features", "[]")))
     if feats != FEATURES:
         raise PanoLightError(f"{path}: the model was trained on other features than this PanoLight computes "
-                             f"(retrain it with training/source_energy.py)")
+                             f"(retrain it with training/source_energy/fit.py)")
     return SourceModel(_ensemble(tensors, "mean", path), _ensemble(tensors, "spread", path),
                        float(meta.get("shrink", 1.0)), feats, dict(meta), path)

@@ -33,8 +33,8 @@ def test_neural_estimates_are_finite_any_order_and_hdr_is_projected_exactly(rng)
 
 def test_numpy_inference_matches_torch(tmp_path, rng):
     torch = pytest.importorskip("torch")  # the parity needs the training side; inference never does
-    from training.models import LightingNet, load_config
-    from training.train import export
+    from training.neural.models import LightingNet, load_config
+    from training.neural.train import export
 
     cfg = {**load_config("small"), "input_height": 16}
     torch.manual_seed(1)
@@ -90,7 +90,7 @@ def test_the_shipped_weights_give_torch_s_numbers_in_numpy():
     from panolight_core.camera import hdr_to_ldr
     from panolight_core.estimators.nn.inputs import network_input
     from panolight_core.estimators.nn.model import forward
-    from training.models import LightingNet
+    from training.neural.models import LightingNet
 
     model = E.load_model()
     net = LightingNet(model.config).eval()

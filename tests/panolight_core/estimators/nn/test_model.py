@@ -26,7 +26,7 @@ def test_spectral_prior_numpy_and_torch_agree_and_are_safe(rng):
 
 @pytest.mark.parametrize("stride,padding,mode", [(1, 1, "zeros"), (2, 1, "zeros"), (2, 1, "equirect"), (1, 0, "zeros")])
 def test_conv2d_matches_torch(rng, stride, padding, mode):
-    from training.losses import equirect_pad
+    from training.neural.losses import equirect_pad
 
     x = rng.normal(size=(2, 3, 8, 16)).astype(np.float32)
     w = rng.normal(size=(5, 3, 3, 3)).astype(np.float32)

@@ -1,0 +1,40 @@
+"""training.keylight.rules: each rule's energies, and one scored scene whose numbers can be checked."""
+import math
+
+import numpy as np
+import pytest
+
+from panolight_core import sh
+from panolight_core.estimators import sources
+from training.keylight import rules as keylight_rules
+
+
+def test_rules_choose_among_the_candidates():
+    sun = {"physical": 8.0, "learned": 3.0, "decided": 1.0}
+    lamp = {"physical": None, "learned": 3.0, "decided": 1.0}
+    got = {rule: keylight_rules._energies(rule, [sun, lamp]) for rule in keylight_rules.RULES}
+    assert got["sources"] == [0.0, 0.0]
+    assert got["decided"] == [1.0, 1.0]
+    assert got["capped"] == [3.0, 3.0]  # the sun's fit capped at the model's mean; the lamp at its mean
+    assert got["physical"] == [8.0, 3.0]
+    assert got["hybrid"] == [3.0, 1.0]  # capped for the sun, decided for the lamp
+
+
+def test_a_scored_sunny_scene():
+    h = 128
+    d = sh.pixel_directions(h, 2 * h)
+    sun = np.array([0.4, 0.3, 0.866])
+    hdr = np.full((h, 2 * h, 3), 0.3)
+    hdr[d[..., 2] < 0] = 0.1
+    core = d @ sun > math.cos(math.radians(3.0))
+    hdr[core] = 2000.0  # a dominant compact source
+    row = keylight_rules.score_scene(hdr, 0.0, sources.load_source_model())
+    assert row["dominant"] and row["keys"] and set(row["rules"]) == set(keylight_rules.RULES)
+    for rule, got in row["rules"].items():
+        assert len(got) == 3 and all(np.isfinite(got)) and got[0] >= 0 and got[2] > 0
+    # a clipped compact source: the baseline's cone holds only the clip level and the decided fill, the
+    # key lights put more there
+    assert row["rules"]["capped"][2] > row["rules"]["sources"][2]
+    s = keylight_rules.summary([dict(row, scene="x")], lambda r: r["rules"]["hybrid"])
+    assert s["scenes"] == 1 and s["dominant"] == 1 and s["within"] >= 1.0
+    assert s["m_rmse_median"] == pytest.approx(row["rules"]["hybrid"][0] / row["naive"][0])

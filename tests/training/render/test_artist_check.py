@@ -1,0 +1,37 @@
+import numpy as np
+
+from panolight_core.lighting.adaptive import LightingModel
+from training.render import artist_check as A
+
+
+def test_plane_ratio_is_the_direct_light_over_the_sky():
+    coeffs = np.zeros((9, 3))
+    coeffs[0] = 1.0  # a uniform sky of radiance 1 / sqrt(4 pi): pi times that on a plane, sqrt(pi) / 2
+    sun = {"type": "sun", "direction": [0.0, 0.6, 0.8], "intensity": 3.0, "color": [1.0, 1.0, 1.0], "angle": 0.01}
+    below = dict(sun, direction=[0.0, 0.6, -0.8])  # below the horizon: never in the plane's light
+    lit, shadow, ratio = A.plane_ratio(LightingModel([sun, below], coeffs, {}))
+    sky = np.sqrt(np.pi) / 2
+    np.testing.assert_allclose([lit, shadow, ratio], [sky + 2.4, sky, (sky + 2.4) / sky], rtol=1e-9)
+    d, kind = A.key_direction(LightingModel([sun], coeffs, {}))
+    assert kind == "sun" and np.allclose(d, sun["direction"])
+    coeffs[3] = 0.5  # band 1, m = 1: brighter towards +X
+    d, kind = A.key_direction(LightingModel([], coeffs, {}))
+    assert kind == "SH" and np.allclose(d, [1.0, 0.0, 0.0])
+
+
+def test_a_photo_with_a_sun_gets_a_sphere_with_a_shadow(tmp_path):
+    from PIL import Image
+
+    from panolight_core import sh
+
+    dirs = sh.pixel_directions(128, 256)
+    img = np.full((128, 256, 3), 140, np.uint8)
+    img[dirs[..., 2] < 0] = 90  # ground
+    img[dirs @ np.array([0.0, 0.8, 0.6]) > np.cos(np.radians(4))] = 255  # a clipped sun
+    photo = tmp_path / "sunny.jpg"
+    Image.fromarray(img).save(photo, quality=95)
+    result = A.check(photo, ["auto"], spp=4, size=(48, 36))
+    report = A.write([result], tmp_path / "out")
+    e = result["estimates"][0]
+    assert e["key"] in ("sun", "area") and e["plane_ratio"] > 1.05 and np.isfinite(e["rendered_ratio"])
+    assert (tmp_path / "out" / "sunny.png").is_file() and "sunny.jpg" in report.read_text()

@@ -1,0 +1,139 @@
+"""The key light over the real HDRs: the dominant source's direction and energy (EVALUATION.md), and the
+clear-sky energy correction, cross-validated by scene.
+
+For every scene of ../shared/data/hdri with a dominant compact source, at each ev: the camera JPEG
+(EVALUATION.md, q90), the estimate (``estimate_lighting``, estimator ``keylight`` unless --estimator)
+and its ``hdr.exr`` panorama, scored by
+the direction of its brightest light and the energy ratio r within 5 degrees of the true source. Scenes
+whose HDR clips its own source (MANIFEST ``sun``: "clipped" or "lower bound") are reported apart.
+
+SKY_CORRECTION (``panolight_core.estimators.keylight``) is the one number fitted here: the median of
+log(true / physical) of the clear-sky suns. Its cross-validated check: each fold's scenes are scored with
+the median of the OTHER folds' scenes (5 folds by scene, the assignment of ``source_energy_cv``); the
+table then shows how far that lands from the shipped all-scene value.
+
+    python -m training.keylight.cv [--evs -2 0 2] [--out docs/keylight.json]
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import statistics
+from pathlib import Path
+
+from panolight_core import metrics
+from panolight_core.camera import auto_exposure, hdr_to_ldr
+from panolight_core.estimators import keylight
+from panolight_core.pipeline.estimate import estimate_lighting
+from panolight_core.pipeline.settings import Settings
+from training.source_energy.fit import DEFAULT_HDRI, load_hdr, scene_files
+from training.source_energy.cv import scene_folds
+
+
+def clipped_truth(folder: Path) -> set:
+    """Scene files whose own source is clipped (MANIFEST ``sun`` column): their energy is a lower bound."""
+    out = set()
+    with open(Path(folder) / "MANIFEST.csv", newline="", encoding="utf-8") as f:
+        for row in csv.DictReader(f):
+            if row["sun"].startswith("clipped") or "lower bound" in row["sun"]:
+                out.add(row["file"])
+    return out
+
+
+def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight") -> list[dict]:
+    hdr = load_hdr(path)
+    ds = metrics.dominant_source(hdr)
+    if not ds["dominant"]:
+        return []
+    rows = []
+    for ev in evs:
+        ldr = hdr_to_ldr(hdr, ev, 90)
+        res = estimate_lighting(ldr, Settings(estimator=estimator))
+        est_hdr = res.hdr_panorama(ldr)
+        lights = res.model.lights
+        key = max(lights, key=lambda light: light["intensity"]) if lights else None
+        angle = metrics.angle_deg(ds["direction"], key["peak_direction"]) if key else 180.0
+        rec = res.estimate.recovery
+        sky_key = next((k for k in (rec.keys if rec is not None else []) if k.method.startswith("clear-sky")), None)
+        physical = None
+        if sky_key is not None and metrics.angle_deg(sky_key.direction, ds["direction"]) <= 10.0:
+            k = auto_exposure(hdr, ev)
+            physical = sky_key.physical / keylight.SKY_CORRECTION / (ds["energy"] * k)
+        rows.append({"scene": path.stem, "ev": ev, "clipped_truth": clipped, "share": round(ds["share"], 4),
+                     "angle_deg": round(angle, 3), "ratio": metrics.source_energy_ratio(hdr, est_hdr, ds["direction"]),
+                     "lights": len(lights), "key_method": key.get("source") if key else None,
+                     "physical_over_true": physical})
+    return rows
+
+
+def summary(rows, ev) -> dict:
+    sel = [r for r in rows if r["ev"] == ev and not r["clipped_truth"]]
+    if not sel:
+        return {}
+    lr = [abs(math.log2(max(r["ratio"], 1e-12))) for r in sel]
+    return {"scenes": len(sel), "median_angle_deg": statistics.median(r["angle_deg"] for r in sel),
+            "median_abs_log2_ratio": statistics.median(lr), "within": 2 ** statistics.median(lr),
+            "worst_low": min(r["ratio"] for r in sel), "worst_high": max(r["ratio"] for r in sel),
+            "no_light": sum(r["lights"] == 0 for r in sel)}
+
+
+def correction_cv(rows, files) -> dict:
+    """SKY_CORRECTION by folds: each fold's suns corrected by the median of the others'."""
+    logs = {(r["scene"], r["ev"]): math.log(r["physical_over_true"]) for r in rows
+            if r["physical_over_true"] and not r["clipped_truth"]}
+    if not logs:
+        return {}
+    names = [p.stem for p in files]
+    out = {"all_scenes": math.exp(-statistics.median(logs.values())), "folds": [], "cv_abs_log2": []}
+    for fold in scene_folds(len(files)):
+        held = {names[i] for i in fold}
+        train = [v for (s, _), v in logs.items() if s not in held]
+        test = [v for (s, _), v in logs.items() if s in held]
+        if not train:
+            continue
+        c = -statistics.median(train)
+        out["folds"].append(math.exp(c))
+        out["cv_abs_log2"] += [abs(v + c) / math.log(2) for v in test]
+    out["cv_within"] = 2 ** statistics.median(out["cv_abs_log2"]) if out["cv_abs_log2"] else None
+    out["suns"] = len(logs)
+    return out
+
+
+def real_hdri_parser(prog: str, doc: str) -> argparse.ArgumentParser:
+    """The options every key-light study over the real HDRs takes: --hdri and --evs."""
+    ap = argparse.ArgumentParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas (default: %(default)s)")
+    ap.add_argument("--evs", type=float, nargs="+", default=[-2.0, 0.0, 2.0], help="camera exposures (default: -2 0 2)")
+    return ap
+
+
+def main(argv=None) -> int:
+    ap = real_hdri_parser("python -m training.keylight.cv", __doc__)
+    ap.add_argument("--estimator", default="keylight", help="estimator to score (default: %(default)s; "
+                    "'sources' gives the baseline)")
+    ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
+    args = ap.parse_args(argv)
+    files = scene_files(args.hdri)
+    clipped = clipped_truth(args.hdri)
+    rows = []
+    for i, p in enumerate(files, 1):
+        got = score_scene(p, args.evs, p.name in clipped, args.estimator)
+        rows += got
+        for r in got:
+            print(f"[{i}/{len(files)}] {r['scene']:28s} ev {r['ev']:+g}{' (clipped truth)' if r['clipped_truth'] else ''}: "
+                  f"angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  lights {r['lights']}  {r['key_method'] or '-'}",
+                  flush=True)
+    result = {"estimator": args.estimator, "summary": {f"{ev:+g}": summary(rows, ev) for ev in args.evs},
+              "sky_correction": correction_cv(rows, files), "shipped_sky_correction": keylight.SKY_CORRECTION,
+              "rows": rows}
+    print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=1))
+    if args.out:
+        args.out.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

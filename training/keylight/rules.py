@@ -1,0 +1,217 @@
+"""How much each key light should carry: the energy rules of ``keylight`` compared over the real HDRs.
+
+For every scene of ../shared/data/hdri with an un-clipped truth, at each ev: the camera JPEG (EVALUATION.md,
+q90), the per-source model's regions, mu, sigma and decision, and the key lights ``find_key_lights`` finds.
+Each rule then gives every key light an energy, and the recovered work map (the decided fill of each region
+less its light, plus the light) is scored as ``panolight estimate`` fits it: m-RMSE and irr-RMSE at lmax 2
+(EVALUATION.md, as ratios to the naive map's), and for scenes with a dominant compact source the energy
+within 5 degrees of it against the truth's (r; median |log2 r| reported as "within 2^x").
+
+Rules (``keylight.ENERGY_RULES``) and the baseline:
+- ``sources``: no key light (the default estimator);
+- ``decided``: every light carries the energy the decision rule reports for its region;
+- ``capped``: the clear-sky fit's energy (or the model's mean) capped at the larger of mean and decided;
+- ``physical``: the clear-sky fit's energy where it passes the cloudiness gate, else the model's mean;
+- ``hybrid`` (shipped): ``capped`` for a clear-sky sun, ``decided`` for every other light.
+
+The trees were trained on 50 of these scenes, so the absolute numbers favour all rules alike; the rules'
+differences are what this measures. ``--gate`` adds a scene-level gate (one feature threshold, chosen on
+the other folds' scenes, 5 folds by scene) that turns the key lights on or off; ``--plateaus`` scores the
+shipped rule with other plateau extents (``keylight.PLATEAU_EXTENT_DEG``: how wide a region may be and still
+make a light without a clear-sky sun in it). The summary also lists the clear-sky fits' blueness (the kept
+sky's blue/red over the model's; ``sky.MIN_BLUENESS``) for real suns (a dominant source within 10 degrees)
+and for every other region it was tried on.
+
+    python -m training.keylight.rules [--evs -2 0 2] [--gate] [--plateaus 15 30 60] [--out docs/keylight_rules.json]
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+import math
+import statistics
+from pathlib import Path
+
+import numpy as np
+
+from panolight_core import metrics, sh
+from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
+from panolight_core.estimators import keylight, sources
+from panolight_core.estimators.sources.fill import fill_with_keys
+from panolight_core.pipeline import fit_radiance
+from training.keylight.cv import clipped_truth, real_hdri_parser
+from training.source_energy.fit import load_hdr, scene_files
+from training.source_energy.cv import scene_folds
+
+RULES = ("sources",) + keylight.ENERGY_RULES
+CONE_DEG = metrics.SOURCE_CONE_DEG
+
+
+def _energies(rule: str, keys: list[dict]) -> list[float]:
+    """Each key light's energy under ``rule`` from its candidates (physical, learned, decided); none for
+    the baseline ``sources``."""
+    if rule == "sources":
+        return [0.0] * len(keys)
+    return [keylight.rule_energy(rule, k["physical"], k["learned"], k["decided"]) for k in keys]
+
+
+def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
+    """One scene at one ev: the key lights' candidates and every rule's scores; for each of ``plateaus``
+    (degrees) the shipped rule's scores with that ``find_key_lights`` plateau_deg (the sensitivity check)."""
+    ds = metrics.dominant_source(hdr)
+    gt = sh.project(hdr, 2)
+    ldr = hdr_to_ldr(hdr, ev, 90, robust=True)
+    rad, frac_any, frac_all = maps = sources.work_maps(ldr)
+    rec = sources.recover(ldr, model, maps=maps)  # the default's regions, prediction and decision
+    reg, mu, sigma, reported = rec.regions, rec.mu, rec.sigma, rec.log_ratio
+    naive = sh.project(ldr_to_linear(ldr), 2)
+    row = {"ev": ev, "dominant": bool(ds["dominant"]), "naive": [metrics.m_rmse(gt, naive), metrics.irr_rmse(gt, naive)],
+           "keys": [], "rules": {}}
+    found = []
+    if reg.count:
+        found = keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported, rule="physical")
+        for k in found:
+            j = k.region
+            row["keys"].append({"method": k.method, "physical": k.physical,
+                                "learned": float((math.exp(mu[j]) - 1.0) * reg.held[j]),
+                                "decided": float((math.exp(reported[j]) - 1.0) * reg.held[j]),
+                                "extent_deg": float(reg.extent_deg()[j]),
+                                "blueness": k.sky.blueness if k.sky is not None else None,
+                                "sky_fits": k.sky is not None and k.sky.luminance_clear,
+                                "features": {n: float(v) for n, v in zip(reg.names, reg.features[j])},
+                                "angle_deg": metrics.angle_deg(k.direction, ds["direction"]) if ds["dominant"] else None})
+    h, w = rad.shape[:2]
+    cone = None
+    if ds["dominant"]:
+        cone = sh.pixel_directions(h, w) @ np.asarray(ds["direction"]) > math.cos(math.radians(CONE_DEG + 90.0 / h))
+        truth = float(ds["energy"]) * auto_exposure(hdr, ev, robust=True)
+
+    def scores(keys):
+        work = fill_with_keys(rad, reg, reported, keys)[1]
+        q = fit_radiance(work, hdr_input=False).project(2)
+        got = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
+        if cone is not None:
+            got.append(float(((work @ LUMINANCE_WEIGHTS) * sh.pixel_solid_angles(h, w))[cone].sum()) / truth)
+        return got
+
+    for rule in RULES:
+        row["rules"][rule] = scores([replace(k, energy=e) for k, e in zip(found, _energies(rule, row["keys"])) if e > 0])
+    row["plateau"] = {f"{t:g}": scores(keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported,
+                                                               plateau_deg=t) if reg.count else [])
+                      for t in plateaus}
+    return row
+
+
+def _gate_feature(row, name):
+    return row["keys"][0]["features"][name]
+
+
+def gated(rows: list[dict], names: list[str], rule: str = "hybrid") -> dict:
+    """Per (scene, ev): the scores of ``rule`` where a one-threshold gate chosen on the other folds' scenes
+    turns the key lights on, the baseline's elsewhere; and the gates chosen."""
+    scenes = sorted({r["scene"] for r in rows})
+    out, chosen = {}, []
+
+    def gain(r):
+        return math.log(r["rules"][rule][0] / r["rules"]["sources"][0]) if r["keys"] else 0.0
+
+    for fold in scene_folds(len(scenes)):
+        test = {scenes[i] for i in fold}
+        train = [r for r in rows if r["scene"] not in test and r["keys"]]
+        best = (0.0, None)
+        for n in names:
+            for t in sorted({_gate_feature(r, n) for r in train}):
+                for side in (1, -1):
+                    total = sum(gain(r) for r in train if side * (_gate_feature(r, n) - t) >= 0)
+                    if total < best[0]:
+                        best = (total, (n, t, side))
+        g = best[1]
+        chosen.append(g)
+        for r in rows:
+            if r["scene"] in test:
+                on = bool(r["keys"]) and g is not None and g[2] * (_gate_feature(r, g[0]) - g[1]) >= 0
+                out[(r["scene"], r["ev"])] = r["rules"][rule if on else "sources"]
+    return {"scores": out, "gates": chosen}
+
+
+def summary(rows: list[dict], get) -> dict:
+    """m-RMSE and irr-RMSE over naive (median, mean) and the dominant sources' energy (within, worst)."""
+    m = [get(r)[0] / r["naive"][0] for r in rows]
+    i = [get(r)[1] / r["naive"][1] for r in rows]
+    dom = [get(r)[2] for r in rows if r["dominant"]]
+    lr = [abs(math.log2(max(v, 1e-12))) for v in dom]
+    return {"scenes": len(rows), "m_rmse_median": statistics.median(m), "m_rmse_mean": statistics.mean(m),
+            "irr_rmse_mean": statistics.mean(i), "dominant": len(dom),
+            "within": 2 ** statistics.median(lr) if lr else None,
+            "worst_low": min(dom) if dom else None, "worst_high": max(dom) if dom else None}
+
+
+def blueness(rows: list[dict]) -> dict:
+    """The blueness (sorted) of the clear-sky fits that pass the gate's other tests (residual, visible sky), at
+    real suns (a dominant source within 10 degrees) and elsewhere."""
+    out = {"suns": [], "others": []}
+    for r in rows:
+        for k in r["keys"]:
+            if k["sky_fits"]:
+                sun = k["angle_deg"] is not None and k["angle_deg"] <= 10.0
+                out["suns" if sun else "others"].append(round(k["blueness"], 3))
+    return {name: sorted(v) for name, v in out.items()}
+
+
+def table(result: dict) -> list[str]:
+    lines = ["| ev | rule | scenes | m-RMSE / naive, median | mean | irr-RMSE / naive, mean | dominant energy within | worst r |",
+             "|---|---|---:|---:|---:|---:|---:|---|"]
+    for ev, per in result["summary"].items():
+        for rule, s in per.items():
+            lines.append(f"| {ev} | `{rule}` | {s['scenes']} | {s['m_rmse_median']:.3f} | {s['m_rmse_mean']:.3f} | "
+                         f"{s['irr_rmse_mean']:.3f} | {s['within']:.2f}x | {s['worst_low']:.3g} / {s['worst_high']:.3g} |")
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = real_hdri_parser("python -m training.keylight.rules", __doc__)
+    ap.add_argument("--gate", action="store_true", help="also score a cross-validated one-threshold gate")
+    ap.add_argument("--plateaus", type=float, nargs="*", default=[],
+                    help="also score the shipped rule with these plateau extents (degrees; keylight.PLATEAU_EXTENT_DEG)")
+    ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
+    args = ap.parse_args(argv)
+    files = scene_files(args.hdri)
+    clipped = clipped_truth(args.hdri)
+    model = sources.load_source_model()
+    rows = []
+    for i, p in enumerate(files, 1):
+        if p.name in clipped:
+            continue
+        hdr = load_hdr(p)
+        for ev in args.evs:
+            row = dict(score_scene(hdr, ev, model, args.plateaus), scene=p.stem)
+            rows.append(row)
+            print(f"[{i}/{len(files)}] {p.stem:28s} ev {ev:+g}: " + "  ".join(
+                f"{rule} {row['rules'][rule][0]:.3f}" for rule in RULES), flush=True)
+    result = {"summary": {}, "gates": None, "blueness": blueness(rows)}
+    gate = None
+    if args.gate:
+        names = sorted(next((r["keys"][0]["features"] for r in rows if r["keys"]), {}))
+        gate = gated(rows, names)
+        result["gates"] = [list(g) if g else None for g in gate["gates"]]
+    for ev in args.evs:
+        sel = [r for r in rows if r["ev"] == ev]
+        per = {rule: summary(sel, lambda r, rule=rule: r["rules"][rule]) for rule in RULES}
+        if gate:
+            per["hybrid, gated (CV)"] = summary(sel, lambda r: gate["scores"][(r["scene"], r["ev"])])
+        for t in args.plateaus:
+            per[f"{keylight.ENERGY_RULE}, plateau {t:g} deg"] = summary(sel, lambda r, t=t: r["plateau"][f"{t:g}"])
+        result["summary"][f"{ev:+g}"] = per
+    print("\n".join(table(result)))
+    for name, v in result["blueness"].items():
+        print(f"clear-sky blueness, {name}: {len(v)} fits, " + (f"min {v[0]:.2f}, median {statistics.median(v):.2f}, "
+                                                                 f"max {v[-1]:.2f}" if v else "none"))
+    if args.out:
+        args.out.write_text(json.dumps(dict(result, rows=rows), indent=1) + "\n", encoding="utf-8")
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""The per-source energy model: its training (fit), cross-validation (cv) and report."""
