@@ -108,3 +108,11 @@ def test_the_checkout_folders_are_not_installed_as_top_level_packages(package):
 
     find = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]["find"]
     assert all(not pattern.startswith(package) for pattern in find["include"])
+
+
+def test_training_is_grouped_and_no_core_module_grows_past_450_lines():
+    top = sorted(p.name for p in (ROOT / "training").glob("*.py"))
+    assert len(top) <= 6, top  # the rest lives in subpackages by what it is (docs/development.md)
+    long = {str(p.relative_to(ROOT)): n for p in (ROOT / "panolight_core").rglob("*.py")
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > 450}
+    assert not long, long
