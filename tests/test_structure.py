@@ -116,3 +116,12 @@ def test_training_is_grouped_and_no_core_module_grows_past_450_lines():
     long = {str(p.relative_to(ROOT)): n for p in (ROOT / "panolight_core").rglob("*.py")
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > 450}
     assert not long, long
+
+
+def test_the_core_tests_need_no_training_code():
+    """tests/panolight_core tests the core alone: its fixtures come from the core (e.g. ``synthetic``); the
+    parity with the training side's torch networks is tests/training's."""
+    modules = _modules()
+    bad = {str(p.relative_to(ROOT)) for p in (ROOT / "tests" / "panolight_core").rglob("*.py")
+           for imp in _imports("tests.x", p, modules) if imp.split(".")[0] == "training"}
+    assert not bad, sorted(bad)

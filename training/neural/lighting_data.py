@@ -4,7 +4,7 @@ every ablation variant).
 Three kinds of example, all turned into the camera's 8-bit LDR by the EVALUATION.md model (exposure
 ev ~ N(0, 1) clipped to +-2.5, JPEG q90 half of the time) and reduced to the network input
 (panolight_core.estimators.nn.inputs):
-- ``procedural``: a procedural environment (training/synth/environments.py: CIE skies with a sun,
+- ``procedural``: a procedural environment (panolight_core/synthetic.py: CIE skies with a sun,
   rooms with lamps and windows) rendered at 256 rows; its lighting is its own SH (coupled data).
 - ``synthetic``: a Mitsuba panorama from ``panolight synth`` seen as it is; lighting = its own SH.
 - ``relit``: the paper's Eq. 5: the same panorama's LDR image relit through its normals by two blended
@@ -79,7 +79,7 @@ def _coupled(hdr, rng, height, lmax, kind) -> dict:
 
 
 def procedural_example(seed: int, height: int, lmax: int) -> dict:
-    from training.synth.environments import environment
+    from panolight_core.synthetic import environment
 
     hdr, _ = environment(seed, PROCEDURAL_HEIGHT)
     return _coupled(hdr, np.random.default_rng([seed, 1]), height, lmax, "procedural")

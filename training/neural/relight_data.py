@@ -7,7 +7,7 @@ Sources of panoramas with normals:
   ``X_color_....png`` + ``X_normal_....exr``, Structured3D style ``rgb_rawlight.png`` + ``normal.png`` in one
   folder). Normal maps are EXR floats in [-1, 1] or 8/16-bit PNGs mapped from [0, 1] to [-1, 1], then turned
   by ``normal_frame`` (3 x 3, dataset axes -> Blender world axes; identity by default: check your dataset).
-Lighting pool: SH of procedural environments (training/synth/environments.py) or of a folder of HDR
+Lighting pool: SH of procedural environments (panolight_core/synthetic.py) or of a folder of HDR
 panoramas (Laval style); Blender's studio HDRIs are refused, they are the public evaluation set.
 """
 from __future__ import annotations
@@ -107,7 +107,7 @@ def load_source(src: dict):
 # ----------------------------------------------------------------------------------- lighting pool
 def procedural_pool(count: int = 256, lmax: int = 2, seed: int = 10 ** 6, height: int = 64) -> np.ndarray:
     """(count, K, 3) SH of procedural environments (seeds seed .. seed + count - 1)."""
-    from training.synth.environments import environment
+    from panolight_core.synthetic import environment
 
     return np.stack([sh.project(environment(seed + i, height)[0], lmax) for i in range(count)])
 

@@ -1,4 +1,4 @@
-"""How the LDR estimators do on procedural environments (training/synth/environments.py).
+"""How the LDR estimators do on procedural environments (panolight_core/synthetic.py).
 
 The public HDRIs are only eight scenes; this checks the clipped-highlight model on many synthetic
 skies (clear and overcast, sun at 3-75 degrees) and rooms (lamps, windows), whose true lighting is
@@ -15,7 +15,7 @@ import numpy as np
 from panolight_core import metrics, sh
 from panolight_core.camera import hdr_to_ldr
 from panolight_core.estimators import estimate
-from training.synth.environments import environment
+from panolight_core.synthetic import environment
 
 EVS = (-2.0, 0.0, 2.0)
 

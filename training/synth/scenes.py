@@ -18,7 +18,7 @@ import numpy as np
 
 from panolight_core import sh
 from training.render import mitsuba as mr
-from training.synth.environments import outdoor as outdoor_sky
+from panolight_core.synthetic import outdoor as outdoor_sky
 
 FACE_YAW_PITCH = mr.CUBE_FACES
 

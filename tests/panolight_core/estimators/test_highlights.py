@@ -7,7 +7,7 @@ from panolight_core import metrics, sh
 from panolight_core.camera import hdr_to_ldr
 from panolight_core.estimators import estimate
 from panolight_core.estimators.highlights import CORE_RADIUS, label_blobs, power_law_gain, recover_highlights
-from training.synth.environments import environment
+from panolight_core.synthetic import environment
 
 
 def test_labels_join_across_seam_and_pole():

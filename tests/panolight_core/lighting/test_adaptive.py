@@ -8,7 +8,7 @@ from panolight_core.lighting.adaptive import fit_model
 from panolight_core.camera import hdr_to_ldr
 from panolight_core.data import load_studio_hdri
 from panolight_core.estimators import estimate
-from training.synth.environments import environment
+from panolight_core.synthetic import environment
 
 
 def _sunny(seed_range=range(300, 340)):

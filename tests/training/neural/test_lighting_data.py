@@ -53,7 +53,7 @@ def test_real_hdr_folders_become_coupled_examples_and_the_public_set_is_refused(
     from panolight_core.io import write_image
     from training.neural.models import load_config
     from training.neural.relight_data import hdr_files
-    from training.synth.environments import environment
+    from panolight_core.synthetic import environment
     from training.neural.train import _datasets
 
     folder = tmp_path / "laval"
@@ -73,7 +73,7 @@ def test_augmented_views_and_held_out_scenes_never_reach_training(tmp_path):
     from panolight_core.io import read_image, write_image
     from training.neural.models import load_config
     from training.source_energy.cv import scene_folds
-    from training.synth.environments import environment
+    from panolight_core.synthetic import environment
     from training.neural.train import _datasets, held_out_scenes
 
     folder = tmp_path / "real"
@@ -103,7 +103,7 @@ def test_an_hdr_relighting_pool_is_each_panorama_turned_and_mirrored_and_refuses
     from panolight_core.io import write_image
     from panolight_core.sh.rotation import rotate_z
     from training.neural.relight_data import hdr_pool
-    from training.synth.environments import environment
+    from panolight_core.synthetic import environment
 
     path = tmp_path / "sky.exr"
     write_image(path, environment(7, 32)[0].astype(np.float32))
@@ -123,7 +123,7 @@ def test_the_hdr_relighting_pool_of_each_split_holds_only_its_own_scenes(synth, 
     from panolight_core.errors import PanoLightError
     from panolight_core.io import write_image
     from training.neural.models import load_config
-    from training.synth.environments import environment
+    from panolight_core.synthetic import environment
     from training.neural.train import _datasets, held_out_scenes
 
     folder = tmp_path / "real"

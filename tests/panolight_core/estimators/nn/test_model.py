@@ -4,7 +4,7 @@ import torch
 import torch.nn.functional as F
 
 from panolight_core.errors import PanoLightError
-from panolight_core.estimators.nn.ops import conv2d, elu, linear, pad, upsample_nearest2x
+from panolight_core.estimators.nn.ops import elu, linear, upsample_nearest2x
 from panolight_core.estimators.nn.prior import spectral_prior
 from panolight_core.estimators.nn.safetensors_np import load_safetensors
 
@@ -22,22 +22,6 @@ def test_spectral_prior_numpy_and_torch_agree_and_are_safe(rng):
     assert np.all(spectral_prior(np.zeros((9, 3))) == 0)
     x = torch.tensor(c, requires_grad=True)
     assert torch.autograd.gradcheck(spectral_prior, (x,))
-
-
-@pytest.mark.parametrize("stride,padding,mode", [(1, 1, "zeros"), (2, 1, "zeros"), (2, 1, "equirect"), (1, 0, "zeros")])
-def test_conv2d_matches_torch(rng, stride, padding, mode):
-    from training.neural.losses import equirect_pad
-
-    x = rng.normal(size=(2, 3, 8, 16)).astype(np.float32)
-    w = rng.normal(size=(5, 3, 3, 3)).astype(np.float32)
-    b = rng.normal(size=5).astype(np.float32)
-    tx = torch.from_numpy(x)
-    if mode == "equirect":
-        ref = F.conv2d(equirect_pad(tx, padding), torch.from_numpy(w), torch.from_numpy(b), stride=stride)
-    else:
-        ref = F.conv2d(tx, torch.from_numpy(w), torch.from_numpy(b), stride=stride, padding=padding)
-    np.testing.assert_allclose(conv2d(x, w, b, stride, padding, mode), ref.numpy(), atol=1e-5)
-    np.testing.assert_allclose(pad(x, 1, "equirect")[..., 1:-1, 0], x[..., :, -1])  # wraps around the seam
 
 
 def test_elu_linear_upsample_match_torch(rng):

@@ -11,7 +11,8 @@ Physical anchors (no image data involved):
   (sun times cosine, unless in shadow, plus sky), with smooth multiplicative texture.
 - Lamps: small disks (1..6 degrees) 30..3000 times brighter than the walls; windows: rectangles 5..60
   times brighter.
-Used to calibrate and test the LDR highlight recovery and as a lighting pool for training data.
+Used to calibrate and test the LDR highlight recovery and the adaptive model, and as a lighting pool for
+training data (training/neural/, training/synth/).
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ import math
 
 import numpy as np
 
-from panolight_core import sh
+from . import sh
 
 SUN_RADIUS = math.radians(0.2666)
 

@@ -1,7 +1,7 @@
 import numpy as np
 
 from panolight_core import metrics
-from training.synth.environments import environment
+from panolight_core.synthetic import environment
 
 
 def test_deterministic_finite_and_non_negative():
