@@ -8,4 +8,10 @@ The stages, in the order a panorama goes through them:
 with sh/ (the SH maths), io/ (images and lighting.json) and apps/ (the panolight command, batch,
 evaluation). See docs/development.md.
 """
+import logging
+
 __version__ = "0.1.0"
+
+# progress (reading, estimating, writing; the evaluation's scenes) goes to the ``panolight_core`` loggers at
+# INFO: silent unless the application configures logging (the panolight command prints it unless -q)
+logging.getLogger(__name__).addHandler(logging.NullHandler())

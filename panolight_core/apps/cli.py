@@ -14,7 +14,7 @@ from pathlib import Path
 from .. import __version__
 from ..errors import PanoLightError, PanoLightWarning, printable
 from ..pipeline import settings as estimate_settings
-from .options import HelpFormatter, resolution, stderr_log
+from .options import HelpFormatter, progress_to_stderr, resolution
 
 PLUGIN_GROUP = "panolight.commands"  # entry points: register(subparsers) adds a plugin's commands
 
@@ -78,8 +78,7 @@ def run_estimate(args) -> int:
 
     out = Path(args.output) if args.output else Path("out") / Path(args.input).stem
     with _exr_threads():
-        doc = job(args.input, out, estimate_settings.from_args(args), log=stderr_log(args.quiet),
-                  **_job_kwargs(args))
+        doc = job(args.input, out, estimate_settings.from_args(args), **_job_kwargs(args))
     if not args.quiet:
         t = doc["timings"]
         print(f"done: {out}/ (lmax {doc['lmax']}, {doc['estimator']['name']}; read {t['read_s'] * 1e3:.0f} ms, "
@@ -158,9 +157,9 @@ def run_eval(args) -> int:
         extra.append(register_model(label, path))
     names = base + [e for e in extra if e not in base]
     result = evaluation.run(evs=args.evs, estimators=names, lmax=args.lmax, jpeg_quality=args.jpeg or None,
-                            repeats=args.repeats, log=stderr_log(args.quiet))
+                            repeats=args.repeats)
     if not args.no_adaptive:
-        result["adaptive"] = evaluation.run_adaptive(log=stderr_log(args.quiet))
+        result["adaptive"] = evaluation.run_adaptive()
     paths = eval_report.write(result, args.output)
     print(eval_report.markdown(result))
     if result.get("adaptive"):
@@ -176,8 +175,7 @@ def run_demo(args) -> int:
     from .demo import run_demo as demo
 
     out = Path(args.output or Path("out") / args.scene)
-    res = demo(args.scene, args.ev, out, estimate_settings.from_args(args), stderr_log(args.quiet),
-               **_job_kwargs(args))
+    res = demo(args.scene, args.ev, out, estimate_settings.from_args(args), **_job_kwargs(args))
     print(f"demo: diffuse relighting error against the HDR's exact irradiance: irr-RMSE {res['irr_rmse']:.3f} "
           f"with {res['lights']} light(s) + SH lmax {res['lmax']} (naive lmax 2: {res['naive_irr_rmse']:.3f}); "
           f"see {out}/preview.png")
@@ -322,7 +320,9 @@ def main(argv=None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _terminate)
     try:
-        return _run(args)
+        # batch shows its own progress line per input, not each estimate's steps
+        with progress_to_stderr(getattr(args, "quiet", False) or args.command == "batch"):
+            return _run(args)
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)

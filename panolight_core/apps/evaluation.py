@@ -14,6 +14,7 @@ direction, else the brightest direction of the model's radiance (256 x 128 grid)
 """
 from __future__ import annotations
 
+import logging
 import math
 import statistics
 import time
@@ -26,14 +27,14 @@ from ..data import STUDIO_HDRIS, load_studio_hdri
 from ..estimators import available, estimate
 from ..pipeline import fit_estimate
 
+logger = logging.getLogger(__name__)  # one line per scene and ev (INFO)
 SUN_SCENES = ("city", "courtyard", "forest", "sunrise", "sunset")
 BASELINES = ("ambient", "naive")
 
 
 def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 2, jpeg_quality=90,
-        repeats: int = 3, log=None) -> dict:
+        repeats: int = 3) -> dict:
     """Evaluate; returns {"rows": [...], "summary": {...}, "settings": {...}}."""
-    log = log or (lambda msg: None)
     estimators = list(estimators or available())
     rows = []
     for scene in scenes:
@@ -72,7 +73,7 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                              "sun_share": share, "true_sun_share": true_share if scene in SUN_SCENES else None,
                              "dominant": bool(dominant), "energy_ratio": ratio,
                              "ms": 1e3 * statistics.median(times)})
-            log(f"{scene} ev {ev:+g}: " + ", ".join(
+            logger.info(f"{scene} ev {ev:+g}: " + ", ".join(
                 f"{r['estimator']} {r['m_rmse']:.3f}" for r in rows if r["scene"] == scene and r["ev"] == ev))
     summary = {}
     for name in estimators:
@@ -111,7 +112,7 @@ def _dominant_summary(rows: list[dict]) -> dict:
             "dominant_energy_worst": max(ratios, key=lambda v: abs(math.log2(v))) if ratios else None}
 
 
-def run_adaptive(scenes=STUDIO_HDRIS, log=None) -> list[dict]:
+def run_adaptive(scenes=STUDIO_HDRIS) -> list[dict]:
     """The adaptive model (lights + auto order) against a fixed lmax 2, on the HDR inputs.
 
     Both are scored with irr-RMSE against the exact irradiance of the HDR (its SH irradiance at order
@@ -122,7 +123,6 @@ def run_adaptive(scenes=STUDIO_HDRIS, log=None) -> list[dict]:
     """
     from ..lighting.adaptive import fit_model
 
-    log = log or (lambda msg: None)
     rows = []
     normals = sh.pixel_directions(256, 512).reshape(-1, 3)
     for scene in scenes:
@@ -155,7 +155,7 @@ def run_adaptive(scenes=STUDIO_HDRIS, log=None) -> list[dict]:
             "eval_ms_adaptive": 1e3 * times["adaptive"], "eval_ms_fixed_lmax2": 1e3 * times["fixed"],
             "fit_ms": 1e3 * fit_s})
         r = rows[-1]
-        log(f"adaptive {scene}: {r['n_lights']} light(s), lmax {r['lmax']}, irr-RMSE {r['irr_rmse_adaptive']:.4f} "
+        logger.info(f"adaptive {scene}: {r['n_lights']} light(s), lmax {r['lmax']}, irr-RMSE {r['irr_rmse_adaptive']:.4f} "
             f"(fixed lmax 2: {r['irr_rmse_fixed_lmax2']:.4f})")
     return rows
 

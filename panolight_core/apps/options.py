@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
+from contextlib import contextmanager
 
 from ..errors import printable
 
@@ -11,8 +13,37 @@ HelpFormatter = argparse.RawDescriptionHelpFormatter  # epilogs keep their examp
 
 
 def stderr_log(quiet: bool):
-    """A progress printer: one line on stderr per message, or nothing when quiet."""
+    """A progress printer for the training tools' ``log=`` callbacks: one line on stderr per message, or
+    nothing when quiet (the core reports through ``logging``: ``progress_to_stderr``)."""
     return (lambda msg: None) if quiet else (lambda msg: print(printable(msg), file=sys.stderr, flush=True))
+
+
+class _Printable(logging.Formatter):
+    def format(self, record):
+        return printable(record.getMessage())
+
+
+@contextmanager
+def progress_to_stderr(quiet: bool, loggers=("panolight_core", "training")):
+    """While a command runs: the INFO messages of the core's (and the training tools') loggers, one line
+    each on stderr, or none when quiet (warnings still show). A library user configures ``logging``
+    instead: the core only ever logs, never prints its progress."""
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_Printable())
+    saved = []
+    for name in loggers:
+        lg = logging.getLogger(name)
+        saved.append((lg, lg.level, lg.propagate))
+        lg.setLevel(logging.WARNING if quiet else logging.INFO)
+        lg.propagate = False
+        lg.addHandler(handler)
+    try:
+        yield
+    finally:
+        for lg, level, propagate in saved:
+            lg.removeHandler(handler)
+            lg.setLevel(level)
+            lg.propagate = propagate
 
 
 def resolution(text: str) -> tuple[int, int]:

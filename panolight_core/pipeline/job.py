@@ -1,6 +1,7 @@
 """A panorama file in, a lighting folder out: the job behind ``panolight estimate`` and ``batch``."""
 from __future__ import annotations
 
+import logging
 import time
 import warnings
 from pathlib import Path
@@ -18,6 +19,8 @@ from ..io.images import write_exr_rows
 from ..io.lighting import write_lighting
 from .estimate import estimate_lighting, require_finite
 from .settings import Settings
+
+logger = logging.getLogger(__name__)
 
 OUTPUT_GROUPS = {  # --outputs: what each group writes
     "lighting": ("lighting.json", "radiance.exr", "lighting.usda"),  # the model; usda needs usd-core
@@ -42,15 +45,15 @@ def parse_outputs(text) -> tuple[str, ...]:
 
 def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(512, 256),
                  repair_nonfinite: bool = False, max_megapixels: float | None = None, overwrite: bool = False,
-                 outputs=tuple(OUTPUT_GROUPS), log=None) -> dict:
+                 outputs=tuple(OUTPUT_GROUPS)) -> dict:
     """Estimate the lighting of panorama ``src`` (pipeline.estimate_lighting with ``settings``) and write
     the files of the ``outputs`` groups (OUTPUT_GROUPS) into ``out_dir`` (created). resolution: (W, H) of
     radiance.exr / irradiance.exr. max_megapixels: the decoding budget (io.images). The folder is locked
     for the whole run (a second writer is refused at once). Output-named files that PanoLight did not
     write there (io.ownership's manifest) are refused unless ``overwrite``; an earlier run's outputs that
     this run does not write are removed, a user's are kept, so the folder never mixes two runs. Returns
-    the lighting document written. Raises PanoLightError."""
-    log = log or (lambda msg: None)
+    the lighting document written; progress goes to the ``panolight_core.pipeline.job`` logger (INFO).
+    Raises PanoLightError."""
     src, out_dir = Path(src), Path(out_dir)
     outputs = parse_outputs(outputs)
     for name in OUTPUT_FILES:  # an output never replaces the input (estimate hdr.exr -o . would)
@@ -67,8 +70,7 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
             writes = _planned_files(outputs)
             if not overwrite:
                 _check_foreign_outputs(out_dir, writes)
-            return _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_megapixels, outputs,
-                                  log)
+            return _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_megapixels, outputs)
     except BaseException:  # refused or interrupted: a folder this run made is not left behind
         if created and out_dir.is_dir() and not any(out_dir.iterdir()):
             out_dir.rmdir()
@@ -90,13 +92,13 @@ def _planned_files(outputs) -> tuple[str, ...]:
     return tuple(n for n in OUTPUT_FILES if n in names and (n != "lighting.usda" or usd_available()))
 
 
-def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_megapixels, outputs, log) -> dict:
+def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_megapixels, outputs) -> dict:
     t0 = time.perf_counter()
-    log(f"reading {src}")
+    logger.info("reading %s", src)
     budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
     pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error", **budget)
     t_read = time.perf_counter() - t0
-    log(f"estimating ({settings.estimator}, model {settings.model}, lmax {settings.lmax or 'default'}) on "
+    logger.info(f"estimating ({settings.estimator}, model {settings.model}, lmax {settings.lmax or 'default'}) on "
         f"{pixels.shape[1]}x{pixels.shape[0]}")
     try:
         result = estimate_lighting(pixels, settings)
@@ -106,7 +108,7 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
         warnings.warn(f"{src}: {problem}", PanoLightWarning, stacklevel=4)
     fitted = result.model
     w, h = resolution
-    log(f"reconstructing radiance and irradiance at {w}x{h}" +
+    logger.info(f"reconstructing radiance and irradiance at {w}x{h}" +
         (f" ({len(fitted.lights)} light(s))" if fitted.lights else ""))
     with np.errstate(over="ignore", invalid="ignore"):
         emitter, made = sh.emitter_map(fitted.coeffs, h, w)  # no negative light, the same bands 0-2
@@ -124,7 +126,7 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
     doc.setdefault("model", {}).setdefault("ringing", {})["emitter"] = {
         "negative_fraction": round(made["negative_fraction"], 6), "moment_error": made["moment_error"]}
-    log(f"writing {out_dir}/")
+    logger.info("writing %s/", out_dir)
     return _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, settings.exposure_ev)
 
 

@@ -51,13 +51,13 @@ def run(ae, out, *, data=None, cache=None, epochs: int = 4, procedural: int = 40
     return rows
 
 
-def score_public(rows: list[dict], log=print) -> dict:
+def score_public(rows: list[dict]) -> dict:
     """Add public-set means (ev 0) to each row; returns the evaluation result (rows for every variant)."""
     from panolight_core.apps import evaluation
     from panolight_core.estimators import register_model
 
     labels = [register_model(r["variant"], r["weights"]) for r in rows]
-    result = evaluation.run(evs=(0.0,), estimators=["naive", "analytic", *labels], repeats=3, log=log)
+    result = evaluation.run(evs=(0.0,), estimators=["naive", "analytic", *labels], repeats=3)
     for r in rows:
         s = result["summary"][f"{r['variant']}@+0"]
         r["public_m_rmse"], r["public_irr_rmse"], r["median_ms"] = s["mean_m_rmse"], s["mean_irr_rmse"], s["median_ms"]
@@ -101,7 +101,7 @@ def main(argv=None) -> int:
     rows = run(args.ae, args.out, data=args.data, cache=args.cache, epochs=args.epochs, procedural=args.procedural,
                val_procedural=args.val_procedural, only=args.only, hdr=args.hdr, hdr_copies=args.hdr_copies,
                hold_out=args.hold_out, log=lambda m: print(m, file=sys.stderr, flush=True))
-    result = None if args.no_public else score_public(rows, log=lambda m: print(m, file=sys.stderr, flush=True))
+    result = None if args.no_public else score_public(rows)
     table = markdown(rows, result)
     print(table)
     if args.table:

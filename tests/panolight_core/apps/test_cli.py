@@ -474,3 +474,16 @@ def test_a_tiny_jpeg_claiming_a_huge_size_and_huge_output_maps_are_refused_at_on
     with pytest.raises(SystemExit):
         main(["estimate", str(tmp_path / "ok.jpg"), "-o", str(tmp_path / "o"), "--resolution", "16384x8192"])
     assert "height 1..2048" in capsys.readouterr().err and not (tmp_path / "o").exists()
+
+
+def test_estimate_prints_its_steps_unless_quiet(tmp_path, rng, capsys):
+    import logging
+
+    src = write_image(tmp_path / "in.exr", (rng.random((32, 64, 3)) * 3).astype(np.float32))
+    assert main(["estimate", str(src), "-o", str(tmp_path / "a"), "--resolution", "64x32"]) == 0
+    err = capsys.readouterr().err
+    assert f"reading {src}" in err and "writing " in err and "done: " in err
+    assert main(["estimate", str(src), "-o", str(tmp_path / "b"), "--resolution", "64x32", "-q"]) == 0
+    assert capsys.readouterr().err == ""
+    core = logging.getLogger("panolight_core")  # the command's handler is gone when it returns
+    assert core.propagate and not [h for h in core.handlers if not isinstance(h, logging.NullHandler)]

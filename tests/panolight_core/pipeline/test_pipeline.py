@@ -95,6 +95,19 @@ def test_run_estimate_writes_the_document_of_estimate_lighting_with_its_source(t
     assert set(written["timings"]) == {"read_s", "estimate_s", "model_s", "write_s"} and written == doc
 
 
+def test_run_estimate_reports_progress_through_logging_and_prints_nothing(tmp_path, sunny, caplog, capsys):
+    import logging
+
+    from panolight_core.io import write_srgb8
+
+    src = write_srgb8(tmp_path / "sky.png", sunny[1])
+    with caplog.at_level(logging.INFO, logger="panolight_core"):
+        run_estimate(src, tmp_path / "out")
+    said = [r.getMessage() for r in caplog.records if r.name == "panolight_core.pipeline.job"]
+    assert said[0] == f"reading {src}" and said[-1].startswith("writing ") and len(said) == 4
+    assert capsys.readouterr() == ("", "")  # a library user's terminal stays theirs
+
+
 def test_run_estimate_refuses_to_replace_its_input(tmp_path, sunny):
     hdr, _ = sunny
     src = write_image(tmp_path / "hdr.exr", hdr)
