@@ -2,7 +2,8 @@
 
 Thin bpy code over the bpy-free core (panolight_core, bundled in the extension zip), the way
 glTF-Blender-IO keeps io/ apart from blender/: operators.py gathers settings and calls the core,
-world.py turns results into datablocks, batch.py runs it headless.
+the datablock modules turn results into Blender data (store.py: the stored estimate, images.py, world.py:
+the node graph, lights.py: sun lamps), batch.py runs it headless.
 """
 from __future__ import annotations
 

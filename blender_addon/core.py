@@ -13,6 +13,10 @@ if importlib.util.find_spec(f"{__package__}.panolight_core") is not None:
 else:  # a development checkout or a pip install: no bundled copy beside this file
     import panolight_core as core
 
-for _name in ("camera.resample", "errors", "estimators", "io.images", "io.lighting", "io.ownership", "lighting.order", "pipeline",
-              "pipeline.hdri", "pipeline.settings", "sh", "threads"):
+# the core modules the add-on uses (and so the extension bundles, with what they import:
+# scripts/build_extension.py reads this list), relative to panolight_core
+CORE_MODULES = ("camera.resample", "errors", "estimators", "io.images", "io.lighting", "io.ownership",
+                "lighting.lights", "lighting.order", "pipeline", "pipeline.hdri", "pipeline.settings", "sh", "threads")
+
+for _name in CORE_MODULES:
     importlib.import_module(f"{core.__name__}.{_name}")  # core.io.lighting, core.pipeline.hdri, ...

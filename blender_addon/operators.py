@@ -1,4 +1,5 @@
-"""Operators (idnames are public, for scripts): gather settings, call the core, hand results to world.py.
+"""Operators (idnames are public, for scripts): gather settings, call the core, hand results to the datablock
+modules (store, images, world, lights).
 
 panolight.load_panorama(filepath)        the panorama becomes the PanoLight world's background
 panolight.estimate_lighting()            estimate with the panel's settings (scene.panolight: estimator,
@@ -17,7 +18,9 @@ import numpy as np
 from bpy.props import StringProperty
 from bpy_extras.io_utils import ExportHelper
 
-from . import world as W
+from . import images, store
+from .lights import LIGHTS_COLLECTION, set_lights
+from .world import build_world
 from .core import core
 
 Error = core.errors.PanoLightError
@@ -60,9 +63,9 @@ def _fit(pixels, settings):
 def _read_panorama(image):
     """The panorama's pixels for the core: read from its file by scanlines where Blender's OpenImageIO
     can, else one pixel read of the image; validated like a file (NaN refused, negative radiance clamped)."""
-    pixels = W.file_pixels(image)
+    pixels = images.file_pixels(image)
     if pixels is None:
-        pixels = W.image_pixels(image)
+        pixels = images.image_pixels(image)
     if pixels.dtype != np.uint8:
         pixels = core.io.images.sanitise_pixels(image.name, pixels)
     return pixels
@@ -71,8 +74,8 @@ def _read_panorama(image):
 def _make_hdri(world, pixels, result):
     """The reconstructed HDRI as PanoLight's float image, filled by row blocks and marked with the
     estimate it belongs to (made only when a world is lit with it: at 16K it is 2 GB in Blender)."""
-    image = W.radiance_image(result.hdr_blocks(pixels), W.HDRI_IMAGE_NAME, shape=pixels.shape[:2])
-    image[W.ESTIMATE_KEY] = world.get(W.ESTIMATE_KEY, "")
+    image = images.radiance_image(result.hdr_blocks(pixels), images.HDRI_IMAGE_NAME, shape=pixels.shape[:2])
+    image[store.ESTIMATE_KEY] = world.get(store.ESTIMATE_KEY, "")
     return image
 
 
@@ -98,10 +101,10 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         # what Blender would read wrong, crash on, or decode past the budget (it has none of its own)
         upright = core.io.images.preflight(path)
         if upright is not None and upright[2] != 1:  # Blender ignores EXIF orientation and +Y .hdr files
-            image = W.upright_panorama(str(path), core.io.images.read_image(path))
+            image = images.upright_panorama(str(path), core.io.images.read_image(path))
         else:
             try:
-                image = W.load_panorama(str(path))
+                image = images.load_panorama(str(path))
             except RuntimeError as exc:  # bpy's own "cannot read" error
                 raise Error(f"{path}: {str(exc).strip()}") from None
         w, h = image.size
@@ -109,11 +112,11 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
             raise Error(f"{path}: Blender could not read this image")
         if w != 2 * h:
             raise Error(f"{path}: equirectangular panoramas must be 2:1, got {w} x {h}")
-        world = W.build_world(image, **_world_kwargs(context))
-        world[W.PANORAMA_KEY] = image  # the image itself, not its name: a rename keeps it
-        W.store_lighting(world, None)  # a new panorama needs a new estimate
-        if W.ours(bpy.data.collections, W.LIGHTS_COLLECTION) is not None:
-            W.set_lights([], context.scene)  # the previous panorama's suns no longer apply
+        world = build_world(image, **_world_kwargs(context))
+        world[store.PANORAMA_KEY] = image  # the image itself, not its name: a rename keeps it
+        store.store_lighting(world, None)  # a new panorama needs a new estimate
+        if store.ours(bpy.data.collections, LIGHTS_COLLECTION) is not None:
+            set_lights([], context.scene)  # the previous panorama's suns no longer apply
         context.scene.world = world
         self.report({"INFO"}, f"PanoLight: {image.name} ({w} x {h}) is the world background")
         return {"FINISHED"}
@@ -137,18 +140,18 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     def _inputs(self, context):
         world = context.scene.world
         settings = _settings(context).estimate_settings()  # invalid settings fail before any pixel is read
-        self._pixels = _read_panorama(W.stored_panorama(world))
+        self._pixels = _read_panorama(store.stored_panorama(world))
         return world, self._pixels, settings
 
     def _store(self, context, world, result):
         doc = result.document
-        W.store_lighting(world, doc)
+        store.store_lighting(world, doc)
         if _settings(context).lighting_source == "HDRI":
             _make_hdri(world, self._pixels, result)
         self._pixels = None
         n = len(doc.get("lights", []))
         for problem in result.warnings:  # an all-black, absurdly bright or clipped-white panorama
-            self.report({"WARNING"}, f"PanoLight: {W.stored_panorama(world).filepath or 'the panorama'}: {problem}")
+            self.report({"WARNING"}, f"PanoLight: {store.stored_panorama(world).filepath or 'the panorama'}: {problem}")
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
 
@@ -232,12 +235,12 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
     @reports_errors
     def execute(self, context):
         world = context.scene.world
-        doc = W.stored_lighting(world)
-        panorama = W.stored_panorama(world)
+        doc = store.stored_lighting(world)
+        panorama = store.stored_panorama(world)
         s = _settings(context)
         if s.lighting_source == "HDRI":
-            image = W.own_image(W.HDRI_IMAGE_NAME)
-            if image is None or image.get(W.ESTIMATE_KEY) != world.get(W.ESTIMATE_KEY):
+            image = images.own_image(images.HDRI_IMAGE_NAME)
+            if image is None or image.get(store.ESTIMATE_KEY) != world.get(store.ESTIMATE_KEY):
                 image = self._hdri_now(context, world, panorama, doc)
             lights = []  # the sun and lamps are in the HDRI itself
         else:
@@ -245,10 +248,10 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
             h = max(64, min(1024, s.radiance_height))
             # no negative light, nothing clipped: the nearest non-negative map with the same bands 0-2
             radiance = core.sh.emitter_map(coeffs, h, 2 * h)[0].astype(np.float32)
-            image = W.radiance_image(radiance)
+            image = images.radiance_image(radiance)
             lights = doc.get("lights", []) if s.create_lights else []
-        W.build_world(panorama, image, **_world_kwargs(context))
-        W.set_lights(lights, context.scene, s.lighting_strength, s.lighting_rotation)
+        build_world(panorama, image, **_world_kwargs(context))
+        set_lights(lights, context.scene, s.lighting_strength, s.lighting_rotation)
         context.scene.world = world
         what = "the reconstructed HDRI" if s.lighting_source == "HDRI" else \
             f"SH order {doc['lmax']}, {len(lights)} sun lamp(s)"
@@ -294,10 +297,10 @@ class PANOLIGHT_OT_export_lighting(bpy.types.Operator, ExportHelper):
 
     @reports_errors
     def execute(self, context):
-        doc = W.stored_lighting(context.scene.world)
+        doc = store.stored_lighting(context.scene.world)
         path = _export_path(self.filepath, self.filename_ext)
         exr = path.with_name(path.stem + "_radiance.exr")
-        image = W.own_image(W.SH_IMAGE_NAME)
+        image = images.own_image(images.SH_IMAGE_NAME)
         owners = core.io.ownership
         # the browser warned about the .json only: a radiance map beside it that PanoLight did not write
         # there (its folder's manifest) is the user's, and is never replaced

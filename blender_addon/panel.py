@@ -8,7 +8,7 @@ offer exactly what ``panolight estimate`` does.
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from . import world as W
+from . import store
 from .core import core
 
 _settings = core.pipeline.settings
@@ -64,7 +64,7 @@ def draw_panel(layout, context):
     world = context.scene.world
     col = layout.column(align=True)
     col.operator("panolight.load_panorama", icon="IMAGE_DATA")
-    panorama = world.get(W.PANORAMA_KEY) if world is not None else None
+    panorama = world.get(store.PANORAMA_KEY) if world is not None else None
     if isinstance(panorama, bpy.types.Image):
         col.label(text=f"Panorama: {panorama.name}")
     box = layout.box()
@@ -74,7 +74,7 @@ def draw_panel(layout, context):
         box.prop(s, "window_width")
     box.prop(s, "exposure")
     box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
-    box.label(text="Estimated" if W.has_lighting(world) else "Not estimated yet")
+    box.label(text="Estimated" if store.has_lighting(world) else "Not estimated yet")
     box = layout.box()
     for prop in ("lighting_source", "background_strength", "lighting_strength", "background_rotation",
                  "lighting_rotation", "glossy_panorama", "create_lights", "radiance_height"):

@@ -1,13 +1,15 @@
 """Build the Blender extension: ``python scripts/build_extension.py [-o DIR]`` -> DIR/panolight-<version>.zip.
 
 The zip holds blender_manifest.toml and the add-on (blender_addon/*.py) at its root, and the part of
-the bpy-free core the add-on runs as the subpackage panolight_core/ (CORE_FILES: the estimation stages,
-their weights and schema; no command-line front ends, no training code, no developer tools). It is
+the bpy-free core the add-on runs as the subpackage panolight_core/: the modules blender_addon/core.py
+lists (CORE_MODULES, the one list) and every core module they import, with the weights and schema they
+load (CORE_DATA); no command-line front ends, no training code, no developer tools. It is
 checked with Blender's strict validator when the bpy package is installed. A developer tool: it reads
 the checkout this file is in.
 """
 from __future__ import annotations
 
+import ast
 import shutil
 import subprocess
 import sys
@@ -17,10 +19,7 @@ import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-# what the add-on imports (blender_addon/core.py) and what that imports, relative to panolight_core/
-CORE_FILES = ("__init__.py", "_backend.py", "errors.py", "threads.py", "camera/*.py", "estimators/*.py",
-              "estimators/nn/*.py", "estimators/sources/*.py", "lighting/*.py", "pipeline/*.py", "io/*.py", "sh/*.py",
-              "schemas/*.json", "models/*.safetensors", "models/*.md")
+CORE_DATA = ("schemas/*.json", "models/*.safetensors", "models/*.md")  # relative to panolight_core/
 
 
 class BuildError(Exception):
@@ -54,10 +53,58 @@ def build_extension(out_dir="dist") -> Path:
     return zpath
 
 
+def addon_core_modules() -> tuple:
+    """blender_addon/core.py's CORE_MODULES (read from the file, not imported: it needs bpy's package)."""
+    for node in ast.parse((ROOT / "blender_addon" / "core.py").read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "CORE_MODULES" for t in node.targets):
+            return tuple(ast.literal_eval(node.value))
+    raise BuildError("blender_addon/core.py: no CORE_MODULES list")
+
+
+def _module_file(name: str) -> Path | None:
+    path = ROOT.joinpath(*name.split("."))
+    return path / "__init__.py" if (path / "__init__.py").is_file() else \
+        path.with_suffix(".py") if path.with_suffix(".py").is_file() else None
+
+
+def _core_imports(name: str, path: Path) -> set:
+    """The panolight_core modules ``name`` (at ``path``) imports anywhere in its file, and their packages."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")[:len(package.split(".")) - node.level + 1]
+                base = ".".join(parts + ([node.module] if node.module else []))
+            targets = [base] + [f"{base}.{a.name}" for a in node.names]
+        else:
+            continue
+        for t in targets:
+            parts = t.split(".")
+            for k in range(1, len(parts) + 1):  # a module and every package above it
+                if parts[0] == "panolight_core" and _module_file(".".join(parts[:k])) is not None:
+                    found.add(".".join(parts[:k]))
+    return found
+
+
 def core_files() -> list[Path]:
-    """The core files the extension bundles (CORE_FILES), sorted."""
+    """The core files the extension bundles, sorted: CORE_MODULES and every core module they import,
+    transitively (lazy imports inside functions included), and CORE_DATA."""
+    todo, seen = ["panolight_core"] + [f"panolight_core.{m}" for m in addon_core_modules()], set()
+    while todo:
+        name = todo.pop()
+        path = _module_file(name)
+        if name in seen or path is None:
+            continue
+        seen.add(name)
+        parts = name.split(".")
+        todo += [".".join(parts[:k]) for k in range(1, len(parts))] + sorted(_core_imports(name, path))
     core = ROOT / "panolight_core"
-    return sorted({f for pattern in CORE_FILES for f in core.glob(pattern) if f.is_file()})
+    data = {f for pattern in CORE_DATA for f in core.glob(pattern) if f.is_file()}
+    return sorted({_module_file(n) for n in seen} | data)
 
 
 def _validate(stage: Path) -> None:

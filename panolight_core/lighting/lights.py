@@ -203,3 +203,20 @@ def _cap_band_factors(c: float, lmax: int) -> np.ndarray:
     for l in range(1, lmax + 1):
         f[l] = (p[l - 1] - p[l + 1]) / ((2 * l + 1) * (1.0 - c))
     return f
+
+
+def sun_lamp(light: dict, strength: float = 1.0, rotation: float = 0.0) -> dict:
+    """A lighting-file light as a sun lamp's settings (the Blender layer's arithmetic, kept here without bpy):
+    direction (3,) unit, where the light comes from, turned with the lighting: a Mapping node whose Z
+    rotation is ``rotation`` radians looks the texture up at R v, so the world shows it turned by -rotation,
+    and so is the lamp (R direction = the light's direction); colour (3,) scaled to a maximum channel of 1,
+    its scale moved into energy = intensity x strength x max(colour) (Blender's sun strength: the light's
+    irradiance at normal incidence); angle: the angular diameter, radians."""
+    c, s = math.cos(rotation), math.sin(rotation)
+    d = np.asarray(light["direction"], dtype=np.float64)
+    d = d / max(float(np.linalg.norm(d)), 1e-300)
+    color = np.asarray(light["color"], dtype=np.float64)
+    top = max(float(color.max()), 1e-12)
+    return {"direction": np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]]),
+            "color": color / top, "energy": float(light["intensity"]) * strength * top,
+            "angle": float(light.get("angle", 0.0))}

@@ -12,6 +12,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 import blender_addon  # noqa: E402
+from blender_addon import images, store  # noqa: E402
 from panolight_core import metrics, sh  # noqa: E402
 from panolight_core.data import load_studio_hdri  # noqa: E402
 from panolight_core.io import read_image, write_image  # noqa: E402
@@ -82,15 +83,13 @@ def test_graph_is_built_rerun_updates_and_the_users_world_survives(tmp_path):
 
 
 def test_colour_space_follows_the_file_format(tmp_path):
-    from blender_addon import world as W
-
     rgb = np.random.default_rng(0).random((8, 16, 3))
     cases = {"a.exr": "Linear Rec.709", "b.hdr": "Linear Rec.709", "c.png": "sRGB", "d.jpg": "sRGB"}
     for name, expected in cases.items():
         write_image(tmp_path / name, rgb.astype(np.float32))
-        assert W.load_panorama(str(tmp_path / name)).colorspace_settings.name == expected, name
+        assert images.load_panorama(str(tmp_path / name)).colorspace_settings.name == expected, name
     write_image(tmp_path / "e.png", rgb, bit_depth=16)
-    image = W.load_panorama(str(tmp_path / "e.png"))
+    image = images.load_panorama(str(tmp_path / "e.png"))
     assert image.is_float and image.colorspace_settings.name == "sRGB"  # 16-bit: float buffer, sRGB data
 
 
@@ -153,7 +152,7 @@ def test_camera_sees_the_panorama_exactly_and_lamps_turn_with_the_lighting(tmp_p
 def test_white_sphere_matches_the_analytic_irradiance(tmp_path):
     path = _small_city(tmp_path, 64)
     _estimate_and_build(path)
-    doc = blender_addon.world.stored_lighting(bpy.context.scene.world)
+    doc = blender_addon.store.stored_lighting(bpy.context.scene.world)
     coeffs = np.asarray(doc["coefficients"])
     scene = bpy.context.scene
     for obj in [o for o in scene.objects if o.type == "MESH"]:
@@ -195,7 +194,7 @@ def test_white_sphere_matches_the_analytic_irradiance(tmp_path):
     a, b = np.meshgrid(t, -t)
     inside = a * a + b * b < 0.8
     normals = np.stack([-np.sqrt(np.clip(1 - a * a - b * b, 0, 1)), -a, b], axis=-1)[inside]
-    world_image = blender_addon.world.own_image(blender_addon.world.SH_IMAGE_NAME)
+    world_image = blender_addon.images.own_image(blender_addon.images.SH_IMAGE_NAME)
     assert min(world_image.pixels[:]) >= 0  # no negative light in the world
     # the model's own irradiance: the non-negative emitter keeps bands 0-2 (clamping would add light)
     expect = 0.8 / np.pi * (sh.irradiance(coeffs, normals) + light_irradiance(doc["lights"], normals))
@@ -382,7 +381,7 @@ def test_blender_inputs_go_through_the_cores_validation(tmp_path):
     assert bpy.ops.panolight.load_panorama(filepath=str(neg)) == {"FINISHED"}
     _configure(lmax="2", model="sh")
     assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
-    doc = blender_addon.world.stored_lighting(bpy.context.scene.world)
+    doc = blender_addon.store.stored_lighting(bpy.context.scene.world)
     assert doc["coefficients"][0][0] > 0
 
 
@@ -403,7 +402,7 @@ def test_the_panel_settings_give_what_the_cli_gives(tmp_path, settings, argv):
     assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
     _configure(**settings)
     assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
-    doc = blender_addon.world.stored_lighting(bpy.context.scene.world)
+    doc = blender_addon.store.stored_lighting(bpy.context.scene.world)
     assert np.allclose(doc["coefficients"], want, rtol=1e-9, atol=1e-12)
     assert doc["window"] == cli_doc["window"] and doc["exposure_ev"] == cli_doc["exposure_ev"]
     assert [light["intensity"] for light in doc["lights"]] == pytest.approx(
@@ -411,33 +410,32 @@ def test_the_panel_settings_give_what_the_cli_gives(tmp_path, settings, argv):
 
 
 def test_the_hdri_is_made_only_for_lighting_with_it_and_follows_the_estimate(tmp_path):
-    W = blender_addon.world
     path = _small_city(tmp_path, 32)
-    for image in [im for im in bpy.data.images if im.get(W.TAG) == W.HDRI_IMAGE_NAME]:
+    for image in [im for im in bpy.data.images if im.get(store.TAG) == images.HDRI_IMAGE_NAME]:
         bpy.data.images.remove(image)
     s = bpy.context.scene.panolight
     s.lighting_source = "SH"
     _estimate_and_build(path)
-    assert W.own_image(W.HDRI_IMAGE_NAME) is None  # the default world needs no full-resolution float copy
+    assert images.own_image(images.HDRI_IMAGE_NAME) is None  # the default world needs no full-resolution float copy
     world = bpy.context.scene.world
-    before = W.stored_lighting(world)["coefficients"]
+    before = store.stored_lighting(world)["coefficients"]
     s.lighting_source = "HDRI"
     assert bpy.ops.panolight.build_environment() == {"FINISHED"}  # made now, of the stored estimate
-    hdri = W.own_image(W.HDRI_IMAGE_NAME)
-    assert hdri is not None and hdri[W.ESTIMATE_KEY] == world[W.ESTIMATE_KEY]
-    assert np.allclose(W.stored_lighting(world)["coefficients"], before)
+    hdri = images.own_image(images.HDRI_IMAGE_NAME)
+    assert hdri is not None and hdri[store.ESTIMATE_KEY] == world[store.ESTIMATE_KEY]
+    assert np.allclose(store.stored_lighting(world)["coefficients"], before)
     assert bpy.ops.panolight.build_environment() == {"FINISHED"}  # up to date: reused, not made again
-    assert W.own_image(W.HDRI_IMAGE_NAME) == hdri
+    assert images.own_image(images.HDRI_IMAGE_NAME) == hdri
     bpy.data.images.remove(hdri)
     s.exposure = 1.0  # settings changed after estimating: the HDRI would be another estimate's
     with pytest.raises(RuntimeError, match="settings changed since Estimate lighting"):
         bpy.ops.panolight.build_environment()
-    assert np.allclose(W.stored_lighting(world)["coefficients"], before)  # never replaced behind the user's back
-    assert W.own_image(W.HDRI_IMAGE_NAME) is None
+    assert np.allclose(store.stored_lighting(world)["coefficients"], before)  # never replaced behind the user's back
+    assert images.own_image(images.HDRI_IMAGE_NAME) is None
     assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}  # the user re-estimates: then it builds
     assert bpy.ops.panolight.build_environment() == {"FINISHED"}
-    assert np.allclose(W.stored_lighting(world)["coefficients"], 2.0 * np.asarray(before))
-    assert W.own_image(W.HDRI_IMAGE_NAME)[W.ESTIMATE_KEY] == world[W.ESTIMATE_KEY]
+    assert np.allclose(store.stored_lighting(world)["coefficients"], 2.0 * np.asarray(before))
+    assert images.own_image(images.HDRI_IMAGE_NAME)[store.ESTIMATE_KEY] == world[store.ESTIMATE_KEY]
     s.exposure, s.lighting_source = 0.0, "SH"
 
 
@@ -470,26 +468,25 @@ def test_scanline_reads_give_the_pixels_blender_holds(tmp_path, monkeypatch):
     pytest.importorskip("OpenImageIO")
     from panolight_core.io import write_srgb8
 
-    W = blender_addon.world
     y, x = np.mgrid[0:64, 0:128]
     ldr = np.stack([x * 2, y * 4, (x * y) % 256], -1).astype(np.uint8)
     files = [write_srgb8(tmp_path / "a.png", ldr), write_srgb8(tmp_path / "a.jpg", ldr, quality=92),
              _small_city(tmp_path, 32)]
     for path in files:
-        image = W.load_panorama(str(path))
-        by_file, by_blender = W.file_pixels(image), W.image_pixels(image)
+        image = images.load_panorama(str(path))
+        by_file, by_blender = images.file_pixels(image), images.image_pixels(image)
         assert by_file is not None and by_file.dtype == by_blender.dtype
         assert np.array_equal(by_file, by_blender), path.name
     image.pixels[0] = 0.5  # an edited image: its pixels are Blender's, not the file's
-    assert W.file_pixels(image) is None
+    assert images.file_pixels(image) is None
     # the operator's estimate is the same either way
     assert bpy.ops.panolight.load_panorama(filepath=str(files[1])) == {"FINISHED"}
     _configure()
     assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
-    with_oiio = W.stored_lighting(bpy.context.scene.world)["coefficients"]
-    monkeypatch.setattr(W, "file_pixels", lambda image: None)
+    with_oiio = store.stored_lighting(bpy.context.scene.world)["coefficients"]
+    monkeypatch.setattr(images, "file_pixels", lambda image: None)
     assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
-    assert W.stored_lighting(bpy.context.scene.world)["coefficients"] == with_oiio
+    assert store.stored_lighting(bpy.context.scene.world)["coefficients"] == with_oiio
 
 
 def test_the_panorama_is_tracked_by_identity_not_by_name(tmp_path):
@@ -498,13 +495,13 @@ def test_the_panorama_is_tracked_by_identity_not_by_name(tmp_path):
     assert bpy.ops.panolight.load_panorama(filepath=str(_small_city(tmp_path))) == {"FINISHED"}
     _configure(lmax="2", model="sh")
     world = bpy.context.scene.world
-    pano = blender_addon.world.stored_panorama(world)
+    pano = blender_addon.store.stored_panorama(world)
     old = pano.name
     pano.name = "renamed by the user"
     impostor = bpy.data.images.new(old, 64, 32, float_buffer=True)  # black, 2:1, with the old name
     assert impostor.name == old
     assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
-    doc = blender_addon.world.stored_lighting(world)
+    doc = blender_addon.store.stored_lighting(world)
     assert doc["coefficients"][0][0] > 0.05  # the city, not the black impostor
     bpy.data.images.remove(pano)
     with pytest.raises(RuntimeError, match="no panorama loaded"):
@@ -556,9 +553,9 @@ def test_blender_reads_every_file_with_the_clis_reader(tmp_path):
         assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}, what
         _configure(lmax="2", model="sh")
         assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}, what
-        got = np.asarray(blender_addon.world.stored_lighting(bpy.context.scene.world)["coefficients"][0])
+        got = np.asarray(blender_addon.store.stored_lighting(bpy.context.scene.world)["coefficients"][0])
         np.testing.assert_allclose(got, _cli_l00(path), rtol=1e-6, err_msg=what)
-    shown = blender_addon.world.stored_panorama(bpy.context.scene.world)
+    shown = blender_addon.store.stored_panorama(bpy.context.scene.world)
     assert tuple(shown.size) == (64, 32)  # the +Y file is shown upright too, not as Blender decodes it
     # a cropped EXR is refused, as by the CLI
     with OpenEXR.File([OpenEXR.Part({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,

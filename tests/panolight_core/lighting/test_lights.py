@@ -6,7 +6,7 @@ import pytest
 
 from panolight_core import metrics, sh
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
-from panolight_core.lighting.lights import extract_lights, light_irradiance
+from panolight_core.lighting.lights import extract_lights, light_irradiance, sun_lamp
 
 
 def _map(h=128, bg=0.1):
@@ -86,3 +86,15 @@ def test_large_panorama_is_processed_in_bounded_memory():
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     assert len(lights) == 1 and peak < 40 * 2 ** 20, f"{peak / 2 ** 20:.0f} MB"
+
+
+@pytest.mark.parametrize("rotation", [0.0, 0.7, -2.5])
+def test_a_sun_lamp_turns_with_the_lighting_and_keeps_the_lights_energy(rotation):
+    light = {"direction": [0.3, -0.5, 0.81], "color": [1.6, 0.8, 0.2], "intensity": 2.5, "angle": 0.01}
+    lamp = sun_lamp(light, strength=1.5, rotation=rotation)
+    c, s = math.cos(rotation), math.sin(rotation)
+    mapping = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])  # a Mapping node's Z rotation
+    d = np.array(light["direction"]) / np.linalg.norm(light["direction"])
+    np.testing.assert_allclose(mapping @ lamp["direction"], d, atol=1e-12)  # the texture lookup lands on the light
+    assert lamp["color"].max() == 1.0 and lamp["angle"] == 0.01
+    np.testing.assert_allclose(lamp["energy"] * lamp["color"], 1.5 * 2.5 * np.array(light["color"]), rtol=1e-12)

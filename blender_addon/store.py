@@ -1,0 +1,67 @@
+"""The PanoLight datablocks' tags and the estimate stored on a world (ID properties), read and written.
+
+Everything PanoLight makes carries TAG, so a user's datablock that merely shares a name is never taken for
+PanoLight's (``ours``). The estimate is a lighting.json document stored as JSON on the world, with a token
+(ESTIMATE_KEY) that the reconstructed HDRI image made from it carries too.
+"""
+from __future__ import annotations
+
+import json
+
+import bpy
+
+from .core import core
+
+TAG = "panolight"
+PANORAMA_KEY = "panolight_panorama"  # world ID property: the panorama image itself (an ID pointer: renames follow)
+LIGHTING_KEY = "panolight_lighting"  # world ID property: the estimate, a lighting.json document as JSON
+SOURCE_KEY = "panolight_source"  # image ID property: the file an upright copy was made from
+ESTIMATE_KEY = "panolight_estimate"  # world and HDRI image ID property: which estimate the HDRI is of
+
+
+def ours(collection, name: str):
+    """PanoLight's own datablock of a kind: the one carrying its tag (renamed or not), preferring ``name``.
+    A user's datablock that merely has the name is never returned."""
+    tagged = [d for d in collection if d.get(TAG)]
+    return next((d for d in tagged if d.name == name), tagged[0] if tagged else None)
+
+
+def stored_panorama(world):
+    """The panorama image of a PanoLight world, or PanoLightError. Tracked by identity: renaming it keeps
+    it, and another image that takes its old name is never taken for it."""
+    image = world.get(PANORAMA_KEY) if world else None
+    if not isinstance(image, bpy.types.Image):  # removed, or a name stored by an earlier version
+        image = None
+    if image is None:
+        raise core.errors.PanoLightError("no panorama loaded: use Load panorama first")
+    return image
+
+
+def stored_lighting(world) -> dict:
+    """The estimate stored on ``world``: a validated lighting document (io.lighting), or PanoLightError."""
+    raw = world.get(LIGHTING_KEY) if world else None
+    if not raw:
+        raise core.errors.PanoLightError("no lighting estimated yet: use Estimate lighting first")
+    try:
+        doc = json.loads(raw)
+    except (TypeError, ValueError):
+        raise core.errors.PanoLightError("the stored estimate is not valid JSON: use Estimate lighting again") \
+            from None
+    return core.io.lighting.validate(doc, "the estimated lighting")
+
+
+def store_lighting(world, doc: dict | None) -> None:
+    """Store an estimate on ``world`` (None forgets it: a new panorama needs a new estimate), with a new
+    ESTIMATE_KEY token (the HDRI image made from it carries the same token)."""
+    import uuid
+
+    if doc is None:
+        world.pop(LIGHTING_KEY, None)
+        world.pop(ESTIMATE_KEY, None)
+    else:
+        world[LIGHTING_KEY] = json.dumps(doc)
+        world[ESTIMATE_KEY] = uuid.uuid4().hex
+
+
+def has_lighting(world) -> bool:
+    return bool(world is not None and world.get(LIGHTING_KEY))
