@@ -209,7 +209,7 @@ def blob_features(small: np.ndarray, frac: np.ndarray):
         rows = np.arange(max(0, row_lo[b] - pad), min(h, row_hi[b] + pad + 1))
         sin_min = max(math.sin(math.pi * (rows[0]) / h), math.sin(math.pi * (rows[-1] + 1) / h), 1e-9) \
             if rows[0] > 0 and rows[-1] < h - 1 else 0.0
-        x_c = int((0.5 - math.atan2(centre[1], centre[0]) / (2 * math.pi)) % 1.0 * w)
+        x_c = int(math.floor(float(sh.grid.pixel_coordinates(centre, h, w)[1]) + 0.5)) % w  # its column
         half = w if sin_min <= 0 else int(math.ceil((reach + pad_gap) / (sin_min * d_phi))) + 2
         cols = np.arange(w) if 2 * half + 1 >= w else (x_c + np.arange(-half, half + 1)) % w
         win = np.ix_(rows, cols)
