@@ -183,7 +183,7 @@ def register(sub) -> None:
     add_train_arguments(tr)
     tr.set_defaults(func=run_train)
     for name, (module, text) in TOOLS.items():
-        t = sub.add_parser(name, help=text, add_help=False, description=f"{text} (python -m {module})")
+        t = sub.add_parser(name, help=f"(developer) {text}", add_help=False, description=f"{text} (python -m {module})")
         t.set_defaults(func=run_tool, forward=True)
 
 
