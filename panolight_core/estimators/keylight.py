@@ -43,6 +43,8 @@ LAMP_MIN_DIAMETER_DEG = 1.0
 SHOULDER = 0.75  # linear (clip level 1; sRGB 225): above it a channel sits on the camera's highlight shoulder
 PLATEAU_EXTENT_DEG = 30.0  # a region this wide (angular radius) with no clear-sky sun in it is a plateau (an
 # overcast sky, a window wall), not a compact source: its even fill stays and it makes no light (docs/keylight.md)
+DIRECTION_68_PER_EXTENT = 0.25  # a light's direction error: within this share of its region's angular radius (at
+# least one work cell) for 68 % of the dominant sources of the real HDRs at ev -2/0/+2 (training/keylight/cv.py)
 ENERGY_RULES = ("decided", "capped", "physical", "hybrid")
 ENERGY_RULE = "hybrid"  # decided | capped | physical | hybrid: docs/keylight.md (training/keylight/rules.py)
 
@@ -50,7 +52,9 @@ ENERGY_RULE = "hybrid"  # decided | capped | physical | hybrid: docs/keylight.md
 @dataclass
 class KeyLight:
     """A key light: unit direction (3,), luminance energy (clip units x sr), colour (luminance 1), angular
-    diameter (radians), its 68 % energy range, the region it came from and how it was weighed."""
+    diameter (radians), the 68 % range of the source's true energy (the belief; ``energy`` is what the energy
+    rule reports, which may lie below it), the region it came from and how it was weighed, and the
+    direction's 68 % error radius (radians: DIRECTION_68_PER_EXTENT of the region's radius, at least a cell)."""
 
     direction: np.ndarray
     energy: float
@@ -61,13 +65,15 @@ class KeyLight:
     method: str
     physical: float | None = None  # the clear-sky fit's energy x SKY_CORRECTION, before ENERGY_RULE
     sky: clear_sky.SkyFit | None = None  # the clear-sky fit tried at its direction (clear or not); None below the horizon
+    direction_68: float = 0.0
 
     def as_light(self) -> dict:
         """A lighting-file light dict (energy as intensity)."""
         return {"type": "sun" if math.degrees(self.angle) <= 5.0 else "area",
                 "direction": [float(v) for v in self.direction], "peak_direction": [float(v) for v in self.direction],
                 "color": [float(v) for v in self.color], "intensity": float(self.energy), "angle": float(self.angle),
-                "energy_68": [float(v) for v in self.energy_68], "source": self.method}
+                "energy_68": [float(v) for v in self.energy_68],
+                "direction_68_deg": round(math.degrees(self.direction_68), 3), "source": self.method}
 
 
 def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
@@ -160,6 +166,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         if not energy > 0:
             continue
         keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),
-                             float(angle), (float(lo), float(hi)), int(i), method, physical, fit))
+                             float(angle), (float(lo), float(hi)), int(i), method, physical, fit,
+                             max(DIRECTION_68_PER_EXTENT * math.radians(float(extent[i])), math.pi / h)))
     return keys
 

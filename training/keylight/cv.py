@@ -64,6 +64,7 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight") -> 
         rows.append({"scene": path.stem, "ev": ev, "clipped_truth": clipped, "share": round(ds["share"], 4),
                      "angle_deg": round(angle, 3), "ratio": metrics.source_energy_ratio(hdr, est_hdr, ds["direction"]),
                      "lights": len(lights), "key_method": key.get("source") if key else None,
+                     "direction_68_deg": key.get("direction_68_deg") if key else None,
                      "physical_over_true": physical})
     return rows
 
@@ -76,7 +77,14 @@ def summary(rows, ev) -> dict:
     return {"scenes": len(sel), "median_angle_deg": statistics.median(r["angle_deg"] for r in sel),
             "median_abs_log2_ratio": statistics.median(lr), "within": 2 ** statistics.median(lr),
             "worst_low": min(r["ratio"] for r in sel), "worst_high": max(r["ratio"] for r in sel),
-            "no_light": sum(r["lights"] == 0 for r in sel)}
+            "no_light": sum(r["lights"] == 0 for r in sel),
+            # how often the brightest light's direction is within the 68 % radius it reports (calibrated: 0.68)
+            "direction_68_covers": _share([r["angle_deg"] <= r["direction_68_deg"] for r in sel
+                                           if r.get("direction_68_deg") is not None])}
+
+
+def _share(flags: list) -> float | None:
+    return sum(flags) / len(flags) if flags else None
 
 
 def correction_cv(rows, files) -> dict:

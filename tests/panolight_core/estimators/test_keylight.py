@@ -132,3 +132,20 @@ def test_a_wide_plateau_makes_no_light_unless_a_clear_sky_sun_is_in_it():
     assert keylight.find_key_lights(rad, fa, fb, reg, mu, sigma) == []
     lamps = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, plateau_deg=180.0)
     assert len(lamps) == 1 and lamps[0].sky is not None and not lamps[0].sky.clear
+
+
+def test_a_key_light_says_how_far_its_source_may_be():
+    """lighting.json gives each key light the radius its source lies within 68 % of the time: a share of its
+    region's radius (calibrated on the real HDRs), never under a work cell; the lamp here is inside it."""
+    from panolight_core.estimators import keylight
+
+    v = np.array([0.2, 0.5, 0.8]) / np.linalg.norm([0.2, 0.5, 0.8])
+    res = _key_model(hdr_to_ldr(_lamps([v]), 0.0))
+    rec = res.estimate.recovery
+    key = rec.keys[0]
+    extent = math.radians(float(rec.regions.extent_deg()[key.region]))
+    cell = math.pi / rec.work.shape[0]
+    assert key.direction_68 == pytest.approx(max(keylight.DIRECTION_68_PER_EXTENT * extent, cell))
+    light = next(l for l in res.model.lights if "direction_68_deg" in l)
+    assert light["direction_68_deg"] == pytest.approx(math.degrees(key.direction_68), abs=1e-3)
+    assert metrics.angle_deg(light["direction"], v) <= light["direction_68_deg"]
