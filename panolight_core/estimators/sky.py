@@ -224,15 +224,15 @@ def _fit_turbidities(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast: bool):
                         *CONTRAST_RANGE)
             return my - g * mx, g
 
-    def residual(s, g):
-        return log_obs[None, :] - lm_obs if not contrast else log_obs[None, :] - g[:, None] * lm_obs
+    def residual(s, g):  # (T, N) log observed less the fitted line (g = 1 exactly: the plain difference)
+        return log_obs[None, :] - g[:, None] * lm_obs - s[:, None]
+
     for _ in range(3):  # a row once empty stays empty (nan compares False)
-        s_all, g_all = line(keep)
-        keep = residual(s_all, g_all) - s_all[:, None] > OCCLUDER_LOG
+        keep = residual(*line(keep)) > OCCLUDER_LOG
     s_all, g_all = line(keep)
     wk = np.where(keep, w_obs[None, :], 0.0)
     sky_sr_all = wk.sum(axis=1)
-    res = residual(s_all, g_all) - s_all[:, None]
+    res = residual(s_all, g_all)
     rms_all = np.sqrt((res ** 2 * wk).sum(axis=1) / np.where(sky_sr_all > 0, sky_sr_all, 1.0))
     short = np.zeros_like(rms_all)
     if lm_cen.shape[1]:  # clipped sky the model leaves below the clip level
