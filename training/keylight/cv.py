@@ -9,7 +9,7 @@ whose HDR clips its own source (MANIFEST ``sun``: "clipped" or "lower bound") ar
 
 SKY_CORRECTION (``panolight_core.estimators.keylight``) is the one number fitted here: the median of
 log(true / physical) of the clear-sky suns. Its cross-validated check: each fold's scenes are scored with
-the median of the OTHER folds' scenes (5 folds by scene, the assignment of ``source_energy_cv``); the
+the median of the OTHER folds' scenes (5 folds by scene, the assignment of ``training.source_energy.cv``); the
 table then shows how far that lands from the shipped all-scene value.
 
     python -m training.keylight.cv [--evs -2 0 2] [--out docs/keylight.json]

@@ -47,7 +47,7 @@ def _distributed():
 
 def held_out_scenes(hdr, fold) -> list[str]:
     """The scene names (file stems) of fold (K, N) of the real HDRs in folder ``hdr``: the assignment of
-    ``source_energy cv`` (source_energy_cv.scene_folds), so a network and the per-source model are
+    ``source_energy cv`` (training.source_energy.cv.scene_folds), so a network and the per-source model are
     scored on the same held-out scenes."""
     from training.source_energy.fit import scene_files
     from training.source_energy.cv import fold_files

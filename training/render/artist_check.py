@@ -3,7 +3,7 @@ the photo under the estimated lighting, beside the photo, with the numbers an ar
 
 For each photo (default: every JPEG in ../shared/data/ldr; never trained or tuned on) and estimator:
 - the product's estimate (``pipeline.estimate_lighting``, the CLI's path) of the photo;
-- a Mitsuba render (``mitsuba_render.composite_view``: differential rendering) of a diffuse white sphere
+- a Mitsuba render (``training.render.mitsuba.composite_view``: differential rendering) of a diffuse white sphere
   (albedo 0.8) standing on the photo's ground, seen from the panorama's centre with the key light to the
   side, so its shadow falls across the view;
 - the lit/shadow ratio a white plane gets: the model's irradiance on an upward plane over the same with
