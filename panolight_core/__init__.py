@@ -5,8 +5,9 @@ The stages, in the order a panorama goes through them:
     estimators/  what the camera clipped: analytic highlights, learned per-source energy, the network
     lighting/    the lighting model: explicit lights + SH at the order the scene needs
     pipeline/    estimate_lighting(pixels, Settings) -> the lighting document; run_estimate: file -> folder
-with sh/ (the SH maths), io/ (images and lighting.json) and apps/ (the panolight command, batch,
-evaluation). See docs/development.md.
+with sh/ (the SH maths), io/ (images and lighting.json), apps/ (the panolight command, batch,
+evaluation), metrics (EVALUATION.md) and synthetic (procedural skies and rooms for tests and training).
+See docs/development.md.
 """
 import logging
 
