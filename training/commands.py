@@ -95,7 +95,15 @@ def run_tool(args) -> int:
     """Run a TOOLS module's main with the arguments after the command's name (its usage says panolight NAME)."""
     import importlib
 
-    module = importlib.import_module(TOOLS[args.command][0])
+    from panolight_core.errors import PanoLightError
+
+    try:
+        module = importlib.import_module(TOOLS[args.command][0])
+    except ModuleNotFoundError as exc:  # an extra this machine lacks (torch, mitsuba, sphericart, matplotlib)
+        if exc.name and exc.name.split(".")[0] in ("training", "panolight_core"):
+            raise
+        raise PanoLightError(f"{args.command} needs the package {exc.name!r}, which is not installed here: run "
+                             f"scripts/setup.sh, or pip install -e '.[train,mitsuba,bench,plot]'") from None
     argv0, sys.argv[0] = sys.argv[0], f"panolight {args.command}"
     try:
         return module.main(list(args.forwarded)) or 0

@@ -28,3 +28,19 @@ def test_a_tool_gets_its_arguments_and_core_commands_still_refuse_unknown_ones(c
     with pytest.raises(SystemExit) as exc:
         main(["demo", "--no-such-option"])
     assert exc.value.code == 2 and "unrecognized arguments: --no-such-option" in capsys.readouterr().err
+
+
+def test_a_tool_whose_extra_is_missing_says_which_package(monkeypatch, capsys):
+    import importlib
+
+    real = importlib.import_module
+
+    def without_torch(name, *args):
+        if name == "training.neural.cv":
+            raise ModuleNotFoundError("No module named 'torch'", name="torch")
+        return real(name, *args)
+
+    monkeypatch.setattr(importlib, "import_module", without_torch)
+    assert main(["neural-cv", "--help"]) == 1
+    err = capsys.readouterr().err
+    assert "neural-cv needs the package 'torch'" in err and "setup.sh" in err
