@@ -121,11 +121,13 @@ def _check_rule(rule: str) -> None:
 
 
 def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, rule: str | None = None,
-                    plateau_deg: float = PLATEAU_EXTENT_DEG) -> list[KeyLight]:
+                    plateau_deg: float = PLATEAU_EXTENT_DEG, fits: dict | None = None) -> list[KeyLight]:
     """Key lights of a work map's clipped regions (``sources.Regions``) given the per-source model's
     (mu, sigma) per region (natural log of the energy ratio): the regions holding at least KEY_SHARE of the
     scene's predicted energy, largest first, at most MAX_KEYS, each located and weighed (module doc); a
-    region wider than ``plateau_deg`` (angular radius, degrees) only where a clear-sky sun is in it."""
+    region wider than ``plateau_deg`` (angular radius, degrees) only where a clear-sky sun is in it. fits: a
+    dict that keeps each region's clear-sky fit (by region index) across calls on the same work maps, for a
+    study that finds the lights again with other settings."""
     if regions.count == 0:
         return []
     h, w = regions.labels.shape
@@ -144,7 +146,12 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         learned = (math.exp(mu[i]) - 1.0) * regions.held[i]
         lo, hi = (math.exp(max(mu[i] - sigma[i], 0.0)) - 1.0) * regions.held[i], \
             (math.exp(mu[i] + sigma[i]) - 1.0) * regions.held[i]
-        fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
+        if fits is not None and int(i) in fits:
+            fit = fits[int(i)]
+        else:
+            fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
+            if fits is not None:
+                fits[int(i)] = fit
         decided = (math.exp(reported[i]) - 1.0) * regions.held[i] if reported is not None else learned
         physical = None
         if fit is not None and fit.clear:

@@ -69,8 +69,9 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
     row = {"ev": ev, "dominant": bool(ds["dominant"]), "naive": [metrics.m_rmse(gt, naive), metrics.irr_rmse(gt, naive)],
            "keys": [], "rules": {}}
     found = []
+    fits = {}  # the clear-sky fits, made once for every plateau setting
     if reg.count:
-        found = keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported, rule="physical")
+        found = keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported, rule="physical", fits=fits)
         for k in found:
             j = k.region
             row["keys"].append({"method": k.method, "physical": k.physical,
@@ -98,7 +99,7 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
     for rule in RULES:
         row["rules"][rule] = scores([replace(k, energy=e) for k, e in zip(found, _energies(rule, row["keys"])) if e > 0])
     row["plateau"] = {f"{t:g}": scores(keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported,
-                                                               plateau_deg=t) if reg.count else [])
+                                                               plateau_deg=t, fits=fits) if reg.count else [])
                       for t in plateaus}
     return row
 
