@@ -5,6 +5,7 @@ replaces PanoLight's own lamps only; a user's object linked into the collection 
 from __future__ import annotations
 
 import bpy
+from mathutils import Vector
 
 from .core import core
 from .store import TAG, ours
@@ -31,8 +32,6 @@ def set_lights(lights, scene, lighting_strength=1.0, lighting_rotation=0.0):
         bpy.data.objects.remove(obj, do_unlink=True)
         if data is not None and data.users == 0:
             bpy.data.lights.remove(data)
-    from mathutils import Vector
-
     for i, light in enumerate(lights):
         lamp = core.lighting.lights.sun_lamp(light, lighting_strength, lighting_rotation)
         data = bpy.data.lights.new(f"PanoLight Sun {i}", type="SUN")

@@ -142,8 +142,6 @@ def model_sun_share(model, direction) -> float | None:
     return sun / total if total > 0 else None
 
 
-
-
 def estimated_direction(coeffs: np.ndarray):
     """Brightest direction of the SH radiance on a 256 x 128 grid; None for a constant map."""
     c = np.asarray(coeffs, dtype=np.float64)

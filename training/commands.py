@@ -64,7 +64,6 @@ def run_train(args) -> int:
     return 0
 
 
-
 # name: (module with main(argv), one line of help). ``panolight NAME --help`` shows the module's own options;
 # ``python -m MODULE`` runs the same main (docs/development.md)
 TOOLS = {

@@ -252,6 +252,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = _command(sub, "batch", run_batch, estimate_options="auto", epilog=EPILOG_BATCH,
                  help="estimate many panoramas (folders, lists, render-farm shards)",
                  description="Run 'estimate' over many panoramas.")
+    b.set_defaults(log_steps=False)  # batch shows its own line per input, not each estimate's steps
     b.add_argument("inputs", nargs="*", help="panorama files and/or folders")
     b.add_argument("--list", help="a text file with one input path per line ('#' comments allowed)")
     b.add_argument("--recursive", action="store_true", help="also search sub-folders of the given folders")
@@ -320,8 +321,7 @@ def main(argv=None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _terminate)
     try:
-        # batch shows its own progress line per input, not each estimate's steps
-        with progress_to_stderr(getattr(args, "quiet", False) or args.command == "batch"):
+        with progress_to_stderr(getattr(args, "quiet", False) or not getattr(args, "log_steps", True)):
             return _run(args)
     finally:
         if previous is not None:

@@ -24,26 +24,23 @@ class _Printable(logging.Formatter):
 
 
 @contextmanager
-def progress_to_stderr(quiet: bool, loggers=("panolight_core", "training")):
-    """While a command runs: the INFO messages of the core's (and the training tools') loggers, one line
-    each on stderr, or none when quiet (warnings still show). A library user configures ``logging``
-    instead: the core only ever logs, never prints its progress."""
+def progress_to_stderr(quiet: bool):
+    """While a command runs: the INFO messages of the core's loggers (``panolight_core.*``), one line each
+    on stderr, or none when quiet (warnings still show). A library user configures ``logging`` instead:
+    the core only ever logs, never prints its progress."""
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(_Printable())
-    saved = []
-    for name in loggers:
-        lg = logging.getLogger(name)
-        saved.append((lg, lg.level, lg.propagate))
-        lg.setLevel(logging.WARNING if quiet else logging.INFO)
-        lg.propagate = False
-        lg.addHandler(handler)
+    core = logging.getLogger("panolight_core")
+    saved = core.level, core.propagate
+    core.setLevel(logging.WARNING if quiet else logging.INFO)
+    core.propagate = False
+    core.addHandler(handler)
     try:
         yield
     finally:
-        for lg, level, propagate in saved:
-            lg.removeHandler(handler)
-            lg.setLevel(level)
-            lg.propagate = propagate
+        core.removeHandler(handler)
+        core.setLevel(saved[0])
+        core.propagate = saved[1]
 
 
 def resolution(text: str) -> tuple[int, int]:
