@@ -16,7 +16,8 @@ region that holds at least KEY_SHARE of the scene's predicted energy and makes i
 - which: a region wider than PLATEAU_EXTENT_DEG makes a key light only when a clear-sky sun is in it (the
   fit passes the cloudiness gate: its residual, the sky it rests on and its colour, ``sky.MIN_BLUENESS``); a
   wide patch of overcast sky or a white wall is lit evenly, and a point light there would cast a shadow
-  the scene does not have.
+  the scene does not have. One sun in the sky: of the regions whose fit passes, the best-fitting one holds
+  it, and a region touching it (the sun's patch cut in two) is part of the same light.
 - shape and colour: a sun is a 0.53 degree disk in the fitted sun's colour (a sunset stays warm); a lamp
   takes the size of its clipped core and the colour of its glare (the unclipped ring's excess over the
   background just beyond it), unless that is blue sky.
@@ -45,7 +46,7 @@ PLATEAU_EXTENT_DEG = 30.0  # a region this wide (angular radius) with no clear-s
 # overcast sky, a window wall), not a compact source: its even fill stays and it makes no light (docs/keylight.md)
 DIRECTION_68_PER_EXTENT = 0.25  # a light's direction error: within this share of its region's angular radius (at
 # least one work cell) for 68 % of the dominant sources of the real HDRs at ev -2/0/+2 (training/keylight/cv.py)
-ENERGY_RULES = ("decided", "capped", "physical", "hybrid")
+ENERGY_RULES = ("decided", "capped", "physical", "hybrid", "sky")
 ENERGY_RULE = "hybrid"  # decided | capped | physical | hybrid: docs/keylight.md (training/keylight/rules.py)
 
 
@@ -66,6 +67,7 @@ class KeyLight:
     physical: float | None = None  # the clear-sky fit's energy x SKY_CORRECTION, before ENERGY_RULE
     sky: clear_sky.SkyFit | None = None  # the clear-sky fit tried at its direction (clear or not); None below the horizon
     direction_68: float = 0.0
+    parts: tuple = ()  # other regions of the same source (a sun's patch split in two): its energy comes from them too
 
     def as_light(self) -> dict:
         """A lighting-file light dict (energy as intensity)."""
@@ -112,7 +114,7 @@ def rule_energy(rule: str, physical: float | None, learned: float, decided: floa
     _check_rule(rule)
     capped = min(learned if physical is None else physical, max(decided, learned))
     return {"decided": decided, "capped": capped, "physical": learned if physical is None else physical,
-            "hybrid": decided if physical is None else capped}[rule]
+            "hybrid": decided if physical is None else capped, "sky": decided if physical is None else physical}[rule]
 
 
 def _check_rule(rule: str) -> None:
@@ -135,26 +137,57 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     lum = rad @ LUMINANCE_WEIGHTS
     predicted = regions.held * np.exp(mu)
     scene = float((lum * omega).sum()) + float((predicted - regions.held).sum())
-    keys = []
     rule = rule or ENERGY_RULE
     _check_rule(rule)
     extent = regions.extent_deg()
+    radius = np.sqrt(regions.clipped_sr / math.pi)  # each region's angular radius, radians
+    chosen = []
     for i in np.argsort(-predicted):
-        if len(keys) == MAX_KEYS or predicted[i] < KEY_SHARE * scene:
+        if predicted[i] < KEY_SHARE * scene:
             break
         direction = regions.centre[i]
-        learned = (math.exp(mu[i]) - 1.0) * regions.held[i]
-        lo, hi = (math.exp(max(mu[i] - sigma[i], 0.0)) - 1.0) * regions.held[i], \
-            (math.exp(mu[i] + sigma[i]) - 1.0) * regions.held[i]
         if fits is not None and int(i) in fits:
             fit = fits[int(i)]
         else:
             fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
             if fits is not None:
                 fits[int(i)] = fit
-        decided = (math.exp(reported[i]) - 1.0) * regions.held[i] if reported is not None else learned
+        chosen.append((int(i), fit))
+    # one sun in the sky: of the regions whose clear-sky fit passes, the best-fitting one holds it; a region
+    # next to it (the same sun's patch split in two) makes no light of its own, one further off is weighed
+    # as any other region
+    clear = [(fit.rms, i) for i, fit in chosen if fit is not None and fit.clear]
+    sun = min(clear)[1] if clear else None
+    part_of_sun = set()
+    if sun is not None:
+        for i, _ in chosen:
+            apart = math.acos(float(np.clip(regions.centre[i] @ regions.centre[sun], -1.0, 1.0)))
+            if i != sun and apart <= radius[i] + radius[sun] + 2.0 * math.pi / h:
+                part_of_sun.add(i)
+    keys = []
+    for i, fit in chosen:
+        if len(keys) == MAX_KEYS:
+            break
+        if i in part_of_sun:
+            continue
+        direction = regions.centre[i]
+        if i == sun and part_of_sun:  # the sun sits at the centroid of its whole patch, fitted there again
+            parts = [sun, *sorted(part_of_sun)]
+            v = (regions.clipped_sr[parts, None] * regions.centre[parts]).sum(axis=0)
+            direction = v / np.linalg.norm(v)
+            refit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
+            if refit is not None and refit.clear:
+                fit = refit
+            else:
+                direction = regions.centre[i]
+        parts = [i, *sorted(part_of_sun)] if i == sun else [i]  # the regions this light stands for
+        held = regions.held[parts]
+        learned = float(((np.exp(mu[parts]) - 1.0) * held).sum())
+        lo = float(((np.exp(np.maximum(mu[parts] - sigma[parts], 0.0)) - 1.0) * held).sum())
+        hi = float(((np.exp(mu[parts] + sigma[parts]) - 1.0) * held).sum())
+        decided = float(((np.exp(reported[parts]) - 1.0) * held).sum()) if reported is not None else learned
         physical = None
-        if fit is not None and fit.clear:
+        if i == sun:
             physical = SKY_CORRECTION * fit.sun_energy
             color = fit.sun_rgb / max(fit.sun_energy, 1e-30)
             lo, hi = physical / SKY_SPREAD, physical * SKY_SPREAD
@@ -162,18 +195,18 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         else:
             if extent[i] > plateau_deg:
                 continue
-            ring = _ring_color(rad, frac_any, regions.labels, int(i), direction,
-                               math.sqrt(regions.clipped_sr[i] / math.pi))
+            ring = _ring_color(rad, frac_any, regions.labels, i, direction, radius[i])
             # a blue ring is sky around a sun, not the source's own glare: keep the camera's white then
             color = ring if ring[2] <= ring[0] else np.ones(3)
             method = "per-source model"
             # a lamp (or a veiled sun) as wide as a third of its clipped core
-            angle = max(math.radians(LAMP_MIN_DIAMETER_DEG), 2.0 * math.sqrt(regions.clipped_sr[i] / math.pi) / 3.0)
+            angle = max(math.radians(LAMP_MIN_DIAMETER_DEG), 2.0 * radius[i] / 3.0)
         energy = rule_energy(rule, physical, learned, decided)
         if not energy > 0:
             continue
         keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),
-                             float(angle), (float(lo), float(hi)), int(i), method, physical, fit,
-                             max(DIRECTION_68_PER_EXTENT * math.radians(float(extent[i])), math.pi / h)))
+                             float(angle), (float(lo), float(hi)), i, method, physical, fit,
+                             max(DIRECTION_68_PER_EXTENT * math.radians(float(extent[i])), math.pi / h),
+                             tuple(parts[1:])))
     return keys
 

@@ -73,10 +73,10 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
     if reg.count:
         found = keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported, rule="physical", fits=fits)
         for k in found:
-            j = k.region
+            j, parts = k.region, [k.region, *k.parts]  # the regions the light stands for
             row["keys"].append({"method": k.method, "physical": k.physical,
-                                "learned": float((math.exp(mu[j]) - 1.0) * reg.held[j]),
-                                "decided": float((math.exp(reported[j]) - 1.0) * reg.held[j]),
+                                "learned": float(((np.exp(mu[parts]) - 1.0) * reg.held[parts]).sum()),
+                                "decided": float(((np.exp(reported[parts]) - 1.0) * reg.held[parts]).sum()),
                                 "extent_deg": float(reg.extent_deg()[j]),
                                 "blueness": k.sky.blueness if k.sky is not None else None,
                                 "sky_fits": k.sky is not None and k.sky.luminance_clear,

@@ -16,14 +16,19 @@ from .regions import Regions
 
 def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray, keys=()) -> np.ndarray:
     """Work map with each region's excess (r - 1) x held added to its cells by ``Regions.share``, in
-    the region's colour, less the energy of the region's key light (``keys``), which is not in the map.
+    the region's colour, less the energy of the region's key light (``keys``; of all the regions it stands
+    for), which is not in the map.
     Returns a new (h, w, 3) map."""
     out = np.array(rad, dtype=np.float64, copy=True)
     if regions.count == 0:
         return out
     excess = (np.exp(np.asarray(log_ratio, dtype=np.float64)) - 1.0) * regions.held
-    for k in keys:
-        excess[k.region] = max(excess[k.region] - k.energy, 0.0)
+    for k in keys:  # the light's energy leaves its region's fill, then its other parts' (KeyLight.parts)
+        left = k.energy
+        for r in (k.region, *k.parts):
+            take = min(excess[r], left)
+            excess[r] -= take
+            left -= take
     m = regions.labels >= 0
     lab = regions.labels[m]
     omega = sh.pixel_solid_angles(*regions.labels.shape)

@@ -51,7 +51,8 @@ class Recovery:
         """(direction (3,), angular radius in radians) of each key light's region: the lighting model takes
         no second light there (one light per physical source)."""
         cell = math.pi / self.work.shape[0]
-        return [(k.direction, math.sqrt(self.regions.clipped_sr[k.region] / math.pi) + 2 * cell) for k in self.keys]
+        sr = self.regions.clipped_sr
+        return [(k.direction, math.sqrt(float(sr[[k.region, *k.parts]].sum()) / math.pi) + 2 * cell) for k in self.keys]
 
     def region_info(self) -> list[dict]:
         """Per region, for lighting.json: direction, clipped solid angle (sr), held and recovered energy

@@ -149,3 +149,60 @@ def test_a_key_light_says_how_far_its_source_may_be():
     light = next(l for l in res.model.lights if "direction_68_deg" in l)
     assert light["direction_68_deg"] == pytest.approx(math.degrees(key.direction_68), abs=1e-3)
     assert metrics.angle_deg(light["direction"], v) <= light["direction_68_deg"]
+
+
+def _clear_sky_with_pole(pole_deg=6.0):
+    """An 8-bit picture of the tabulated clear sky (sun 35 degrees up, turbidity 3) whose aureole clips out to
+    8 degrees in a darker sky, with a dark pole ``pole_deg`` wide standing through the sun (0: none).
+    Returns (ldr, sun direction)."""
+    from panolight_core.camera.color import linear_to_srgb
+    from panolight_core.estimators import sky
+
+    t = sky.load_sky_table()
+    j = int(np.argmin(abs(t.turbidities - 3.0)))
+    e, az = math.radians(35.0), 1.0
+    s = np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
+    h = 256
+    d = sh.pixel_directions(h, 2 * h)
+    rad = t.sky_radiance(d.reshape(-1, 3), s)[j].reshape(h, 2 * h, 3)
+    rad[d[..., 2] <= 0] = 0.02
+    ang = np.degrees(np.arccos(np.clip(d @ s, -1, 1)))
+    rad *= 0.15 / float((rad @ LUMINANCE_WEIGHTS)[(ang > 8.0) & (d[..., 2] > 0)].max())
+    rad[ang < 8.0] = 5.0
+    dphi = np.angle(np.exp(1j * (np.arctan2(d[..., 1], d[..., 0]) - az)))
+    rad[np.degrees(np.abs(dphi)) * np.sqrt(1 - d[..., 2] ** 2) < pole_deg / 2] = 0.05
+    return np.round(linear_to_srgb(np.clip(rad, 0, 1)) * 255).astype(np.uint8), s
+
+
+def test_one_sun_in_the_sky_when_its_patch_is_split_in_two():
+    """A clear sky whose clipped patch around the sun is cut in two by a pole: one sun light, not two."""
+    ldr, s = _clear_sky_with_pole()
+    res = _key_model(ldr)
+    rec = res.estimate.recovery
+    near = [r for r in range(rec.regions.count) if metrics.angle_deg(rec.regions.centre[r], s) < 8.0]
+    assert len(near) >= 2, "the test needs the sun's patch split in two regions"
+    suns = [k for k in rec.keys if metrics.angle_deg(k.direction, s) < 8.0]
+    assert len(suns) == 1 and suns[0].method.startswith("clear-sky fit")
+    assert metrics.angle_deg(suns[0].direction, s) < 1.5  # at the whole patch's centroid, not one half's
+    # the light stands for both halves: their fills give up its energy, so nothing is counted twice
+    sun = suns[0]
+    parts = [sun.region, *sun.parts]
+    assert sorted(parts) == sorted(near)
+    om = sh.pixel_solid_angles(*rec.work.shape[:2])
+    added = float((((rec.work - rec.base) @ LUMINANCE_WEIGHTS) * om).sum())
+    decided = float(((np.exp(rec.log_ratio[parts]) - 1.0) * rec.regions.held[parts]).sum())
+    assert added == pytest.approx(max(decided, sun.energy), rel=1e-6)
+
+
+def test_the_sky_rule_gives_a_clear_sky_sun_its_whole_fitted_energy():
+    """The study's "sky" rule (not shipped, docs/keylight.md): the fit's energy uncapped; "hybrid" caps it."""
+    from panolight_core.estimators import keylight
+
+    ldr, s = _clear_sky_with_pole(pole_deg=0.0)
+    rad, fa, fb = sources.work_maps(ldr)
+    reg = sources.region_features(rad, fa, fb)
+    mu, sigma, reported = sources.load_source_model().predict(reg.features)
+    (a,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="hybrid")
+    (b,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="sky")
+    assert a.method.startswith("clear-sky fit") and metrics.angle_deg(b.direction, s) < 1.5
+    assert b.energy == pytest.approx(b.physical) and b.energy > a.energy  # the cap bites here
