@@ -47,7 +47,7 @@ PLATEAU_EXTENT_DEG = 30.0  # a region this wide (angular radius) with no clear-s
 DIRECTION_68_PER_EXTENT = 0.25  # a light's direction error: within this share of its region's angular radius (at
 # least one work cell) for 68 % of the dominant sources of the real HDRs at ev -2/0/+2 (training/keylight/cv.py)
 ENERGY_RULES = ("decided", "capped", "physical", "hybrid", "sky")
-ENERGY_RULE = "hybrid"  # decided | capped | physical | hybrid: docs/keylight.md (training/keylight/rules.py)
+ENERGY_RULE = "hybrid"  # one of ENERGY_RULES (``rule_energy``): docs/keylight.md (training/keylight/rules.py)
 
 
 @dataclass
@@ -110,7 +110,9 @@ def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
 def rule_energy(rule: str, physical: float | None, learned: float, decided: float) -> float:
     """A key light's energy under an ENERGY_RULE from its candidates (luminance x sr, camera units): the
     clear-sky fit's (x SKY_CORRECTION; None where there is none), the per-source model's mean and the
-    decided fill's."""
+    decided fill's. "decided": the decided fill's; "capped": the fit's (else the mean), capped at the larger
+    of mean and decided; "physical": the fit's, else the mean; "hybrid" (shipped): "capped" for a clear-sky
+    sun, "decided" otherwise; "sky": the fit's whole energy for a clear-sky sun, "decided" otherwise."""
     _check_rule(rule)
     capped = min(learned if physical is None else physical, max(decided, learned))
     return {"decided": decided, "capped": capped, "physical": learned if physical is None else physical,

@@ -12,7 +12,8 @@ Rules (``keylight.ENERGY_RULES``) and the baseline:
 - ``decided``: every light carries the energy the decision rule reports for its region;
 - ``capped``: the clear-sky fit's energy (or the model's mean) capped at the larger of mean and decided;
 - ``physical``: the clear-sky fit's energy where it passes the cloudiness gate, else the model's mean;
-- ``hybrid`` (shipped): ``capped`` for a clear-sky sun, ``decided`` for every other light.
+- ``hybrid`` (shipped): ``capped`` for a clear-sky sun, ``decided`` for every other light;
+- ``sky``: the clear-sky fit's whole energy for a clear-sky sun, ``decided`` for every other light.
 
 The trees were trained on 50 of these scenes, so the absolute numbers favour all rules alike; the rules'
 differences are what this measures. ``--gate`` adds a scene-level gate (one feature threshold, chosen on
