@@ -143,15 +143,18 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     _check_rule(rule)
     extent = regions.extent_deg()
     radius = np.sqrt(regions.clipped_sr / math.pi)  # each region's angular radius, radians
+
+    def fit_at(direction):  # the clear-sky fit with the sun there; None below the horizon
+        return clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
+
     chosen = []
     for i in np.argsort(-predicted):
         if predicted[i] < KEY_SHARE * scene:
             break
-        direction = regions.centre[i]
         if fits is not None and int(i) in fits:
             fit = fits[int(i)]
         else:
-            fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
+            fit = fit_at(regions.centre[i])
             if fits is not None:
                 fits[int(i)] = fit
         chosen.append((int(i), fit))
@@ -173,16 +176,13 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         if i in part_of_sun:
             continue
         direction = regions.centre[i]
-        if i == sun and part_of_sun:  # the sun sits at the centroid of its whole patch, fitted there again
-            parts = [sun, *sorted(part_of_sun)]
-            v = (regions.clipped_sr[parts, None] * regions.centre[parts]).sum(axis=0)
-            direction = v / np.linalg.norm(v)
-            refit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
-            if refit is not None and refit.clear:
-                fit = refit
-            else:
-                direction = regions.centre[i]
         parts = [i, *sorted(part_of_sun)] if i == sun else [i]  # the regions this light stands for
+        if len(parts) > 1:  # the sun sits at the centroid of its whole patch, fitted there again
+            v = (regions.clipped_sr[parts, None] * regions.centre[parts]).sum(axis=0)
+            centroid = v / np.linalg.norm(v)
+            refit = fit_at(centroid)
+            if refit is not None and refit.clear:
+                direction, fit = centroid, refit
         held = regions.held[parts]
         learned = float(((np.exp(mu[parts]) - 1.0) * held).sum())
         lo = float(((np.exp(np.maximum(mu[parts] - sigma[parts], 0.0)) - 1.0) * held).sum())
