@@ -72,3 +72,16 @@ def test_sizes_that_are_not_whole_multiples_are_downsampled_by_slabs_with_the_sa
                           axis=1) / np.diff(xs)[None, :, None]
     np.testing.assert_array_equal(area_downsample_rows(small, 64, lambda b: b * 2.0), ref)
     np.testing.assert_array_equal(area_downsample(small * 2.0, 64), ref)
+
+
+def test_clipped_fractions_count_the_clipped_mask_on_both_paths(rng):
+    from panolight_core.camera import clipped_mask
+    from panolight_core.camera.resample import clipped_fractions
+
+    ldr = rng.choice(np.array([0, 200, 253, 254, 255], dtype=np.uint8), size=(64, 128, 3))
+    masks = np.stack([clipped_mask(ldr), clipped_mask(ldr, all_channels=True)], -1).astype(np.float64)
+    whole = clipped_fractions(ldr, 16)  # whole-number factors: counted by row blocks
+    np.testing.assert_allclose(whole, masks.reshape(16, 4, 32, 4, 2).mean(axis=(1, 3)), atol=1e-12)
+    odd = clipped_fractions(ldr[:60, :120], 16)  # other sizes: the masks area-averaged
+    np.testing.assert_allclose(odd, area_downsample(masks[:60, :120], 16), atol=1e-6)
+    assert 0 < whole[..., 1].max() and (whole[..., 1] <= whole[..., 0]).all() and (whole[..., 1] < whole[..., 0]).any()
