@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -81,13 +82,15 @@ def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
                     {"input": "ldr", "work_height": work, "clipped_regions": blobs}, recovered)
 
 
-def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False) -> Estimate:
+def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_path=None) -> Estimate:
+    """The per-source estimate (``keylight`` with key lights, else ``sources``) with the shipped per-source
+    energy model or the one in ``model_path``."""
     name = "keylight" if key_lights else "sources"
     if pixels.dtype != np.uint8:
         return _exact_hdr(pixels, lmax, name)
     from . import sources
 
-    model = sources.load_source_model()
+    model = sources.load_source_model(model_path) if model_path is not None else sources.load_source_model()
     rec = sources.recover(pixels, model, key_lights=key_lights)
     return Estimate(sh.project(rec.work, lmax), name,
                     {"input": "ldr", "work_height": rec.frac.shape[0], "model": model.path.name,
@@ -119,13 +122,29 @@ def register_model(label: str, weights) -> str:
     """Make a learned model file usable as estimator ``label`` (evaluation of trained variants)."""
     from .nn.estimator import load_model
 
-    if label in BUILTIN + ("auto",) or not label.replace("-", "").replace("_", "").isalnum():
-        raise PanoLightError(f"{label!r} cannot name a trained model: use letters, digits, '-' or '_', and not "
-                             f"a built-in estimator's name")
-
+    _check_label(label)
     load_model(weights)  # fail now, naming the file, not in the middle of an evaluation
     _REGISTRY[label] = Entry(neural_estimator(weights, label), label, f"the trained model {weights}")
     return label
+
+
+def register_source_model(label: str, path, key_lights: bool = True) -> str:
+    """Make a per-source energy model file usable as estimator ``label``: ``keylight`` (or, without
+    ``key_lights``, ``sources``) with that model instead of the shipped one, e.g. a cross-validation fold's
+    model that never saw the scene it estimates (training/keylight/cv.py --fold-models)."""
+    from . import sources
+
+    _check_label(label)
+    sources.load_source_model(path)  # fail now, naming the file, not in the middle of an evaluation
+    _REGISTRY[label] = Entry(partial(per_source, key_lights=key_lights, model_path=path), label,
+                             f"{'keylight' if key_lights else 'sources'} with the per-source model {path}")
+    return label
+
+
+def _check_label(label: str) -> None:
+    if label in BUILTIN + ("auto",) or not label.replace("-", "").replace("_", "").isalnum():
+        raise PanoLightError(f"{label!r} cannot name a trained model: use letters, digits, '-' or '_', and not "
+                             f"a built-in estimator's name")
 
 
 def _neural_shipped() -> bool:

@@ -13,6 +13,10 @@ the median of the OTHER folds' scenes (5 folds by scene, the assignment of ``tra
 table then shows how far that lands from the shipped all-scene value.
 
     python -m training.keylight.cv [--evs -2 0 2] [--out docs/keylight.json]
+    python -m training.keylight.cv --fold-models 'runs/folds/sources_{k}.safetensors'   # by scene, out of sample
+
+``--fold-models`` scores each scene with the per-source model of its fold (``training.source_energy.fit ship
+--hold-out K/5``), which never saw it: a cross-validation of the estimator, not only of SKY_CORRECTION.
 """
 from __future__ import annotations
 
@@ -25,11 +29,11 @@ from pathlib import Path
 
 from panolight_core import metrics
 from panolight_core.camera import auto_exposure, hdr_to_ldr
-from panolight_core.estimators import keylight
+from panolight_core.estimators import keylight, register_source_model
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.source_energy.fit import DEFAULT_HDRI, load_hdr, scene_files
-from training.source_energy.cv import scene_folds
+from training.source_energy.cv import fold_of, scene_folds
 
 
 def clipped_truth(folder: Path) -> set:
@@ -117,23 +121,49 @@ def real_hdri_parser(prog: str, doc: str) -> argparse.ArgumentParser:
     return ap
 
 
+def fold_models_option(ap: argparse.ArgumentParser) -> None:
+    ap.add_argument("--fold-models", default=None, metavar="PATTERN",
+                    help="score each scene with the per-source model of its fold, PATTERN with {k} = 1..5 "
+                         "(made by 'python -m training.source_energy.fit ship --hold-out K/5 --out ...'), "
+                         "not the shipped one, which saw the scenes it was trained on")
+
+
+def fold_model_paths(pattern: str, folds: int = 5) -> dict:
+    """{K: path} of the fold models ``pattern`` names ({k} = 1..folds); SystemExit naming a missing one."""
+    if "{k}" not in pattern:
+        raise SystemExit(f"--fold-models {pattern!r}: the pattern needs {{k}} where the fold number goes")
+    paths = {k: Path(pattern.format(k=k)) for k in range(1, folds + 1)}
+    missing = [str(p) for p in paths.values() if not p.is_file()]
+    if missing:
+        raise SystemExit(f"--fold-models: no such model file: {', '.join(missing)}")
+    return paths
+
+
 def main(argv=None) -> int:
     ap = real_hdri_parser("python -m training.keylight.cv", __doc__)
     ap.add_argument("--estimator", default="keylight", help="estimator to score (default: %(default)s; "
                     "'sources' gives the baseline)")
+    fold_models_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
     clipped = clipped_truth(args.hdri)
+    estimator_of = {p: args.estimator for p in files}
+    if args.fold_models:
+        if args.estimator not in ("keylight", "sources"):
+            raise SystemExit("--fold-models scores 'keylight' or 'sources' (the per-source model's estimators)")
+        label = {k: register_source_model(f"{args.estimator}-fold{k}", path, key_lights=args.estimator == "keylight")
+                 for k, path in fold_model_paths(args.fold_models).items()}
+        estimator_of = {p: label[k] for p, k in fold_of(files).items()}
     rows = []
     for i, p in enumerate(files, 1):
-        got = score_scene(p, args.evs, p.name in clipped, args.estimator)
+        got = score_scene(p, args.evs, p.name in clipped, estimator_of[p])
         rows += got
         for r in got:
             print(f"[{i}/{len(files)}] {r['scene']:28s} ev {r['ev']:+g}{' (clipped truth)' if r['clipped_truth'] else ''}: "
                   f"angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  lights {r['lights']}  {r['key_method'] or '-'}",
                   flush=True)
-    result = {"estimator": args.estimator, "summary": {f"{ev:+g}": summary(rows, ev) for ev in args.evs},
+    result = {"estimator": args.estimator, "fold_models": args.fold_models, "summary": {f"{ev:+g}": summary(rows, ev) for ev in args.evs},
               "sky_correction": correction_cv(rows, files), "shipped_sky_correction": keylight.SKY_CORRECTION,
               "rows": rows}
     print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=1))

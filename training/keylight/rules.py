@@ -15,15 +15,17 @@ Rules (``keylight.ENERGY_RULES``) and the baseline:
 - ``hybrid`` (shipped): ``capped`` for a clear-sky sun, ``decided`` for every other light;
 - ``sky``: the clear-sky fit's whole energy for a clear-sky sun, ``decided`` for every other light.
 
-The trees were trained on 50 of these scenes, so the absolute numbers favour all rules alike; the rules'
-differences are what this measures. ``--gate`` adds a scene-level gate (one feature threshold, chosen on
+The shipped trees saw the scenes they were trained on, which favours all rules alike; ``--fold-models`` scores
+each scene with the model of its fold, which never saw it (``training.source_energy.fit ship --hold-out K/5``).
+``--gate`` adds a scene-level gate (one feature threshold, chosen on
 the other folds' scenes, 5 folds by scene) that turns the key lights on or off; ``--plateaus`` scores the
 shipped rule with other plateau extents (``keylight.PLATEAU_EXTENT_DEG``: how wide a region may be and still
 make a light without a clear-sky sun in it). The summary also lists the clear-sky fits' blueness (the kept
 sky's blue/red over the model's; ``sky.MIN_BLUENESS``) for real suns (a dominant source within 10 degrees)
 and for every other region it was tried on.
 
-    python -m training.keylight.rules [--evs -2 0 2] [--gate] [--plateaus 15 30 60] [--out docs/keylight_rules.json]
+    python -m training.keylight.rules [--evs -2 0 2] [--gate] [--plateaus 15 30 60] [--fold-models 'f_{k}.safetensors']
+                                      [--out docs/keylight_rules.json]
 """
 from __future__ import annotations
 
@@ -41,9 +43,9 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators.sources.fill import fill_with_keys
 from panolight_core.pipeline import fit_radiance
-from training.keylight.cv import clipped_truth, real_hdri_parser
+from training.keylight.cv import clipped_truth, fold_model_paths, fold_models_option, real_hdri_parser
 from training.source_energy.fit import load_hdr, scene_files
-from training.source_energy.cv import scene_folds
+from training.source_energy.cv import fold_of, scene_folds
 
 RULES = ("sources",) + keylight.ENERGY_RULES
 CONE_DEG = metrics.SOURCE_CONE_DEG
@@ -176,22 +178,26 @@ def main(argv=None) -> int:
     ap.add_argument("--gate", action="store_true", help="also score a cross-validated one-threshold gate")
     ap.add_argument("--plateaus", type=float, nargs="*", default=[],
                     help="also score the shipped rule with these plateau extents (degrees; keylight.PLATEAU_EXTENT_DEG)")
+    fold_models_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
     clipped = clipped_truth(args.hdri)
-    model = sources.load_source_model()
+    model_of = dict.fromkeys(files, sources.load_source_model())  # the shipped model for every scene ...
+    if args.fold_models:
+        models = {k: sources.load_source_model(path) for k, path in fold_model_paths(args.fold_models).items()}
+        model_of = {p: models[k] for p, k in fold_of(files).items()}  # ... or the one that never saw it
     rows = []
     for i, p in enumerate(files, 1):
         if p.name in clipped:
             continue
         hdr = load_hdr(p)
         for ev in args.evs:
-            row = dict(score_scene(hdr, ev, model, args.plateaus), scene=p.stem)
+            row = dict(score_scene(hdr, ev, model_of[p], args.plateaus), scene=p.stem)
             rows.append(row)
             print(f"[{i}/{len(files)}] {p.stem:28s} ev {ev:+g}: " + "  ".join(
                 f"{rule} {row['rules'][rule][0]:.3f}" for rule in RULES), flush=True)
-    result = {"summary": {}, "gates": None, "blueness": blueness(rows)}
+    result = {"fold_models": args.fold_models, "summary": {}, "gates": None, "blueness": blueness(rows)}
     gate = None
     if args.gate:
         names = sorted(next((r["keys"][0]["features"] for r in rows if r["keys"]), {}))

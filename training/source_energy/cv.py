@@ -105,6 +105,12 @@ def scene_folds(count: int, folds: int = 5, seed: int = 0) -> list[np.ndarray]:
     return [perm[i::folds] for i in range(folds)]
 
 
+def fold_of(files, folds: int = 5) -> dict:
+    """{file: K}: the fold (from 1) of each scene (source_energy.scene_files order): the model trained with
+    ``--hold-out K/N`` never saw it."""
+    return {files[i]: k for k, idx in enumerate(scene_folds(len(files), folds), 1) for i in idx}
+
+
 def fold_files(files, fold) -> list:
     """The files (source_energy.scene_files order) of fold (K, N): the scenes a run with ``--hold-out K/N``
     leaves out."""

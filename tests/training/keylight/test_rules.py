@@ -38,3 +38,15 @@ def test_a_scored_sunny_scene():
     s = keylight_rules.summary([dict(row, scene="x")], lambda r: r["rules"]["hybrid"])
     assert s["scenes"] == 1 and s["dominant"] == 1 and s["within"] >= 1.0
     assert s["m_rmse_median"] == pytest.approx(row["rules"]["hybrid"][0] / row["naive"][0])
+
+
+def test_fold_model_patterns_name_every_fold_or_fail_clearly(tmp_path):
+    from training.keylight.cv import fold_model_paths
+
+    for k in (1, 2, 3):
+        (tmp_path / f"m_{k}.safetensors").write_bytes(b"")
+    assert fold_model_paths(str(tmp_path / "m_{k}.safetensors"), 3) == {k: tmp_path / f"m_{k}.safetensors" for k in (1, 2, 3)}
+    with pytest.raises(SystemExit, match="m_4.safetensors"):
+        fold_model_paths(str(tmp_path / "m_{k}.safetensors"), 4)
+    with pytest.raises(SystemExit, match="needs"):
+        fold_model_paths(str(tmp_path / "m.safetensors"))

@@ -88,3 +88,13 @@ def test_an_injected_source_adds_a_compact_disk_of_the_drawn_energy():
     np.testing.assert_array_equal(a[0], b[0])
     c = se.camera(hdr, np.random.default_rng(3), inject=1.0)
     assert c[1].max() > 10 * b[1].max()
+
+
+def test_each_scene_is_in_the_fold_whose_hold_out_model_never_saw_it():
+    from training.source_energy.cv import fold_files, fold_of
+
+    files = [f"scene_{i:02d}.hdr" for i in range(23)]
+    of = fold_of(files)
+    assert sorted(of) == sorted(files) and set(of.values()) == {1, 2, 3, 4, 5}
+    for k in range(1, 6):
+        assert sorted(fold_files(files, (k, 5))) == sorted(f for f, j in of.items() if j == k)
