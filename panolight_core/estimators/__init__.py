@@ -174,8 +174,9 @@ _REGISTRY = {
 }
 BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these
 DESCRIPTIONS = {name: (e.label, e.description) for name, e in _REGISTRY.items()}  # CLI help, Blender menus
-AUTO = "keylight"  # what ``auto`` means: better than ``sources`` on the 68 real HDRs with an un-clipped truth at
-# ev -2/0/+2 (m-RMSE median and mean, irr-RMSE) and on the dominant source's energy at ev -2/0 (docs/keylight.md)
+AUTO = "keylight"  # what ``auto`` means: cross-validated by scene over the 68 real HDRs with an un-clipped truth,
+# better than ``sources`` on the m-RMSE median at ev -2/0/+2 and mean at ev 0/+2 (level at -2), and on the
+# dominant source's energy at ev -2/0 (docs/keylight.md)
 
 
 def available() -> tuple[str, ...]:

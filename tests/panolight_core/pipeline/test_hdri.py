@@ -103,9 +103,12 @@ def test_the_peak_bounds_every_value_before_the_first_block(city_ldr):
 def test_half_floats_only_for_8_bit_inputs_whose_range_fits(city_ldr):
     from panolight_core.pipeline.hdri import HdrRows
 
+    from panolight_core.io.images import HALF_MAX
+
     _, est = fit_pixels(city_ldr)
-    assert HdrRows(city_ldr, est).fits_half()
-    assert not HdrRows(city_ldr, est, 2.0 ** 16).fits_half()  # its peak would overflow half floats
+    peak = HdrRows(city_ldr, est).peak  # set by the sun light's splat (at scale 1 it can pass 65504)
+    assert HdrRows(city_ldr, est, 0.5 * HALF_MAX / peak).fits_half()
+    assert not HdrRows(city_ldr, est, 2.0 * HALF_MAX / peak).fits_half()  # its peak would overflow half floats
     assert not HdrRows(city_ldr, est, 2.0 ** -5).fits_half()  # its darkest steps would be subnormal
     hdr = city_ldr.astype(np.float32) / 255
     assert not HdrRows(hdr, fit_pixels(hdr)[1]).fits_half()  # a float input keeps float32
