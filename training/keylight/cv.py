@@ -163,7 +163,8 @@ def main(argv=None) -> int:
             print(f"[{i}/{len(files)}] {r['scene']:28s} ev {r['ev']:+g}{' (clipped truth)' if r['clipped_truth'] else ''}: "
                   f"angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  lights {r['lights']}  {r['key_method'] or '-'}",
                   flush=True)
-    result = {"estimator": args.estimator, "fold_models": args.fold_models, "summary": {f"{ev:+g}": summary(rows, ev) for ev in args.evs},
+    result = {"estimator": args.estimator, "fold_models": args.fold_models,
+              "summary": {f"{ev:+g}": summary(rows, ev) for ev in args.evs},
               "sky_correction": correction_cv(rows, files), "shipped_sky_correction": keylight.SKY_CORRECTION,
               "rows": rows}
     print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=1))
