@@ -1,6 +1,6 @@
 """Training and cross-validating the per-source energy model (panolight_core/estimators/sources/).
 
-Data: real HDR panoramas (default ``../shared/data/hdri``, 50 Poly Haven scenes; Blender's eight studio
+Data: real HDR panoramas (default ``../shared/data/hdri``, 74 Poly Haven scenes; Blender's eight studio
 HDRIs, the public set, are refused). Each scene is seen through many cameras: yaw rotation, mirroring,
 white balance, exposure ev in [-3, 3] (the EVALUATION.md auto-exposure), tone curves other than pure
 sRGB (a gamma 1.8-2.6 or a soft filmic shoulder), JPEG quality 75-95 or none, and input sizes 512 to
@@ -18,7 +18,7 @@ training folds): each held-out scene is scored exactly as EVALUATION.md says (ev
 whole model: lights + SH projected to lmax 2) for naive, analytic, the power-law-only region model
 and the learned one; the pooled table goes to docs/accuracy.md.
 
-    python -m training.source_energy.fit cv   [--augment 16] [--out docs/source_energy_cv.json]   # about 8 min here
+    python -m training.source_energy.fit cv   [--augment 16] [--out docs/source_energy_cv.json]   # about 13 min here
     python -m training.source_energy.fit ship [--augment 16] [--out panolight_core/models/sources.safetensors]
 """
 from __future__ import annotations
