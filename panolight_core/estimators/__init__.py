@@ -172,7 +172,7 @@ _REGISTRY = {
                       "region holding a compact sun or lamp made one explicit light that casts shadows (exact for HDR)"),
     "neural": Entry(neural_estimator(), "Neural", "The paper's network (numpy; no torch needed)"),
 }
-BUILTIN = tuple(_REGISTRY)  # register_model adds labels beside these
+BUILTIN = tuple(_REGISTRY)  # register_model and register_source_model add labels beside these
 DESCRIPTIONS = {name: (e.label, e.description) for name, e in _REGISTRY.items()}  # CLI help, Blender menus
 AUTO = "keylight"  # what ``auto`` means: cross-validated by scene over the 68 real HDRs with an un-clipped truth,
 # better than ``sources`` on the m-RMSE median at ev -2/0/+2 and mean at ev 0/+2 (level at -2), and on the
