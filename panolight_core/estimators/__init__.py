@@ -90,7 +90,7 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
         return _exact_hdr(pixels, lmax, name)
     from . import sources
 
-    model = sources.load_source_model(model_path) if model_path is not None else sources.load_source_model()
+    model = sources.load_source_model(sources.MODEL_PATH if model_path is None else model_path)
     rec = sources.recover(pixels, model, key_lights=key_lights)
     return Estimate(sh.project(rec.work, lmax), name,
                     {"input": "ldr", "work_height": rec.frac.shape[0], "model": model.path.name,

@@ -183,11 +183,10 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
             refit = fit_at(centroid)
             if refit is not None and refit.clear:
                 direction, fit = centroid, refit
-        held = regions.held[parts]
-        learned = float(((np.exp(mu[parts]) - 1.0) * held).sum())
-        lo = float(((np.exp(np.maximum(mu[parts] - sigma[parts], 0.0)) - 1.0) * held).sum())
-        hi = float(((np.exp(mu[parts] + sigma[parts]) - 1.0) * held).sum())
-        decided = float(((np.exp(reported[parts]) - 1.0) * held).sum()) if reported is not None else learned
+        learned = regions.added_energy(mu, parts)
+        lo = regions.added_energy(np.maximum(mu - sigma, 0.0), parts)
+        hi = regions.added_energy(mu + sigma, parts)
+        decided = regions.added_energy(reported, parts) if reported is not None else learned
         physical = None
         if i == sun:
             physical = SKY_CORRECTION * fit.sun_energy

@@ -78,8 +78,7 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
         for k in found:
             j, parts = k.region, [k.region, *k.parts]  # the regions the light stands for
             row["keys"].append({"method": k.method, "physical": k.physical,
-                                "learned": float(((np.exp(mu[parts]) - 1.0) * reg.held[parts]).sum()),
-                                "decided": float(((np.exp(reported[parts]) - 1.0) * reg.held[parts]).sum()),
+                                "learned": reg.added_energy(mu, parts), "decided": reg.added_energy(reported, parts),
                                 "extent_deg": float(reg.extent_deg()[j]),
                                 "blueness": k.sky.blueness if k.sky is not None else None,
                                 "sky_fits": k.sky is not None and k.sky.luminance_clear,

@@ -48,6 +48,12 @@ class Regions:
         """(n,) the named feature (one of ``names``) of every region."""
         return self.features[:, self.names.index(name)]
 
+    def added_energy(self, log_ratio: np.ndarray, which) -> float:
+        """The luminance energy (clip units x sr) that log ratios ``log_ratio`` (n,) add to the regions ``which``
+        (indices) beyond what their cells hold: the sum of (r - 1) x held."""
+        which = list(which)
+        return float(((np.exp(np.asarray(log_ratio, dtype=np.float64)[which]) - 1.0) * self.held[which]).sum())
+
     def extent_deg(self) -> np.ndarray:
         """(n,) each region's angular radius around its centre, degrees."""
         return 10.0 ** self.feature("log_extent_deg")
