@@ -44,6 +44,10 @@ LAMP_MIN_DIAMETER_DEG = 1.0
 SHOULDER = 0.75  # linear (clip level 1; sRGB 225): above it a channel sits on the camera's highlight shoulder
 PLATEAU_EXTENT_DEG = 30.0  # a region this wide (angular radius) with no clear-sky sun in it is a plateau (an
 # overcast sky, a window wall), not a compact source: its even fill stays and it makes no light (docs/keylight.md)
+HIDDEN_CLEARANCE_DEG = 20.0  # a sun found from the sky alone (``sky.search_sun``) is a hidden one only this far
+# beyond every clipped region (its angular radius plus this): nearer, the region is the sun the photo shows
+HIDDEN_DIRECTION_68_DEG = 7.5  # a hidden sun's direction error: within this for 68 % of the real HDRs' suns with
+# their sun and glare masked out (``training/keylight/hidden_sun.py``: 6.2-7.3 degrees at ev -2 / 0)
 DIRECTION_68_PER_EXTENT = 0.25  # a light's direction error: within this share of its region's angular radius (at
 # least one work cell) for 68 % of the dominant sources of the real HDRs at ev -2/0/+2 (training/keylight/cv.py)
 ENERGY_RULES = ("decided", "capped", "physical", "hybrid", "sky")
@@ -62,7 +66,7 @@ class KeyLight:
     color: np.ndarray
     angle: float
     energy_68: tuple
-    region: int
+    region: int  # -1: a hidden sun, which no clipped region holds (its energy is added, none taken from a fill)
     method: str
     physical: float | None = None  # the clear-sky fit's energy x SKY_CORRECTION, before ENERGY_RULE
     sky: clear_sky.SkyFit | None = None  # the clear-sky fit tried at its direction (clear or not); None below the horizon
@@ -130,8 +134,50 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     (mu, sigma) per region (natural log of the energy ratio): the regions holding at least KEY_SHARE of the
     scene's predicted energy, largest first, at most MAX_KEYS, each located and weighed (module doc); a
     region wider than ``plateau_deg`` (angular radius, degrees) only where a clear-sky sun is in it. fits: a
-    dict that keeps each region's clear-sky fit (by region index) across calls on the same work maps, for a
-    study that finds the lights again with other settings."""
+    dict that keeps each region's clear-sky fit (by region index; the sun search under -1) across calls on the
+    same work maps, for a study that finds the lights again with other settings.
+
+    Where no region holds a clear-sky sun, ``hidden_sun`` may add one the photo does not show (retouched out,
+    veiled, behind the image's glare-free sky), located and weighed from the visible sky alone."""
+    keys = _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits)
+    if not any(k.method.startswith("clear-sky") for k in keys) and len(keys) < MAX_KEYS:
+        if fits is not None and -1 in fits:
+            search = fits[-1]
+        else:
+            search = clear_sky.search_sun(rad, frac_any == 0, frac_all > 0.5)
+            if fits is not None:
+                fits[-1] = search
+        hidden = hidden_sun(search, regions)
+        if hidden is not None:
+            keys.append(hidden)
+    return keys
+
+
+def hidden_sun(search: clear_sky.SunSearch | None, regions) -> KeyLight | None:
+    """The key light of a sun the photo does not show, from ``sky.search_sun``: where the sky search found one
+    (``SunSearch.found``) that is seen from the camera (not behind an occluder, whose shade the camera would
+    be in) and no clipped region lies within its radius plus HIDDEN_CLEARANCE_DEG of it (a region there is
+    the sun the photo shows, weighed as one). Its energy is the fit's solar disk x SKY_CORRECTION, added to
+    the map (no region's fill holds it), a 0.53 degree disk in the model sun's colour; its direction's 68 %
+    radius HIDDEN_DIRECTION_68_DEG. None otherwise."""
+    if search is None or not search.found or not search.seen:
+        return None
+    if regions.count:
+        apart = np.degrees(np.arccos(np.clip(regions.centre @ search.direction, -1.0, 1.0)))
+        if (apart <= regions.extent_deg() + HIDDEN_CLEARANCE_DEG).any():
+            return None
+    fit = search.fit
+    physical = SKY_CORRECTION * fit.sun_energy
+    if not physical > 0:
+        return None
+    return KeyLight(np.asarray(search.direction, dtype=np.float64), float(physical), fit.sun_rgb / fit.sun_energy,
+                    math.radians(SUN_DIAMETER_DEG), (physical / SKY_SPREAD, physical * SKY_SPREAD), -1,
+                    f"hidden sun: clear-sky fit of the visible sky (turbidity {fit.turbidity:g})", physical, fit,
+                    math.radians(HIDDEN_DIRECTION_68_DEG))
+
+
+def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits) -> list[KeyLight]:
+    """The key lights of the clipped regions (``find_key_lights`` without the hidden sun)."""
     if regions.count == 0:
         return []
     h, w = regions.labels.shape

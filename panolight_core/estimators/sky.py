@@ -28,6 +28,15 @@ MIN_SKY_SR = 0.3  # ... nor one resting on less visible sky than this (sr)
 MIN_BLUENESS = 0.85  # ... nor one whose kept sky is redder than this times the model's blue/red: a grey room, a
 # night sky under sodium light (docs/keylight.md: 25 of 26 real suns' skies at 0.96 or bluer, the other a lamp at
 # night; grey studios, a chapel and night skies at 0.41-0.82)
+# The sun search (``search_sun``: a sun hidden, veiled or retouched out, located from the sky alone)
+SEARCH_ROWS, REFINE_ROWS = 16, 32  # rows of the coarse search's map (11 degree cells) and of its refinement's
+SEARCH_STEP_DEG, REFINE_STEP_DEG = 7.5, 2.5  # the candidate suns' spacing (elevation; azimuth at the horizon x 1.5)
+HIDDEN_MIN_SKY_SR = 1.5  # a sun found from the sky alone rests on at least this much visible sky (sr), a quarter
+# of the upper hemisphere: small patches of sky between buildings fit a sun anywhere (docs/keylight.md)
+HIDDEN_MAX_CONTRAST = 0.65  # ... and on a sky that singles its position out: the best position's score at most this
+# share of the median position's (an overcast, grey or night sky fits every position nearly alike)
+HIDDEN_MIN_ELEVATION_DEG = 5.0  # ... above this elevation (a sky at the horizon is mostly occluded or hazy)
+SUN_PATCH_DEG = 3.0  # the cells around a found sun that tell whether it is seen (sky) or behind an occluder
 CONTRAST_RANGE = (0.5, 2.5)  # a sky that fails the gate through sRGB is fitted again through a tone curve: log
 # observed = s + g log model, g in this range (a camera's S-curve steepens the sky's falloff, a tone-mapped look
 # flattens it), and passes when that fit's residual does with g inside the range (a grey studio's walls ask
@@ -74,13 +83,8 @@ class SkyTable:
         # rows = table cells, so each corner is one contiguous gather of (N, T x channels)
         rows = np.ascontiguousarray(np.moveaxis(tab.reshape(tab.shape[0], nt * nph, -1), 0, 1)).reshape(nt * nph, -1)
         d = np.asarray(dirs, dtype=np.float64)
-        theta = np.degrees(np.arccos(np.clip(d[:, 2], -1.0, 1.0)))
-        phi = np.degrees(np.abs(np.arctan2(d[:, 1], d[:, 0]) - math.atan2(sun[1], sun[0])))
-        phi = np.where(phi > 180.0, 360.0 - phi, phi)
-        x = np.clip(theta / 90.0 * (nt - 1), 0.0, nt - 1 - 1e-9)
-        y = np.clip(phi / 180.0 * (nph - 1), 0.0, nph - 1 - 1e-9)
-        x0, y0 = x.astype(int), y.astype(int)
-        fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+        x0, y0, fx, fy = _table_coordinates(d, sun[None], nt, nph)
+        x0, y0, fx, fy = x0[0], y0[0], fx[0][:, None], fy[0][:, None]
         i00 = x0 * nph + y0
         out = ((1 - fx) * (1 - fy) * rows[i00] + fx * (1 - fy) * rows[i00 + nph]
                + (1 - fx) * fy * rows[i00 + 1] + fx * fy * rows[i00 + nph + 1])
@@ -96,9 +100,40 @@ class SkyTable:
         """(T, N) the sky's luminance (``sky_radiance`` @ LUMINANCE_WEIGHTS, a third of the work)."""
         return self._interpolate(self.sky_luminance_table, dirs, sun, turbidity)
 
+    def sky_luminance_suns(self, dirs: np.ndarray, suns: np.ndarray) -> np.ndarray:
+        """(P, T, N) the sky's luminance at unit directions ``dirs`` (N, 3) for each of P sun positions
+        ``suns`` (P, 3) (above the horizon) and every table turbidity; 0 below the horizon. One gather for
+        all of them: the sun search's P x T candidate skies."""
+        suns = np.asarray(suns, dtype=np.float64)
+        # the table at each distinct elevation once (the candidates lie on rings of equal elevation)
+        heights, ring = np.unique(suns[:, 2], return_inverse=True)
+        tab = np.stack([self._at_elevation(self.sky_luminance_table, math.degrees(math.asin(float(np.clip(z, -1.0, 1.0)))))
+                        for z in heights])  # (U, T, NT, NPH)
+        nt, nph = tab.shape[2:]
+        d = np.asarray(dirs, dtype=np.float64)
+        x0, y0, fx, fy = _table_coordinates(d, suns, nt, nph)  # (P, N)
+        p = ring.reshape(-1)[:, None]
+        out = ((1 - fx) * (1 - fy))[..., None] * tab[p, :, x0, y0] + (fx * (1 - fy))[..., None] * tab[p, :, x0 + 1, y0] \
+            + ((1 - fx) * fy)[..., None] * tab[p, :, x0, y0 + 1] + (fx * fy)[..., None] * tab[p, :, x0 + 1, y0 + 1]
+        out = np.where((d[:, 2] > 0)[None, :, None], out, 0.0)  # (P, N, T)
+        return np.moveaxis(out, 2, 1)
+
     def sun_energy(self, elevation_deg: float) -> np.ndarray:
         """(T, 3) the solar disk's RGB energy at this elevation for every table turbidity."""
         return self._at_elevation(self.sun, elevation_deg)
+
+
+def _table_coordinates(dirs: np.ndarray, suns: np.ndarray, nt: int, nph: int):
+    """Table cell (x0, y0) and fractions (fx, fy), each (P, N), of unit view directions ``dirs`` (N, 3) with
+    the sun at each of ``suns`` (P, 3): x over view zenith 0..90 degrees (nt rows), y over the azimuth from
+    the sun 0..180 degrees (nph columns)."""
+    theta = np.degrees(np.arccos(np.clip(dirs[:, 2], -1.0, 1.0)))
+    phi = np.degrees(np.abs(np.arctan2(dirs[:, 1], dirs[:, 0])[None, :] - np.arctan2(suns[:, 1], suns[:, 0])[:, None]))
+    phi = np.where(phi > 180.0, 360.0 - phi, phi)
+    x = np.broadcast_to(np.clip(theta / 90.0 * (nt - 1), 0.0, nt - 1 - 1e-9), phi.shape)
+    y = np.clip(phi / 180.0 * (nph - 1), 0.0, nph - 1 - 1e-9)
+    x0, y0 = x.astype(int), y.astype(int)
+    return x0, y0, x - x0, y - y0
 
 
 @lru_cache(maxsize=2)
@@ -203,17 +238,161 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
     return SkyFit(ratio, float(table.turbidities[j]), rms, sky_sr, sun_rgb, blueness, g)
 
 
+@dataclass(frozen=True)
+class SunSearch:
+    """Where the visible sky puts a sun it does not show: the best-fitting sun position (unit (3,), Blender
+    world frame), the clear-sky fit there (``fit_clear_sky`` on the whole work map), ``contrast`` (the best
+    position's score over the median position's on the coarse grid: small when the sky singles the position
+    out) and ``seen`` (the cells within SUN_PATCH_DEG of it are clipped or at least as bright as the median
+    sky: the sun is retouched out, veiled or glaring, not behind a building or a tree, which would put the
+    camera in its shade)."""
+
+    direction: np.ndarray
+    fit: SkyFit
+    contrast: float
+    seen: bool
+
+    @property
+    def elevation_deg(self) -> float:
+        return math.degrees(math.asin(float(np.clip(self.direction[2], -1.0, 1.0))))
+
+    @property
+    def found(self) -> bool:
+        """A sun the sky shows: a clear fit (the cloudiness gate, its colour test included) on at least
+        HIDDEN_MIN_SKY_SR of sky, a position the sky singles out (HIDDEN_MAX_CONTRAST), above
+        HIDDEN_MIN_ELEVATION_DEG."""
+        return (self.fit.clear and self.fit.sky_sr >= HIDDEN_MIN_SKY_SR and self.contrast <= HIDDEN_MAX_CONTRAST
+                and self.elevation_deg >= HIDDEN_MIN_ELEVATION_DEG)
+
+
+def sun_candidates(step_deg: float, centre=None, reach_deg: float | None = None) -> np.ndarray:
+    """(P, 3) unit sun positions above the horizon, ``step_deg`` apart in elevation (from step / 2) and about
+    1.5 x that in azimuth at the horizon (wider apart toward the zenith); with ``centre`` (3,) only those
+    within ``reach_deg`` of it, on a grid centred there."""
+    if centre is None:
+        elevations = np.arange(step_deg / 2.0, 90.0, step_deg)
+        azimuth0 = 0.0
+    else:
+        c = np.asarray(centre, dtype=np.float64)
+        e0 = math.degrees(math.asin(float(np.clip(c[2], -1.0, 1.0))))
+        k = math.ceil(reach_deg / step_deg)
+        elevations = e0 + step_deg * np.arange(-k, k + 1)
+        elevations = elevations[(elevations > 0.0) & (elevations < 90.0)]
+        azimuth0 = math.degrees(math.atan2(c[1], c[0]))
+    out = []
+    for e in elevations:
+        da = 1.5 * step_deg / max(math.cos(math.radians(e)), 0.1)
+        n = max(int(round(360.0 / da)), 1)
+        if centre is None:
+            az = azimuth0 + np.arange(n) * 360.0 / n
+        else:
+            m = min(math.ceil(1.5 * reach_deg / da), n // 2)
+            az = azimuth0 + da * np.arange(-m, m + 1)
+        ce = math.cos(math.radians(e))
+        a = np.radians(az)
+        out.append(np.stack([ce * np.cos(a), ce * np.sin(a), np.full(a.shape, math.sin(math.radians(e)))], axis=-1))
+    suns = np.concatenate(out) if out else np.zeros((0, 3))
+    if centre is not None and suns.size:
+        suns = suns[suns @ c >= math.cos(math.radians(reach_deg)) - 1e-9]
+    return suns
+
+
+def _coarse(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, rows: int):
+    """The work maps area-averaged to ``rows`` x 2 rows cells: radiance, usable (every cell in the block
+    usable) and clipped (more than half of the block clipped)."""
+    h, w = usable.shape
+    rows = min(rows, h)
+    re = np.round(np.linspace(0, h, rows + 1)).astype(int)
+    ce = np.round(np.linspace(0, w, 2 * rows + 1)).astype(int)
+    n = np.diff(re)[:, None] * np.diff(ce)[None, :]
+
+    def mean(a):
+        return np.add.reduceat(np.add.reduceat(a, re[:-1], axis=0), ce[:-1], axis=1) / (n if a.ndim == 2 else n[..., None])
+    return mean(np.asarray(rad, dtype=np.float64)), mean(usable.astype(np.float64)) > 0.999, mean(clipped.astype(np.float64)) > 0.5
+
+
+def _position_scores(rad, usable, clipped, suns, table: SkyTable) -> np.ndarray:
+    """(P,) each candidate sun's best score over the table's turbidities (``_fit_rows``, the sRGB curve),
+    inf where no sky is seen."""
+    h, w = usable.shape
+    dirs = sh.pixel_directions(h, w)
+    omega = sh.pixel_solid_angles(h, w)
+    upper = dirs[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG))
+    lum = rad @ LUMINANCE_WEIGHTS
+    obs = upper & usable & (lum > 1e-4)
+    cen = upper & clipped
+    if obs.sum() < 16 or suns.shape[0] == 0:
+        return np.full(suns.shape[0], np.inf)
+    n_obs = int(obs.sum())
+    model = table.sky_luminance_suns(np.concatenate([dirs[obs], dirs[cen]]), suns)  # (P, T, N)
+    lm = np.log(np.maximum(model, 1e-12)).reshape(-1, model.shape[-1])
+    score = _fit_rows(np.log(lum[obs]), lm[:, :n_obs], lm[:, n_obs:], omega[obs], omega[cen], contrast=False)[-1]
+    return score.reshape(suns.shape[0], -1).min(axis=1)
+
+
+def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: SkyTable | None = None
+               ) -> SunSearch | None:
+    """Locate a sun from the sky alone: the position whose clear sky best fits the visible sky (a coarse grid
+    over the whole sky at SEARCH_ROWS, refined at REFINE_ROWS within 1.5 coarse steps of the best), fitted
+    there on the whole work map. rad (h, 2h, 3) linear work map (clip units), usable / clipped (h, 2h) bool
+    as ``fit_clear_sky`` takes them. None when too little sky is seen for any position. ``SunSearch.found``
+    says whether to trust it."""
+    table = table or load_sky_table()
+    coarse = _coarse(rad, usable, clipped, SEARCH_ROWS)
+    suns = sun_candidates(SEARCH_STEP_DEG)
+    scores = _position_scores(*coarse, suns, table)
+    finite = np.isfinite(scores)
+    if not finite.any():
+        return None
+    best = suns[int(np.argmin(scores))]
+    contrast = float(scores[finite].min() / max(float(np.median(scores[finite])), 1e-12))
+    fine = sun_candidates(REFINE_STEP_DEG, best, 1.5 * SEARCH_STEP_DEG)
+    fine_scores = _position_scores(*_coarse(rad, usable, clipped, REFINE_ROWS), fine, table)
+    if np.isfinite(fine_scores).any():
+        best = fine[int(np.argmin(fine_scores))]
+    fit = fit_clear_sky(rad, usable, clipped, best, table)
+    if fit is None:
+        return None
+    return SunSearch(best, fit, contrast, _seen(rad, usable, clipped, best))
+
+
+def _seen(rad, usable, clipped, sun) -> bool:
+    """Whether the cells within SUN_PATCH_DEG of ``sun`` show sky: any clipped, or a mean luminance at least
+    the median of the usable sky above MIN_SKY_ELEVATION_DEG (an occluder in front of the sun is darker)."""
+    h, w = usable.shape
+    dirs = sh.pixel_directions(h, w)
+    near = dirs @ np.asarray(sun, dtype=np.float64) >= math.cos(math.radians(max(SUN_PATCH_DEG, 90.0 / h)))
+    if (near & clipped).any():
+        return True
+    lum = rad @ LUMINANCE_WEIGHTS
+    sky = usable & (dirs[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG)))
+    if not (near & usable).any() or not sky.any():
+        return False
+    return float(lum[near & usable].mean()) >= float(np.median(lum[sky]))
+
+
 def _fit_turbidities(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast: bool):
-    """The best turbidity's fit of log sky luminance: log_obs (N,) observed at cells of solid angle w_obs (N,),
-    lm_obs (T, N) the model's log luminance there for every table turbidity, lm_cen (T, M) at the clipped
-    cells (solid angles w_cen (M,)), which the fit must reach. The fit is log_obs = s + g lm_obs with g = 1
-    (a camera with the sRGB curve) or, with ``contrast``, g in CONTRAST_RANGE (a tone curve's contrast), on
-    the sky cells left after dropping occluders (OCCLUDER_LOG below the fit, three passes: the sky is the
-    upper envelope). Score: the residual's RMS plus the clipped cells' shortfall. Returns (turbidity index,
-    s, g, rms, sky solid angle, kept cells (N,) bool) or None when no cell is kept."""
+    """The best turbidity's fit of log sky luminance (``_fit_rows`` over the table's turbidities, lm_obs (T, N)).
+    Returns (turbidity index, s, g, rms, sky solid angle, kept cells (N,) bool) or None when no cell is kept."""
+    s_all, g_all, rms_all, sky_sr_all, keep, score = _fit_rows(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast)
+    if not np.isfinite(score).any():
+        return None
+    j = int(np.argmin(score))  # the first of equal scores, as the turbidities ascend
+    return j, float(s_all[j]), float(g_all[j]), float(rms_all[j]), float(sky_sr_all[j]), keep[j]
+
+
+def _fit_rows(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast: bool):
+    """Fits of log sky luminance, one per candidate sky: log_obs (N,) observed at cells of solid angle w_obs
+    (N,), lm_obs (R, N) each candidate model's log luminance there (a turbidity, or a sun position and a
+    turbidity), lm_cen (R, M) at the clipped cells (solid angles w_cen (M,)), which the fit must reach. The
+    fit is log_obs = s + g lm_obs with g = 1 (a camera with the sRGB curve) or, with ``contrast``, g in
+    CONTRAST_RANGE (a tone curve's contrast), on the sky cells left after dropping occluders (OCCLUDER_LOG
+    below the fit, three passes: the sky is the upper envelope). Score: the residual's RMS plus the clipped
+    cells' shortfall. Returns per candidate (R,): s, g, rms, kept solid angle, kept cells (R, N) bool and
+    the score (inf where no cell is kept)."""
     keep = np.ones(lm_obs.shape, bool)
 
-    def line(keep):  # (T,) offset s and slope g over the kept cells (nan where none is kept)
+    def line(keep):  # (R,) offset s and slope g over the kept cells (nan where none is kept)
         wk = np.where(keep, w_obs[None, :], 0.0)
         with np.errstate(invalid="ignore", divide="ignore"):
             if not contrast:
@@ -224,7 +403,7 @@ def _fit_turbidities(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast: bool):
                         *CONTRAST_RANGE)
             return my - g * mx, g
 
-    def residual(s, g):  # (T, N) log observed less the fitted line (g = 1 exactly: the plain difference)
+    def residual(s, g):  # (R, N) log observed less the fitted line (g = 1 exactly: the plain difference)
         return log_obs[None, :] - g[:, None] * lm_obs - s[:, None]
 
     for _ in range(3):  # a row once empty stays empty (nan compares False)
@@ -239,10 +418,7 @@ def _fit_turbidities(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast: bool):
         gap = np.minimum(g_all[:, None] * lm_cen + s_all[:, None], 0.0)
         short = np.sqrt((gap ** 2 * w_cen[None, :]).sum(axis=1) / w_cen.sum())
     score = np.where(keep.any(axis=1), rms_all + short, np.inf)
-    if not np.isfinite(score).any():
-        return None
-    j = int(np.argmin(score))  # the first of equal scores, as the turbidities ascend
-    return j, float(s_all[j]), float(g_all[j]), float(rms_all[j]), float(sky_sr_all[j]), keep[j]
+    return s_all, g_all, rms_all, sky_sr_all, keep, score
 
 
 def _blueness(observed: np.ndarray, model: np.ndarray, weights: np.ndarray) -> float:

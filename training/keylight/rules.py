@@ -73,17 +73,18 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
            "keys": [], "rules": {}}
     found = []
     fits = {}  # the clear-sky fits, made once for every plateau setting
-    if reg.count:
-        found = keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported, rule="physical", fits=fits)
-        for k in found:
-            j, parts = k.region, [k.region, *k.parts]  # the regions the light stands for
-            row["keys"].append({"method": k.method, "physical": k.physical,
-                                "learned": reg.added_energy(mu, parts), "decided": reg.added_energy(reported, parts),
-                                "extent_deg": float(reg.extent_deg()[j]),
-                                "blueness": k.sky.blueness if k.sky is not None else None,
-                                "sky_fits": k.sky is not None and k.sky.luminance_clear,
-                                "features": {n: float(v) for n, v in zip(reg.names, reg.features[j])},
-                                "angle_deg": metrics.angle_deg(k.direction, ds["direction"]) if ds["dominant"] else None})
+    found = keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported, rule="physical", fits=fits)
+    for k in found:
+        j, parts = k.region, [k.region, *k.parts]  # the regions the light stands for
+        hidden = j < 0  # a sun the photo does not show: no region, every rule gives it the fit's energy
+        row["keys"].append({"method": k.method, "physical": k.physical,
+                            "learned": k.physical if hidden else reg.added_energy(mu, parts),
+                            "decided": k.physical if hidden else reg.added_energy(reported, parts),
+                            "extent_deg": 0.0 if hidden else float(reg.extent_deg()[j]),
+                            "blueness": k.sky.blueness if k.sky is not None else None,
+                            "sky_fits": k.sky is not None and k.sky.luminance_clear,
+                            "features": None if hidden else {n: float(v) for n, v in zip(reg.names, reg.features[j])},
+                            "angle_deg": metrics.angle_deg(k.direction, ds["direction"]) if ds["dominant"] else None})
     h, w = rad.shape[:2]
     cone = None
     if ds["dominant"]:
@@ -101,13 +102,18 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
     for rule in RULES:
         row["rules"][rule] = scores([replace(k, energy=e) for k, e in zip(found, _energies(rule, row["keys"])) if e > 0])
     row["plateau"] = {f"{t:g}": scores(keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported,
-                                                               plateau_deg=t, fits=fits) if reg.count else [])
+                                                               plateau_deg=t, fits=fits))
                       for t in plateaus}
     return row
 
 
+def _region_keys(row) -> list[dict]:
+    """A row's key lights that stand for a clipped region (a hidden sun has no region features)."""
+    return [k for k in row["keys"] if k["features"] is not None]
+
+
 def _gate_feature(row, name):
-    return row["keys"][0]["features"][name]
+    return _region_keys(row)[0]["features"][name]
 
 
 def gated(rows: list[dict], names: list[str], rule: str = "hybrid") -> dict:
@@ -117,11 +123,11 @@ def gated(rows: list[dict], names: list[str], rule: str = "hybrid") -> dict:
     out, chosen = {}, []
 
     def gain(r):
-        return math.log(r["rules"][rule][0] / r["rules"]["sources"][0]) if r["keys"] else 0.0
+        return math.log(r["rules"][rule][0] / r["rules"]["sources"][0]) if _region_keys(r) else 0.0
 
     for fold in scene_folds(len(scenes)):
         test = {scenes[i] for i in fold}
-        train = [r for r in rows if r["scene"] not in test and r["keys"]]
+        train = [r for r in rows if r["scene"] not in test and _region_keys(r)]
         best = (0.0, None)
         for n in names:
             for t in sorted({_gate_feature(r, n) for r in train}):
@@ -133,7 +139,7 @@ def gated(rows: list[dict], names: list[str], rule: str = "hybrid") -> dict:
         chosen.append(g)
         for r in rows:
             if r["scene"] in test:
-                on = bool(r["keys"]) and g is not None and g[2] * (_gate_feature(r, g[0]) - g[1]) >= 0
+                on = bool(_region_keys(r)) and g is not None and g[2] * (_gate_feature(r, g[0]) - g[1]) >= 0
                 out[(r["scene"], r["ev"])] = r["rules"][rule if on else "sources"]
     return {"scores": out, "gates": chosen}
 
@@ -155,7 +161,7 @@ def blueness(rows: list[dict]) -> dict:
     real suns (a dominant source within 10 degrees) and elsewhere."""
     out = {"suns": [], "others": []}
     for r in rows:
-        for k in r["keys"]:
+        for k in _region_keys(r):
             if k["sky_fits"]:
                 sun = k["angle_deg"] is not None and k["angle_deg"] <= 10.0
                 out["suns" if sun else "others"].append(round(k["blueness"], 3))
@@ -199,7 +205,7 @@ def main(argv=None) -> int:
     result = {"fold_models": args.fold_models, "summary": {}, "gates": None, "blueness": blueness(rows)}
     gate = None
     if args.gate:
-        names = sorted(next((r["keys"][0]["features"] for r in rows if r["keys"]), {}))
+        names = sorted(next((_region_keys(r)[0]["features"] for r in rows if _region_keys(r)), {}))
         gate = gated(rows, names)
         result["gates"] = [list(g) if g else None for g in gate["gates"]]
     for ev in args.evs:

@@ -25,7 +25,7 @@ def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray, keys=
     excess = (np.exp(np.asarray(log_ratio, dtype=np.float64)) - 1.0) * regions.held
     for k in keys:  # the light's energy leaves its region's fill, then its other parts' (KeyLight.parts)
         left = k.energy
-        for r in (k.region, *k.parts):
+        for r in (k.region, *k.parts) if k.region >= 0 else ():  # a hidden sun holds no region's energy
             take = min(excess[r], left)
             excess[r] -= take
             left -= take

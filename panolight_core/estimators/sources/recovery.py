@@ -52,7 +52,8 @@ class Recovery:
         no second light there (one light per physical source)."""
         cell = math.pi / self.work.shape[0]
         sr = self.regions.clipped_sr
-        return [(k.direction, math.sqrt(float(sr[[k.region, *k.parts]].sum()) / math.pi) + 2 * cell) for k in self.keys]
+        return [(k.direction, (math.sqrt(float(sr[[k.region, *k.parts]].sum()) / math.pi) if k.region >= 0
+                               else k.direction_68) + 2 * cell) for k in self.keys]
 
     def region_info(self) -> list[dict]:
         """Per region, for lighting.json: direction, clipped solid angle (sr), held and recovered energy
@@ -99,7 +100,7 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
             reported = shrunk(mu, sigma, c)
             decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
     keys = []
-    if key_lights and log_ratio_fn is None and regions.count:
+    if key_lights and log_ratio_fn is None:  # also without regions: a sun the photo does not show
         from ..keylight import find_key_lights
 
         keys = find_key_lights(rad, frac, frac_all, regions, mu, sigma, reported)

@@ -58,8 +58,56 @@ def test_two_identical_lamps_are_two_lights_treated_alike():
     assert max(e) / min(e) < 1.1
 
 
-def test_energy_bookkeeping_between_the_lights_and_the_hdri():
-    ldr = hdr_to_ldr(_lamps([(0.3, -0.2, 0.93)]), 0.0)
+def _retouched_sky(paint=0.6, patch_deg=20.0):
+    """An 8-bit picture of the tabulated clear sky (sun 40 degrees up, turbidity 3) over a dark ground, exposed so
+    that the sky ``patch_deg`` from the sun sits at 0.35 of the clip level (nothing else clips), with everything nearer the sun painted
+    flat at ``paint`` x that level's colour: 1 = retouched out (sky-like), 0.02 = a building in front of it,
+    2 = a clipped patch. Returns (ldr, sun direction, the sun's true energy in the picture's linear units)."""
+    from panolight_core.camera.color import linear_to_srgb
+    from panolight_core.estimators import sky
+
+    t = sky.load_sky_table()
+    j = int(np.argmin(abs(t.turbidities - 3.0)))
+    e, az = math.radians(40.0), 1.0
+    s = np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
+    h = 128
+    d = sh.pixel_directions(h, 2 * h)
+    rad = t.sky_radiance(d.reshape(-1, 3), s)[j].reshape(h, 2 * h, 3)
+    ang = np.degrees(np.arccos(np.clip(d @ s, -1, 1)))
+    ring = (abs(ang - patch_deg) < 1.0) & (d[..., 2] > 0)
+    k = 0.35 / float(np.median(rad[ring] @ LUMINANCE_WEIGHTS))
+    rad *= k
+    rad[ang < patch_deg] = paint * rad[ring].mean(axis=0)
+    rad[d[..., 2] <= 0] = 0.03
+    ldr = np.round(linear_to_srgb(np.clip(rad, 0, 1)) * 255).astype(np.uint8)
+    return ldr, s, k * float(t.sun_energy(40.0)[j] @ LUMINANCE_WEIGHTS)
+
+
+def test_a_sun_retouched_out_of_a_clear_sky_is_put_back_from_the_sky():
+    from panolight_core.estimators import keylight
+
+    ldr, s, energy = _retouched_sky(paint=1.0)
+    rec = _key_model(ldr).estimate.recovery
+    (sun,) = rec.keys
+    assert sun.region == -1 and sun.method.startswith("hidden sun")
+    assert metrics.angle_deg(sun.direction, s) < keylight.HIDDEN_DIRECTION_68_DEG  # its own 68 % radius
+    assert sun.energy == pytest.approx(keylight.SKY_CORRECTION * energy, rel=0.25)
+    assert sun.energy_68[0] < sun.energy < sun.energy_68[1]
+    assert math.degrees(sun.angle) == pytest.approx(keylight.SUN_DIAMETER_DEG)
+    assert sun.color[0] > sun.color[2]  # a sun's colour, not the blue sky's
+
+
+@pytest.mark.parametrize("paint, why", [(0.02, "behind a building: the camera is in its shade"),
+                                        (4.0, "a clipped patch: the sun the photo shows, weighed as a region")])
+def test_no_hidden_sun_behind_an_occluder_or_next_to_a_clipped_patch(paint, why):
+    ldr, s, _ = _retouched_sky(paint=paint)
+    rec = _key_model(ldr).estimate.recovery
+    assert not [k for k in rec.keys if k.region < 0], why
+
+
+@pytest.mark.parametrize("scene", ["lamp", "retouched sun"])
+def test_energy_bookkeeping_between_the_lights_and_the_hdri(scene):
+    ldr = hdr_to_ldr(_lamps([(0.3, -0.2, 0.93)]), 0.0) if scene == "lamp" else _retouched_sky(paint=1.0)[0]
     res = _key_model(ldr)
     rec = res.estimate.recovery
     key = rec.keys[0]
