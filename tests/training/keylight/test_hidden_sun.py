@@ -1,0 +1,48 @@
+"""training.keylight.hidden_sun: the sky-alone location of a masked sun, and the census of invented suns."""
+import math
+
+import numpy as np
+import pytest
+
+from panolight_core import sh
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
+from panolight_core.estimators import keylight, sky
+from training.keylight import hidden_sun
+
+
+def _sky_hdr(with_sun: bool, h: int = 256):
+    """The tabulated clear sky (sun 40 degrees up, turbidity 3) over a dark ground, as an HDR; with its solar
+    disk's energy in the pixel that holds the sun, or without it and with the 20 degrees around the sun painted
+    at that ring's level (retouched out). Returns (hdr, sun direction)."""
+    t = sky.load_sky_table()
+    j = int(np.argmin(abs(t.turbidities - 3.0)))
+    e, az = math.radians(40.0), 1.0
+    s = np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
+    d = sh.pixel_directions(h, 2 * h)
+    hdr = t.sky_radiance(d.reshape(-1, 3), s)[j].reshape(h, 2 * h, 3)
+    hdr[d[..., 2] <= 0] = 0.03 * float(np.median(hdr[d[..., 2] > 0] @ LUMINANCE_WEIGHTS))
+    ang = np.degrees(np.arccos(np.clip(d @ s, -1, 1)))
+    if with_sun:
+        y, x = sh.grid.pixel_at(s, h, 2 * h)
+        hdr[y, x] += t.sun_energy(40.0)[j] / sh.pixel_solid_angles(h, 2 * h)[y, x]
+    else:
+        hdr[ang < 20.0] = hdr[(abs(ang - 20.0) < 1.0) & (d[..., 2] > 0)].mean(axis=0)
+    return hdr, s
+
+
+def test_a_masked_sun_is_located_and_weighed_from_its_sky():
+    hdr, s = _sky_hdr(with_sun=True)
+    row = hidden_sun.located(hdr, -2.0, 20.0)
+    assert row["found"] and row["angle_deg"] <= sky.REFINE_STEP_DEG
+    # the model's own sky: the physics is exact, so the ratio is the real-sky correction alone
+    assert row["energy_ratio"] / keylight.SKY_CORRECTION == pytest.approx(1.0, rel=0.25)
+    assert hidden_sun.located(_sky_hdr(with_sun=False)[0], -2.0, 20.0) is None  # no dominant source: not scored
+
+
+def test_the_census_counts_a_sun_the_truth_does_not_have_as_false():
+    hdr, s = _sky_hdr(with_sun=False)
+    row = hidden_sun.invented(hdr, -2.0)  # ev -2: enough of the sky unclipped
+    assert not row["dominant"] and len(row["hidden"]) == 1 and not row["hidden"][0]["right"]
+    got = hidden_sun.summary([dict(row, kind="invented", scene="retouched", clipped_truth=False)], [-2.0])["-2"]
+    assert got["hidden_suns"] == 1 and got["right"] == 0 and got["false"][0].startswith("retouched")
+    assert got["found"] == 0 and got["median_angle_deg"] is None

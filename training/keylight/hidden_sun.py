@@ -1,0 +1,124 @@
+"""The sun a photo does not show, over the real HDRs: how well the sky alone locates and weighs it, and how
+often the estimator invents one.
+
+``keylight.hidden_sun`` adds a sun where no clipped region holds a clear-sky sun but the visible sky puts one
+(``sky.search_sun``: the clear-sky position that best fits the sky, ``SunSearch.found``). Two measurements:
+
+1. **Located from the sky alone.** For every scene of ../shared/data/hdri with a dominant compact source
+   above the horizon (EVALUATION.md), at each ev: the camera JPEG (EVALUATION.md, q90), with every work cell
+   within ``--mask`` degrees of the true source hidden from the search (neither seen nor clipped: the sun and
+   its glare retouched out or veiled). Per scene: whether the search finds a sun, its direction error, the
+   gate's numbers (residual, visible sky, contrast: the best position's score over the median position's),
+   and the fit's solar energy x SKY_CORRECTION over the truth's energy within 5 degrees (in camera units).
+   Lamps indoors are the check that the gate refuses what is no sky.
+2. **Invented suns.** Every scene at each ev, unmasked, through the shipped estimator (``keylight``): each hidden
+   sun it adds, and the angle to the truth's brightest source. Where the truth has no dominant source within
+   20 degrees of it, the sun is false.
+
+    python -m training.keylight.hidden_sun [--evs -2 0 2] [--mask 20] [--out docs/hidden_sun.json]
+"""
+from __future__ import annotations
+
+import json
+import math
+import statistics
+from pathlib import Path
+
+import numpy as np
+
+from panolight_core import metrics, sh
+from panolight_core.camera import auto_exposure, hdr_to_ldr
+from panolight_core.estimators import keylight, sky, sources
+from training.keylight.cv import clipped_truth, real_hdri_parser
+from training.source_energy.fit import load_hdr, scene_files
+
+RIGHT_DEG = 20.0  # a hidden sun this close to the truth's dominant source is that source
+
+
+def located(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
+    """The sun search on the camera JPEG of ``hdr`` with the truth's dominant source (and ``mask_deg`` around
+    it) hidden; None when the scene has no dominant source above the horizon."""
+    ds = metrics.dominant_source(hdr)
+    if not ds["dominant"] or ds["direction"][2] <= 0:
+        return None
+    rad, frac_any, frac_all = sources.work_maps(hdr_to_ldr(hdr, ev, 90))
+    near = sh.pixel_directions(*frac_any.shape) @ ds["direction"] > math.cos(math.radians(mask_deg))
+    found = sky.search_sun(rad, (frac_any == 0) & ~near, (frac_all > 0.5) & ~near)
+    row = {"ev": ev, "true_elevation_deg": round(math.degrees(math.asin(float(ds["direction"][2]))), 2),
+           "share": round(float(ds["share"]), 4), "found": False}
+    if found is None:
+        return row
+    truth = float(ds["energy"]) * auto_exposure(hdr, ev)
+    return dict(row, found=bool(found.found), angle_deg=round(metrics.angle_deg(ds["direction"], found.direction), 3),
+                elevation_deg=round(found.elevation_deg, 2), contrast=round(found.contrast, 4),
+                rms=round(found.fit.rms, 4), sky_sr=round(found.fit.sky_sr, 3), blueness=round(found.fit.blueness, 3),
+                clear=bool(found.fit.clear), energy_ratio=keylight.SKY_CORRECTION * found.fit.sun_energy / truth)
+
+
+def invented(hdr: np.ndarray, ev: float) -> dict:
+    """The shipped estimator's hidden suns on the camera JPEG of ``hdr`` (unmasked)."""
+    ds = metrics.dominant_source(hdr)
+    ldr = hdr_to_ldr(hdr, ev, 90)
+    rec = sources.recover(ldr, maps=sources.work_maps(ldr), key_lights=True)
+    suns = [k for k in rec.keys if k.region < 0]
+    out = {"ev": ev, "dominant": bool(ds["dominant"]), "hidden": []}
+    for k in suns:
+        angle = metrics.angle_deg(ds["direction"], k.direction)
+        out["hidden"].append({"angle_deg": round(angle, 3), "right": bool(ds["dominant"] and angle <= RIGHT_DEG),
+                              "elevation_deg": round(math.degrees(math.asin(float(k.direction[2]))), 2)})
+    return out
+
+
+def summary(rows: list[dict], evs) -> dict:
+    out = {}
+    for ev in evs:
+        loc = [r for r in rows if r["kind"] == "located" and r["ev"] == ev and not r["clipped_truth"]]
+        suns = [r for r in loc if r.get("found")]
+        errs = sorted(r["angle_deg"] for r in suns)
+        lr = [abs(math.log2(r["energy_ratio"])) for r in suns if r["energy_ratio"] > 0]
+        inv = [r for r in rows if r["kind"] == "invented" and r["ev"] == ev]
+        hidden = [h for r in inv for h in r["hidden"]]
+        out[f"{ev:+g}"] = {
+            "dominant_above_horizon": len(loc), "found": len(suns),
+            "median_angle_deg": statistics.median(errs) if errs else None,
+            "angle_68_deg": float(np.percentile(errs, 68)) if errs else None,
+            "energy_within": 2 ** statistics.median(lr) if lr else None,
+            "energy_ratios": sorted(round(r["energy_ratio"], 3) for r in suns),
+            "scenes": len(inv), "hidden_suns": len(hidden), "right": sum(h["right"] for h in hidden),
+            "false": [f"{r['scene']} ({h['angle_deg']:.0f} deg off)" for r in inv for h in r["hidden"] if not h["right"]]}
+    return out
+
+
+def main(argv=None) -> int:
+    ap = real_hdri_parser("python -m training.keylight.hidden_sun", __doc__)
+    ap.add_argument("--mask", type=float, default=20.0,
+                    help="degrees around the true source hidden from the search in the location study (default: %(default)s)")
+    ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
+    args = ap.parse_args(argv)
+    files = scene_files(args.hdri)
+    clipped = clipped_truth(args.hdri)
+    rows = []
+    for i, p in enumerate(files, 1):
+        hdr = load_hdr(p)
+        for ev in args.evs:
+            loc = located(hdr, ev, args.mask)
+            if loc is not None:
+                rows.append(dict(loc, kind="located", scene=p.stem, clipped_truth=p.name in clipped))
+                if loc["found"]:
+                    print(f"[{i}/{len(files)}] {p.stem:28s} ev {ev:+g} located: {loc['angle_deg']:5.1f} deg off, "
+                          f"energy x{loc['energy_ratio']:.2f} (contrast {loc['contrast']:.2f})", flush=True)
+            inv = dict(invented(hdr, ev), kind="invented", scene=p.stem, clipped_truth=p.name in clipped)
+            rows.append(inv)
+            for h in inv["hidden"]:
+                print(f"[{i}/{len(files)}] {p.stem:28s} ev {ev:+g} hidden sun {h['angle_deg']:.1f} deg from the truth's "
+                      f"brightest source ({'right' if h['right'] else 'FALSE'})", flush=True)
+    result = {"mask_deg": args.mask, "summary": summary(rows, args.evs), "rows": rows}
+    print(json.dumps(result["summary"], indent=1))
+    if args.out:
+        args.out.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
