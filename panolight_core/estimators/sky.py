@@ -100,21 +100,23 @@ class SkyTable:
         """(T, N) the sky's luminance (``sky_radiance`` @ LUMINANCE_WEIGHTS, a third of the work)."""
         return self._interpolate(self.sky_luminance_table, dirs, sun, turbidity)
 
-    def sky_luminance_suns(self, dirs: np.ndarray, suns: np.ndarray) -> np.ndarray:
+    def sky_luminance_suns(self, dirs: np.ndarray, suns: np.ndarray, turbidities: slice = slice(None)) -> np.ndarray:
         """(P, T, N) the sky's luminance at unit directions ``dirs`` (N, 3) for each of P sun positions
-        ``suns`` (P, 3) (above the horizon) and every table turbidity; 0 below the horizon. One gather for
-        all of them: the sun search's P x T candidate skies."""
+        ``suns`` (P, 3) (above the horizon) and every table turbidity (or those ``turbidities`` picks); 0 below
+        the horizon. One gather for all of them: the sun search's P x T candidate skies."""
         suns = np.asarray(suns, dtype=np.float64)
+        table = self.sky_luminance_table[:, turbidities]
         # the table at each distinct elevation once (the candidates lie on rings of equal elevation)
         heights, ring = np.unique(suns[:, 2], return_inverse=True)
-        tab = np.stack([self._at_elevation(self.sky_luminance_table, math.degrees(math.asin(float(np.clip(z, -1.0, 1.0)))))
+        tab = np.stack([self._at_elevation(table, math.degrees(math.asin(float(np.clip(z, -1.0, 1.0)))))
                         for z in heights])  # (U, T, NT, NPH)
-        nt, nph = tab.shape[2:]
+        u, nt_, nt, nph = tab.shape
+        rows = np.ascontiguousarray(np.moveaxis(tab, 1, 3)).reshape(u * nt * nph, nt_)  # one row per table cell
         d = np.asarray(dirs, dtype=np.float64)
         x0, y0, fx, fy = _table_coordinates(d, suns, nt, nph)  # (P, N)
-        p = ring.reshape(-1)[:, None]
-        out = ((1 - fx) * (1 - fy))[..., None] * tab[p, :, x0, y0] + (fx * (1 - fy))[..., None] * tab[p, :, x0 + 1, y0] \
-            + ((1 - fx) * fy)[..., None] * tab[p, :, x0, y0 + 1] + (fx * fy)[..., None] * tab[p, :, x0 + 1, y0 + 1]
+        i00 = (ring.reshape(-1)[:, None] * nt + x0) * nph + y0
+        out = ((1 - fx) * (1 - fy))[..., None] * rows[i00] + (fx * (1 - fy))[..., None] * rows[i00 + nph] \
+            + ((1 - fx) * fy)[..., None] * rows[i00 + 1] + (fx * fy)[..., None] * rows[i00 + nph + 1]
         out = np.where((d[:, 2] > 0)[None, :, None], out, 0.0)  # (P, N, T)
         return np.moveaxis(out, 2, 1)
 
@@ -311,9 +313,16 @@ def _coarse(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, rows: int)
     return mean(np.asarray(rad, dtype=np.float64)), mean(usable.astype(np.float64)) > 0.999, mean(clipped.astype(np.float64)) > 0.5
 
 
-def _position_scores(rad, usable, clipped, suns, table: SkyTable) -> np.ndarray:
-    """(P,) each candidate sun's best score over the table's turbidities (``_fit_rows``, the sRGB curve),
-    inf where no sky is seen."""
+def _visible_sky_sr(usable: np.ndarray) -> float:
+    """The solid angle (sr) of usable cells above MIN_SKY_ELEVATION_DEG: the most sky any fit can rest on."""
+    h, w = usable.shape
+    upper = sh.pixel_directions(h, w)[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG))
+    return float(sh.pixel_solid_angles(h, w)[upper & usable].sum())
+
+
+def _position_scores(rad, usable, clipped, suns, table: SkyTable, turbidities: slice = slice(None)):
+    """((P,) each candidate sun's best score over the table's turbidities (``_fit_rows``, the sRGB curve;
+    inf where no sky is seen), (P,) the index of that turbidity)."""
     h, w = usable.shape
     dirs = sh.pixel_directions(h, w)
     omega = sh.pixel_solid_angles(h, w)
@@ -322,32 +331,40 @@ def _position_scores(rad, usable, clipped, suns, table: SkyTable) -> np.ndarray:
     obs = upper & usable & (lum > 1e-4)
     cen = upper & clipped
     if obs.sum() < 16 or suns.shape[0] == 0:
-        return np.full(suns.shape[0], np.inf)
+        return np.full(suns.shape[0], np.inf), np.zeros(suns.shape[0], int)
     n_obs = int(obs.sum())
-    model = table.sky_luminance_suns(np.concatenate([dirs[obs], dirs[cen]]), suns)  # (P, T, N)
+    model = table.sky_luminance_suns(np.concatenate([dirs[obs], dirs[cen]]), suns, turbidities)  # (P, T, N)
     lm = np.log(np.maximum(model, 1e-12)).reshape(-1, model.shape[-1])
     score = _fit_rows(np.log(lum[obs]), lm[:, :n_obs], lm[:, n_obs:], omega[obs], omega[cen], contrast=False)[-1]
-    return score.reshape(suns.shape[0], -1).min(axis=1)
+    score = score.reshape(suns.shape[0], -1)
+    return score.min(axis=1), score.argmin(axis=1) + (turbidities.start or 0)
 
 
-def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: SkyTable | None = None
-               ) -> SunSearch | None:
+def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: SkyTable | None = None,
+               max_contrast: float | None = HIDDEN_MAX_CONTRAST) -> SunSearch | None:
     """Locate a sun from the sky alone: the position whose clear sky best fits the visible sky (a coarse grid
-    over the whole sky at SEARCH_ROWS, refined at REFINE_ROWS within 1.5 coarse steps of the best), fitted
-    there on the whole work map. rad (h, 2h, 3) linear work map (clip units), usable / clipped (h, 2h) bool
-    as ``fit_clear_sky`` takes them. None when too little sky is seen for any position. ``SunSearch.found``
-    says whether to trust it."""
+    over the whole sky at SEARCH_ROWS, refined at REFINE_ROWS within 1.5 coarse steps of the best, over the
+    coarse best turbidity and its neighbours), fitted there on the whole work map. rad (h, 2h, 3) linear work
+    map (clip units), usable / clipped (h, 2h) bool as ``fit_clear_sky`` takes them. ``SunSearch.found`` says
+    whether to trust it. None when less than HIDDEN_MIN_SKY_SR of sky is seen, or (``max_contrast``, a study
+    passes None to see every fit) when no position is singled out: the answer ``found`` would give, sooner."""
     table = table or load_sky_table()
     coarse = _coarse(rad, usable, clipped, SEARCH_ROWS)
+    if max_contrast is not None and _visible_sky_sr(usable) < HIDDEN_MIN_SKY_SR:
+        return None
     suns = sun_candidates(SEARCH_STEP_DEG)
-    scores = _position_scores(*coarse, suns, table)
+    scores, turbidity = _position_scores(*coarse, suns, table)
     finite = np.isfinite(scores)
     if not finite.any():
         return None
-    best = suns[int(np.argmin(scores))]
-    contrast = float(scores[finite].min() / max(float(np.median(scores[finite])), 1e-12))
+    i = int(np.argmin(scores))
+    contrast = float(scores[i] / max(float(np.median(scores[finite])), 1e-12))
+    if max_contrast is not None and contrast > max_contrast:
+        return None
+    best = suns[i]
     fine = sun_candidates(REFINE_STEP_DEG, best, 1.5 * SEARCH_STEP_DEG)
-    fine_scores = _position_scores(*_coarse(rad, usable, clipped, REFINE_ROWS), fine, table)
+    near = slice(max(int(turbidity[i]) - 1, 0), int(turbidity[i]) + 2)
+    fine_scores = _position_scores(*_coarse(rad, usable, clipped, REFINE_ROWS), fine, table, near)[0]
     if np.isfinite(fine_scores).any():
         best = fine[int(np.argmin(fine_scores))]
     fit = fit_clear_sky(rad, usable, clipped, best, table)

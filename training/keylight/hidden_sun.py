@@ -43,7 +43,7 @@ def located(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
         return None
     rad, frac_any, frac_all = sources.work_maps(hdr_to_ldr(hdr, ev, 90))
     near = sh.pixel_directions(*frac_any.shape) @ ds["direction"] > math.cos(math.radians(mask_deg))
-    found = sky.search_sun(rad, (frac_any == 0) & ~near, (frac_all > 0.5) & ~near)
+    found = sky.search_sun(rad, (frac_any == 0) & ~near, (frac_all > 0.5) & ~near, max_contrast=None)
     row = {"ev": ev, "true_elevation_deg": round(math.degrees(math.asin(float(ds["direction"][2]))), 2),
            "share": round(float(ds["share"]), 4), "found": False}
     if found is None:
