@@ -52,6 +52,7 @@ def located(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
     return dict(row, found=bool(found.found), angle_deg=round(metrics.angle_deg(ds["direction"], found.direction), 3),
                 elevation_deg=round(found.elevation_deg, 2), contrast=round(found.contrast, 4),
                 rms=round(found.fit.rms, 4), sky_sr=round(found.fit.sky_sr, 3), blueness=round(found.fit.blueness, 3),
+                colour_match=round(found.colour_match, 3),
                 clear=bool(found.fit.clear), energy_ratio=keylight.SKY_CORRECTION * found.fit.sun_energy / truth)
 
 

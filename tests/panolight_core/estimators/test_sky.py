@@ -202,3 +202,25 @@ def test_a_sun_behind_an_occluder_is_not_seen():
     found = sky.search_sun(rad, usable | dark, clipped & ~dark)
     assert found is not None and metrics.angle_deg(found.direction, s) < 10.0
     assert not found.seen
+
+
+def test_a_sky_whose_colour_runs_against_a_clear_skys_puts_no_sun():
+    """The luminance of a clear sky with its blue/red mirrored (redder where a sky is bluer): a lit wall or
+    ceiling can follow a sky's falloff, not the way its colour varies. Only the colour test refuses it."""
+    rad, usable, clipped, s, _ = _hidden_sun_maps()
+    found = sky.search_sun(rad, usable, clipped)
+    assert found.found and found.colour_match > 0.9
+    y, g = rad @ LUMINANCE_WEIGHTS, rad[..., 1]
+    q = np.log(np.maximum(rad[..., 2], 1e-6) / np.maximum(rad[..., 0], 1e-6))
+    sky_cells = usable & (rad.min(axis=-1) > 1e-4) & (sh.pixel_directions(*usable.shape)[..., 2] > 0)
+    q = np.exp(2 * np.median(q[sky_cells]) - q)  # mirrored about its median
+    r = (y - LUMINANCE_WEIGHTS[1] * g) / (LUMINANCE_WEIGHTS[0] + LUMINANCE_WEIGHTS[2] * q)
+    wall = np.where(sky_cells[..., None], np.stack([r, g, q * r], axis=-1), rad)
+    # as blue overall as the sky was (blue/red of the solid-angle weighted sums), so the cloudiness gate's
+    # colour test passes
+    om = sh.pixel_solid_angles(*usable.shape)[sky_cells][:, None]
+    a, b = (rad[sky_cells] * om).sum(axis=0), (wall[sky_cells] * om).sum(axis=0)
+    wall[..., 2] *= (a[2] / a[0]) / (b[2] / b[0])
+    mirrored = sky.search_sun(wall, usable, clipped)
+    assert mirrored is not None and mirrored.colour_match < 0 and not mirrored.found
+    assert mirrored.fit.clear and mirrored.contrast <= sky.HIDDEN_MAX_CONTRAST  # every other test passes
