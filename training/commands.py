@@ -73,6 +73,8 @@ TOOLS = {
     "keylight-cv": ("training.keylight.cv", "the key light's direction and energy over the real HDRs, and the "
                     "clear-sky correction cross-validated"),
     "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
+    "hidden-sun": ("training.keylight.hidden_sun", "a sun the photo does not show: located from the sky alone over "
+                   "the real HDRs, and the suns the estimator invents"),
     "sky-table": ("training.keylight.sky_table", "tabulate Mitsuba's sunsky into models/sky.safetensors"),
     "artist-check": ("training.render.artist_check", "a white sphere composited into real photos under each "
                      "estimate (Mitsuba), with lit/shadow ratios"),

@@ -34,6 +34,7 @@ from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
 from ..errors import PanoLightError
 from . import sky as clear_sky
+from . import sun_search
 
 SUN_DIAMETER_DEG = 0.53  # the sun's angular diameter seen from the earth
 KEY_SHARE = 0.1  # a region whose predicted energy is at least this share of the scene's holds a key light
@@ -44,7 +45,7 @@ LAMP_MIN_DIAMETER_DEG = 1.0
 SHOULDER = 0.75  # linear (clip level 1; sRGB 225): above it a channel sits on the camera's highlight shoulder
 PLATEAU_EXTENT_DEG = 30.0  # a region this wide (angular radius) with no clear-sky sun in it is a plateau (an
 # overcast sky, a window wall), not a compact source: its even fill stays and it makes no light (docs/keylight.md)
-HIDDEN_CLEARANCE_DEG = 20.0  # a sun found from the sky alone (``sky.search_sun``) is a hidden one only this far
+HIDDEN_CLEARANCE_DEG = 20.0  # a sun found from the sky alone (``sun_search.search_sun``) is a hidden one only this far
 # beyond every clipped region (its angular radius plus this): nearer, the region is the sun the photo shows
 HIDDEN_DIRECTION_68_DEG = 7.5  # a hidden sun's direction error: within this for 68 % of the real HDRs' suns with
 # their sun and glare masked out (``training/keylight/hidden_sun.py``: 6.2-7.3 degrees at ev -2 / 0)
@@ -144,7 +145,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         if fits is not None and -1 in fits:
             search = fits[-1]
         else:
-            search = clear_sky.search_sun(rad, frac_any == 0, frac_all > 0.5)
+            search = sun_search.search_sun(rad, frac_any == 0, frac_all > 0.5)
             if fits is not None:
                 fits[-1] = search
         hidden = hidden_sun(search, regions)
@@ -153,8 +154,8 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     return keys
 
 
-def hidden_sun(search: clear_sky.SunSearch | None, regions) -> KeyLight | None:
-    """The key light of a sun the photo does not show, from ``sky.search_sun``: where the sky search found one
+def hidden_sun(search: sun_search.SunSearch | None, regions) -> KeyLight | None:
+    """The key light of a sun the photo does not show, from ``sun_search.search_sun``: where the sky search found one
     (``SunSearch.found``) that is seen from the camera (not behind an occluder, whose shade the camera would
     be in) and no clipped region lies within its radius plus HIDDEN_CLEARANCE_DEG of it (a region there is
     the sun the photo shows, weighed as one). Its energy is the fit's solar disk x SKY_CORRECTION, added to

@@ -2,7 +2,7 @@
 often the estimator invents one.
 
 ``keylight.hidden_sun`` adds a sun where no clipped region holds a clear-sky sun but the visible sky puts one
-(``sky.search_sun``: the clear-sky position that best fits the sky, ``SunSearch.found``). Two measurements:
+(``sun_search.search_sun``: the clear-sky position that best fits the sky, ``SunSearch.found``). Two measurements:
 
 1. **Located from the sky alone.** For every scene of ../shared/data/hdri with a dominant compact source
    above the horizon (EVALUATION.md), at each ev: the camera JPEG (EVALUATION.md, q90), with every work cell
@@ -16,6 +16,7 @@ often the estimator invents one.
    20 degrees of it, the sun is false.
 
     python -m training.keylight.hidden_sun [--evs -2 0 2] [--mask 20] [--out docs/hidden_sun.json]
+    panolight hidden-sun ...   (the same)
 """
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ import numpy as np
 
 from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr
-from panolight_core.estimators import keylight, sky, sources
+from panolight_core.estimators import keylight, sources, sun_search
 from training.keylight.cv import clipped_truth, real_hdri_parser
 from training.source_energy.fit import load_hdr, scene_files
 
@@ -43,7 +44,7 @@ def located(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
         return None
     rad, frac_any, frac_all = sources.work_maps(hdr_to_ldr(hdr, ev, 90))
     near = sh.pixel_directions(*frac_any.shape) @ ds["direction"] > math.cos(math.radians(mask_deg))
-    found = sky.search_sun(rad, (frac_any == 0) & ~near, (frac_all > 0.5) & ~near, max_contrast=None)
+    found = sun_search.search_sun(rad, (frac_any == 0) & ~near, (frac_all > 0.5) & ~near, max_contrast=None)
     row = {"ev": ev, "true_elevation_deg": round(math.degrees(math.asin(float(ds["direction"][2]))), 2),
            "share": round(float(ds["share"]), 4), "found": False}
     if found is None:

@@ -6,7 +6,7 @@ import pytest
 
 from panolight_core import sh
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
-from panolight_core.estimators import keylight, sky
+from panolight_core.estimators import keylight, sky, sun_search
 from training.keylight import hidden_sun
 
 
@@ -33,7 +33,7 @@ def _sky_hdr(with_sun: bool, h: int = 256):
 def test_a_masked_sun_is_located_and_weighed_from_its_sky():
     hdr, s = _sky_hdr(with_sun=True)
     row = hidden_sun.located(hdr, -2.0, 20.0)
-    assert row["found"] and row["angle_deg"] <= sky.REFINE_STEP_DEG
+    assert row["found"] and row["angle_deg"] <= sun_search.REFINE_STEP_DEG
     # the model's own sky: the physics is exact, so the ratio is the real-sky correction alone
     assert row["energy_ratio"] / keylight.SKY_CORRECTION == pytest.approx(1.0, rel=0.25)
     assert hidden_sun.located(_sky_hdr(with_sun=False)[0], -2.0, 20.0) is None  # no dominant source: not scored
