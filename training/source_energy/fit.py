@@ -222,6 +222,21 @@ def fit(X, y, w, seed: int = 0, oof_groups=None):
     return _export(mean), _export(spread), mean
 
 
+def environment() -> dict:
+    """The versions that decide the trained trees (the JPEG codec draws the training rows, scikit-learn fits them):
+    the same command gives different trees on another set-up (docs/keylight.md), so a model records them."""
+    import platform
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {"python": platform.python_version()}
+    for name in ("numpy", "scikit-learn", "Pillow", "simplejpeg"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
 def save(path, mean: sources.TreeEnsemble, spread: sources.TreeEnsemble, shrink: float, meta: dict) -> Path:
     from safetensors.numpy import save_file
 
@@ -266,7 +281,8 @@ def main(argv=None) -> int:
         mean, spread, _ = fit(X, y, w, args.seed, g)
         out = save(args.out or sources.MODEL_PATH, mean, spread, args.shrink, {
             "trained_on": f"{len(files)} scenes of {Path(args.hdri).name} x {args.augment} cameras, {y.size} regions",
-            "scenes": [f.name for f in files], "gbt": GBT, "spread_gbt": SPREAD_GBT, "seed": args.seed})
+            "scenes": [f.name for f in files], "gbt": GBT, "spread_gbt": SPREAD_GBT, "seed": args.seed,
+            "environment": environment()})
         print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} kB)")
         return 0
     from training.source_energy.cv import cross_validate

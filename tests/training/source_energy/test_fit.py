@@ -1,4 +1,6 @@
 """Training the per-source energy model: the exported trees equal scikit-learn's, the data is honest."""
+import json
+
 import numpy as np
 import pytest
 
@@ -17,11 +19,13 @@ def test_exported_trees_match_sklearn_and_round_trip_through_safetensors(tmp_pat
     gbt.fit(x, y, sample_weight=w)
     ens = se._export(gbt)
     np.testing.assert_allclose(ens.predict(x), gbt.predict(x), rtol=0, atol=1e-10)
-    path = se.save(tmp_path / "m.safetensors", ens, ens, 0.5, {"trained_on": "test"})
+    path = se.save(tmp_path / "m.safetensors", ens, ens, 0.5, {"trained_on": "test", "environment": se.environment()})
     model = sources.load_source_model(path)
     mu, sigma, reported = model.predict(x[:10])
     np.testing.assert_allclose(mu, gbt.predict(x[:10]), atol=1e-10)
     assert model.shrink == 0.5 and model.meta["trained_on"] == "test"
+    import sklearn  # the model says which libraries drew and fitted it
+    assert json.loads(model.meta["environment"])["scikit-learn"] == sklearn.__version__
 
 
 def test_training_data_refuses_the_public_set_and_a_missing_folder(tmp_path):
