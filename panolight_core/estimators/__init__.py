@@ -94,7 +94,8 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
     rec = sources.recover(pixels, model, key_lights=key_lights)
     return Estimate(sh.project(rec.work, lmax), name,
                     {"input": "ldr", "work_height": rec.frac.shape[0], "model": model.path.name,
-                     "decision": rec.decision, "clipped_regions": rec.region_info()}, rec.diffuse, rec,
+                     "decision": rec.decision, "clipped_regions": rec.region_info(),
+                     **({"sun_search": rec.sun_search} if rec.sun_search is not None else {})}, rec.diffuse, rec,
                     rec.lights(), rec.key_exclusions())
 
 

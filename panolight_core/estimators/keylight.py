@@ -154,19 +154,45 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     return keys
 
 
-def hidden_sun(search: sun_search.SunSearch | None, regions) -> KeyLight | None:
-    """The key light of a sun the photo does not show, from ``sun_search.search_sun``: where the sky search found one
-    (``SunSearch.found``) that is seen from the camera (not behind an occluder, whose shade the camera would
-    be in) and no clipped region lies within its radius plus HIDDEN_CLEARANCE_DEG of it (a region there is
-    the sun the photo shows, weighed as one). Its energy is the fit's solar disk x SKY_CORRECTION, added to
-    the map (no region's fill holds it), a 0.53 degree disk in the model sun's colour; its direction's 68 %
-    radius HIDDEN_DIRECTION_68_DEG. None otherwise."""
-    if search is None or not search.found or not search.seen:
-        return None
+def hidden_refusals(search: sun_search.SunSearch | None, regions) -> list[str]:
+    """Why no hidden sun is made from this search, one phrase per reason (empty: it is): the search's own tests
+    (``SunSearch.refusals``), a sun behind an occluder (whose shade the camera would be in), or a clipped region
+    within its radius plus HIDDEN_CLEARANCE_DEG of it (the sun the photo shows, weighed as a region)."""
+    if search is None:
+        return ["too little sky is seen, or no position stands out"]
+    out = search.refusals()
+    if not search.seen:
+        out.append("behind an occluder (the camera would be in its shade)")
     if regions.count:
         apart = np.degrees(np.arccos(np.clip(regions.centre @ search.direction, -1.0, 1.0)))
         if (apart <= regions.extent_deg() + HIDDEN_CLEARANCE_DEG).any():
-            return None
+            out.append(f"a clipped region within {HIDDEN_CLEARANCE_DEG:g} deg of it holds the sun the photo shows")
+    return out
+
+
+def sun_search_report(fits: dict, keys: list, regions) -> dict:
+    """lighting.json's account of the sun search (``estimator.sun_search``) after ``find_key_lights`` found
+    ``keys`` and filled ``fits`` on these ``regions``: whether it ran, where the sky puts a sun, and whether a
+    hidden sun was made or why not."""
+    if any(k.method.startswith("clear-sky") for k in keys):
+        return {"searched": False, "why": "a clipped region holds a clear-sky sun"}
+    if -1 not in fits:
+        return {"searched": False, "why": f"{MAX_KEYS} key lights already"}
+    search = fits[-1]
+    out = {"searched": True, "hidden_sun": any(k.region < 0 for k in keys), "refused": hidden_refusals(search, regions)}
+    if search is not None:
+        out.update(direction=[round(float(v), 6) for v in search.direction], elevation_deg=round(search.elevation_deg, 2),
+                   direction_68_deg=HIDDEN_DIRECTION_68_DEG)
+    return out
+
+
+def hidden_sun(search: sun_search.SunSearch | None, regions) -> KeyLight | None:
+    """The key light of a sun the photo does not show, from ``sun_search.search_sun``, where ``hidden_refusals``
+    has nothing against it. Its energy is the fit's solar disk x SKY_CORRECTION, added to the map (no region's
+    fill holds it), a 0.53 degree disk in the model sun's colour; its direction's 68 % radius
+    HIDDEN_DIRECTION_68_DEG. None otherwise."""
+    if hidden_refusals(search, regions):
+        return None
     fit = search.fit
     physical = SKY_CORRECTION * fit.sun_energy
     if not physical > 0:

@@ -14,7 +14,8 @@ import numpy as np
 
 from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
-from .sky import MIN_SKY_ELEVATION_DEG, OCCLUDER_LOG, SkyFit, SkyTable, fit_clear_sky, fit_rows, load_sky_table
+from .sky import (CLEAR_RMS, MIN_BLUENESS, MIN_SKY_ELEVATION_DEG, MIN_SKY_SR, OCCLUDER_LOG, SkyFit, SkyTable,
+                  fit_clear_sky, fit_rows, load_sky_table)
 
 SEARCH_ROWS, REFINE_ROWS = 16, 32  # rows of the coarse search's map (11 degree cells) and of its refinement's
 SEARCH_STEP_DEG, REFINE_STEP_DEG = 7.5, 2.5  # the candidate suns' spacing (elevation; azimuth at the horizon x 1.5)
@@ -53,9 +54,25 @@ class SunSearch:
     def found(self) -> bool:
         """A sun the sky shows: a clear fit (the cloudiness gate, its colour test included) on at least
         HIDDEN_MIN_SKY_SR of sky whose colour varies as the model's (HIDDEN_MIN_COLOUR_MATCH), a position the
-        sky singles out (HIDDEN_MAX_CONTRAST), above HIDDEN_MIN_ELEVATION_DEG."""
-        return (self.fit.clear and self.fit.sky_sr >= HIDDEN_MIN_SKY_SR and self.contrast <= HIDDEN_MAX_CONTRAST
-                and self.elevation_deg >= HIDDEN_MIN_ELEVATION_DEG and self.colour_match > HIDDEN_MIN_COLOUR_MATCH)
+        sky singles out (HIDDEN_MAX_CONTRAST), above HIDDEN_MIN_ELEVATION_DEG: no ``refusals``."""
+        return not self.refusals()
+
+    def refusals(self) -> list[str]:
+        """Why the sky does not show a sun here, one phrase per failed test (empty: ``found``)."""
+        f, out = self.fit, []
+        if f.rms > CLEAR_RMS:
+            out.append(f"the sky is not clear (residual {f.rms:.2f} > {CLEAR_RMS})")
+        if f.blueness < MIN_BLUENESS:
+            out.append(f"the sky is not blue (blue/red {f.blueness:.2f} of a clear sky's < {MIN_BLUENESS})")
+        if f.sky_sr < max(HIDDEN_MIN_SKY_SR, MIN_SKY_SR):
+            out.append(f"too little sky ({f.sky_sr:.2f} sr < {HIDDEN_MIN_SKY_SR})")
+        if self.contrast > HIDDEN_MAX_CONTRAST:
+            out.append(f"no position stands out (best score {self.contrast:.2f} of the median's > {HIDDEN_MAX_CONTRAST})")
+        if self.elevation_deg < HIDDEN_MIN_ELEVATION_DEG:
+            out.append(f"at the horizon ({self.elevation_deg:.1f} deg < {HIDDEN_MIN_ELEVATION_DEG})")
+        if not self.colour_match > HIDDEN_MIN_COLOUR_MATCH:
+            out.append(f"the sky's colour does not vary as a clear sky's (correlation {self.colour_match:.2f})")
+        return out
 
 
 def sun_candidates(step_deg: float, centre=None, reach_deg: float | None = None) -> np.ndarray:

@@ -34,6 +34,7 @@ class Recovery:
     decision: dict | None = None
     keys: list = field(default_factory=list)  # keylight.KeyLight: the compact sources, as explicit lights
     diffuse: np.ndarray | None = None  # ``work`` without the key lights (what the SH part is fitted to)
+    sun_search: dict | None = None  # keylight.sun_search_report: the search for a sun the photo does not show
 
     def __post_init__(self):
         if self.diffuse is None:
@@ -99,13 +100,15 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
                                         min_median_ratio=min_median_ratio)
             reported = shrunk(mu, sigma, c)
             decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
-    keys = []
+    keys, report = [], None
     if key_lights and log_ratio_fn is None:  # also without regions: a sun the photo does not show
-        from ..keylight import find_key_lights
+        from ..keylight import find_key_lights, sun_search_report
 
-        keys = find_key_lights(rad, frac, frac_all, regions, mu, sigma, reported)
+        fits = {}
+        keys = find_key_lights(rad, frac, frac_all, regions, mu, sigma, reported, fits=fits)
+        report = sun_search_report(fits, keys, regions)
     diffuse, work = fill_with_keys(rad, regions, reported, keys)
-    return Recovery(work, rad, frac_all, regions, mu, sigma, reported, decision, keys, diffuse)
+    return Recovery(work, rad, frac_all, regions, mu, sigma, reported, decision, keys, diffuse, report)
 
 
 def power_law_log_ratio(regions: Regions):

@@ -87,8 +87,12 @@ def test_a_sun_retouched_out_of_a_clear_sky_is_put_back_from_the_sky():
     from panolight_core.estimators import keylight
 
     ldr, s, energy = _retouched_sky(paint=1.0)
-    rec = _key_model(ldr).estimate.recovery
+    res = _key_model(ldr)
+    rec = res.estimate.recovery
     (sun,) = rec.keys
+    report = res.document["estimator"]["sun_search"]  # lighting.json says where the sky put it, and how sure
+    assert report["searched"] and report["hidden_sun"] and report["refused"] == []
+    assert report["direction"] == pytest.approx(sun.direction, abs=1e-6) and report["direction_68_deg"] == 7.5
     assert sun.region == -1 and sun.method.startswith("hidden sun")
     assert metrics.angle_deg(sun.direction, s) < keylight.HIDDEN_DIRECTION_68_DEG  # its own 68 % radius
     assert sun.energy == pytest.approx(keylight.SKY_CORRECTION * energy, rel=0.25)
@@ -97,12 +101,18 @@ def test_a_sun_retouched_out_of_a_clear_sky_is_put_back_from_the_sky():
     assert sun.color[0] > sun.color[2]  # a sun's colour, not the blue sky's
 
 
-@pytest.mark.parametrize("paint, why", [(0.02, "behind a building: the camera is in its shade"),
-                                        (4.0, "a clipped patch: the sun the photo shows, weighed as a region")])
+@pytest.mark.parametrize("paint, why", [(0.02, "occluder"), (4.0, "clipped region")])
 def test_no_hidden_sun_behind_an_occluder_or_next_to_a_clipped_patch(paint, why):
+    """A building in front of the sun puts the camera in its shade; a clipped patch at the sun is the sun the
+    photo shows, weighed as a region. lighting.json says which."""
     ldr, s, _ = _retouched_sky(paint=paint)
-    rec = _key_model(ldr).estimate.recovery
-    assert not [k for k in rec.keys if k.region < 0], why
+    res = _key_model(ldr)
+    assert not [k for k in res.estimate.recovery.keys if k.region < 0]
+    report = res.document["estimator"]["sun_search"]
+    if report["searched"]:
+        assert not report["hidden_sun"] and any(why in r for r in report["refused"]), report
+    else:  # the clipped patch became a clear-sky sun itself
+        assert why == "clipped region" and report["why"] == "a clipped region holds a clear-sky sun"
 
 
 @pytest.mark.parametrize("scene", ["lamp", "retouched sun"])

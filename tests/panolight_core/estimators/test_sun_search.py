@@ -89,3 +89,5 @@ def test_a_sky_whose_colour_runs_against_a_clear_skys_puts_no_sun():
     mirrored = sun_search.search_sun(wall, usable, clipped)
     assert mirrored is not None and mirrored.colour_match < 0 and not mirrored.found
     assert mirrored.fit.clear and mirrored.contrast <= sun_search.HIDDEN_MAX_CONTRAST  # every other test passes
+    (why,) = mirrored.refusals()
+    assert why.startswith("the sky's colour does not vary as a clear sky's")
