@@ -148,6 +148,13 @@ def _position_scores(rad, usable, clipped, suns, table: SkyTable, turbidities: s
     return score.min(axis=1), score.argmin(axis=1) + (turbidities.start or 0)
 
 
+def position_scores(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, suns: np.ndarray, rows: int = SEARCH_ROWS,
+                    table: SkyTable | None = None) -> np.ndarray:
+    """(P,) the score of a clear sky with the sun at each of ``suns`` (P, 3) against the work maps averaged to
+    ``rows`` (lower fits better, inf where no sky is seen): the landscape ``search_sun`` walks, for pictures."""
+    return _position_scores(*_coarse(rad, usable, clipped, rows), suns, table or load_sky_table())[0]
+
+
 def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: SkyTable | None = None,
                max_contrast: float | None = HIDDEN_MAX_CONTRAST) -> SunSearch | None:
     """Locate a sun from the sky alone: the position whose clear sky best fits the visible sky (a coarse grid

@@ -16,7 +16,11 @@ often the estimator invents one.
    20 degrees of it, the sun is false.
 
     python -m training.keylight.hidden_sun [--evs -2 0 2] [--mask 20] [--out docs/hidden_sun.json]
+    python -m training.keylight.hidden_sun --picture ../shared/data/ldr/examplepano.jpg docs/hidden_sun.jpg
     panolight hidden-sun ...   (the same)
+
+``--picture PHOTO IMAGE`` draws, over the photo, how well a clear sky with its sun at each position fits the
+photo's sky (bright: fits), the sun the search puts there and its 68 % circle, and what lighting.json says.
 """
 from __future__ import annotations
 
@@ -71,6 +75,56 @@ def invented(hdr: np.ndarray, ev: float) -> dict:
     return out
 
 
+def picture(photo: Path, out: Path, width: int = 1024) -> dict:
+    """The sun search on a photo, drawn: the photo (``width`` x width / 2) with each sky position tinted by how
+    well a clear sky with the sun there fits (the search's coarse score, relative to the best), the search's
+    sun and its 68 % circle; returns lighting.json's ``estimator.sun_search`` for it."""
+    from PIL import Image, ImageDraw
+
+    from panolight_core.io import read_image
+
+    ldr = np.asarray(read_image(photo, ldr_as_uint8=True))
+    if ldr.dtype != np.uint8:
+        raise SystemExit(f"{photo}: --picture takes an 8-bit photo (JPEG or PNG)")
+    rad, frac_any, frac_all = maps = sources.work_maps(ldr)
+    rec = sources.recover(ldr, maps=maps, key_lights=True)
+    h = width // 2
+    dirs = sh.pixel_directions(h, width)
+    el = np.degrees(np.arcsin(np.clip(dirs[..., 2], -1, 1)))
+    az = np.degrees(np.arctan2(dirs[..., 1], dirs[..., 0]))
+    step = 2.5
+    grid_el, grid_az = np.arange(step / 2, 90.0, step), np.arange(-180.0, 180.0, step)
+    e, a = np.radians(grid_el)[:, None], np.radians(grid_az)[None, :]
+    suns = np.stack(np.broadcast_arrays(np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)), axis=-1).reshape(-1, 3)
+    scores = sun_search.position_scores(rad, frac_any == 0, frac_all > 0.5, suns).reshape(grid_el.size, grid_az.size)
+    fit = np.where(np.isfinite(scores), np.nanmin(np.where(np.isfinite(scores), scores, np.nan)) / scores, 0.0)
+    i = np.clip(((el + 0.0) / step).astype(int), 0, grid_el.size - 1)
+    j = np.clip(((az + 180.0) / step).astype(int), 0, grid_az.size - 1)
+    tint = np.where(el > 0, fit[i, j] ** 4, 0.0)[..., None]
+    img = np.asarray(Image.fromarray(ldr).convert("RGB").resize((width, h), Image.BILINEAR), dtype=np.float64)
+    img = img * (1 - 0.6 * tint) + 0.6 * tint * np.array([255.0, 200.0, 0.0])
+    canvas = Image.fromarray(np.clip(img, 0, 255).astype(np.uint8))
+    draw = ImageDraw.Draw(canvas)
+    report = rec.sun_search or {"searched": False, "why": "not a keylight estimate"}
+    if report.get("direction"):
+        v = np.asarray(report["direction"])
+        y, x = sh.grid.pixel_at(v, h, width)
+        ry = report["direction_68_deg"] / 180.0 * h
+        rx = ry / max(math.cos(math.radians(report["elevation_deg"])), 0.2)
+        colour = (255, 255, 255) if report["hidden_sun"] else (255, 80, 80)
+        draw.ellipse([x - rx, y - ry, x + rx, y + ry], outline=colour, width=2)
+        draw.ellipse([x - 3, y - 3, x + 3, y + 3], fill=colour)
+    text = ("hidden sun made" if report.get("hidden_sun") else
+            "no hidden sun: " + "; ".join(report.get("refused", [])) if report.get("searched") else
+            "not searched: " + report.get("why", ""))
+    draw.rectangle([0, 0, width, 16], fill=(0, 0, 0))
+    draw.text((4, 2), f"{Path(photo).name}: tint = how well a clear sky with its sun there fits the sky; {text}",
+              fill=(255, 255, 255))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    canvas.save(out, **({"quality": 88} if out.suffix.lower() in (".jpg", ".jpeg") else {}))
+    return report
+
+
 def summary(rows: list[dict], evs) -> dict:
     out = {}
     for ev in evs:
@@ -96,7 +150,13 @@ def main(argv=None) -> int:
     ap.add_argument("--mask", type=float, default=20.0,
                     help="degrees around the true source hidden from the search in the location study (default: %(default)s)")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
+    ap.add_argument("--picture", nargs=2, type=Path, metavar=("PHOTO", "IMAGE"), default=None,
+                    help="only draw the sun search on an 8-bit photo into IMAGE (.png or .jpg; no study)")
     args = ap.parse_args(argv)
+    if args.picture:
+        report = picture(*args.picture)
+        print(json.dumps(report), f"\nwrote {args.picture[1]}", sep="")
+        return 0
     files = scene_files(args.hdri)
     clipped = clipped_truth(args.hdri)
     rows = []

@@ -46,3 +46,29 @@ def test_the_census_counts_a_sun_the_truth_does_not_have_as_false():
     got = hidden_sun.summary([dict(row, kind="invented", scene="retouched", clipped_truth=False)], [-2.0])["-2"]
     assert got["hidden_suns"] == 1 and got["right"] == 0 and got["false"][0].startswith("retouched")
     assert got["found"] == 0 and got["median_angle_deg"] is None
+
+
+def test_the_picture_draws_the_search_and_says_what_lighting_json_says(tmp_path):
+    from PIL import Image
+
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.io import write_srgb8
+
+    hdr, s = _sky_hdr(with_sun=False)
+    photo = write_srgb8(tmp_path / "retouched.png", hdr_to_ldr(hdr, -2.0))
+    report = hidden_sun.picture(photo, tmp_path / "search.jpg", width=256)
+    assert report["searched"] and report["hidden_sun"] and report["refused"] == []
+    img = np.asarray(Image.open(tmp_path / "search.jpg"))
+    assert img.shape == (128, 256, 3)
+    y, x = sh.grid.pixel_at(np.asarray(report["direction"]), 128, 256)
+    assert img[y, x].min() > 200  # the search's sun is drawn (white: a hidden sun was made)
+    with pytest.raises(SystemExit, match="8-bit photo"):
+        hidden_sun.picture(_write_hdr(tmp_path, hdr), tmp_path / "x.png")
+
+
+def _write_hdr(tmp_path, hdr):
+    from panolight_core.io import write_image
+
+    path = tmp_path / "sky.exr"
+    write_image(path, hdr.astype(np.float32))
+    return path
