@@ -47,8 +47,6 @@ PLATEAU_EXTENT_DEG = 30.0  # a region this wide (angular radius) with no clear-s
 # overcast sky, a window wall), not a compact source: its even fill stays and it makes no light (docs/keylight.md)
 HIDDEN_CLEARANCE_DEG = 20.0  # a sun found from the sky alone (``sun_search.search_sun``) is a hidden one only this far
 # beyond every clipped region (its angular radius plus this): nearer, the region is the sun the photo shows
-HIDDEN_DIRECTION_68_DEG = 7.5  # a hidden sun's direction error: within this for 68 % of the real HDRs' suns with
-# their sun and glare masked out (``training/keylight/hidden_sun.py``: 6.2-7.3 degrees at ev -2 / 0)
 DIRECTION_68_PER_EXTENT = 0.25  # a light's direction error: within this share of its region's angular radius (at
 # least one work cell) for 68 % of the dominant sources of the real HDRs at ev -2/0/+2 (training/keylight/cv.py)
 ENERGY_RULES = ("decided", "capped", "physical", "hybrid", "sky")
@@ -182,7 +180,7 @@ def sun_search_report(fits: dict, keys: list, regions) -> dict:
     out = {"searched": True, "hidden_sun": any(k.region < 0 for k in keys), "refused": hidden_refusals(search, regions)}
     if search is not None:
         out.update(direction=[round(float(v), 6) for v in search.direction], elevation_deg=round(search.elevation_deg, 2),
-                   direction_68_deg=HIDDEN_DIRECTION_68_DEG)
+                   direction_68_deg=round(search.direction_68_deg, 2))
     return out
 
 
@@ -190,7 +188,7 @@ def hidden_sun(search: sun_search.SunSearch | None, regions) -> KeyLight | None:
     """The key light of a sun the photo does not show, from ``sun_search.search_sun``, where ``hidden_refusals``
     has nothing against it. Its energy is the fit's solar disk x SKY_CORRECTION, added to the map (no region's
     fill holds it), a 0.53 degree disk in the model sun's colour; its direction's 68 % radius
-    HIDDEN_DIRECTION_68_DEG. None otherwise."""
+    the search's (``SunSearch.direction_68_deg``: how far positions that fit nearly as well reach). None otherwise."""
     if hidden_refusals(search, regions):
         return None
     fit = search.fit
@@ -200,7 +198,7 @@ def hidden_sun(search: sun_search.SunSearch | None, regions) -> KeyLight | None:
     return KeyLight(np.asarray(search.direction, dtype=np.float64), float(physical), fit.sun_rgb / fit.sun_energy,
                     math.radians(SUN_DIAMETER_DEG), (physical / SKY_SPREAD, physical * SKY_SPREAD), -1,
                     f"hidden sun: clear-sky fit of the visible sky (turbidity {fit.turbidity:g})", physical, fit,
-                    math.radians(HIDDEN_DIRECTION_68_DEG))
+                    math.radians(search.direction_68_deg))
 
 
 def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits) -> list[KeyLight]:

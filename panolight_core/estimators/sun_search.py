@@ -28,6 +28,10 @@ HIDDEN_MIN_COLOUR_MATCH = 0.0  # ... and whose colour varies as a clear sky's do
 # observed and modelled over the sky is positive (bluer away from the sun and the horizon). A white ceiling with
 # a window passed every other test at ev -2 with -0.27; the real suns' skies found with their sun hidden: 0.31-0.94
 # but one (-0.24), docs/keylight.md
+DIRECTION_68_SCORE_MARGIN = 0.2  # a found sun's direction is uncertain over every coarse position scoring within
+# this share of the best: over the real suns found with their sun hidden (docs/keylight.md), the farthest such
+# position's angle covered the error for 68 % (17 of 25; median radius 10 degrees; a sharp sky 2.5, a long ridge
+# of equal fits 20-30)
 SUN_PATCH_DEG = 3.0  # the cells around a found sun that tell whether it is seen (sky) or behind an occluder
 
 
@@ -45,6 +49,8 @@ class SunSearch:
     contrast: float
     seen: bool
     colour_match: float = 1.0  # ``colour_match``: how the sky's colour varies against the model's (-1..1)
+    direction_68_deg: float = REFINE_STEP_DEG  # the direction's 68 % radius: the farthest coarse position whose
+    # score is within DIRECTION_68_SCORE_MARGIN of the best, at least the refinement's step
 
     @property
     def elevation_deg(self) -> float:
@@ -177,6 +183,7 @@ def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: 
     if max_contrast is not None and contrast > max_contrast:
         return None
     best = suns[i]
+    close = suns[finite][scores[finite] <= (1.0 + DIRECTION_68_SCORE_MARGIN) * scores[i]]
     fine = sun_candidates(REFINE_STEP_DEG, best, 1.5 * SEARCH_STEP_DEG)
     near = slice(max(int(turbidity[i]) - 1, 0), int(turbidity[i]) + 2)
     fine_scores = _position_scores(*_coarse(rad, usable, clipped, REFINE_ROWS), fine, table, near)[0]
@@ -185,7 +192,9 @@ def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: 
     fit = fit_clear_sky(rad, usable, clipped, best, table)
     if fit is None:
         return None
-    return SunSearch(best, fit, contrast, _seen(rad, usable, clipped, best), colour_match(rad, usable, fit, best, table))
+    spread = float(np.degrees(np.arccos(np.clip(close @ best, -1.0, 1.0))).max())
+    return SunSearch(best, fit, contrast, _seen(rad, usable, clipped, best), colour_match(rad, usable, fit, best, table),
+                     max(spread, REFINE_STEP_DEG))
 
 
 def colour_match(rad: np.ndarray, usable: np.ndarray, fit: SkyFit, sun, table: SkyTable | None = None) -> float:

@@ -57,7 +57,7 @@ def located(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
     return dict(row, found=bool(found.found), angle_deg=round(metrics.angle_deg(ds["direction"], found.direction), 3),
                 elevation_deg=round(found.elevation_deg, 2), contrast=round(found.contrast, 4),
                 rms=round(found.fit.rms, 4), sky_sr=round(found.fit.sky_sr, 3), blueness=round(found.fit.blueness, 3),
-                colour_match=round(found.colour_match, 3),
+                colour_match=round(found.colour_match, 3), direction_68_deg=round(found.direction_68_deg, 3),
                 clear=bool(found.fit.clear), energy_ratio=keylight.SKY_CORRECTION * found.fit.sun_energy / truth)
 
 
@@ -139,6 +139,9 @@ def summary(rows: list[dict], evs) -> dict:
             "median_angle_deg": statistics.median(errs) if errs else None,
             "angle_68_deg": float(np.percentile(errs, 68)) if errs else None,
             "energy_within": 2 ** statistics.median(lr) if lr else None,
+            # how often the error is within the 68 % radius the search reports (calibrated: 0.68)
+            "direction_68_covers": statistics.mean(r["angle_deg"] <= r["direction_68_deg"] for r in suns) if suns else None,
+            "median_direction_68_deg": statistics.median(r["direction_68_deg"] for r in suns) if suns else None,
             "energy_ratios": sorted(round(r["energy_ratio"], 3) for r in suns),
             "scenes": len(inv), "hidden_suns": len(hidden), "right": sum(h["right"] for h in hidden),
             "false": [f"{r['scene']} ({h['angle_deg']:.0f} deg off)" for r in inv for h in r["hidden"] if not h["right"]]}
