@@ -180,6 +180,17 @@ class SkyFit:
         return float(self.sun_rgb @ LUMINANCE_WEIGHTS)
 
 
+def sky_cells(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray):
+    """The cells a clear-sky fit rests on, for a work map ``rad`` (h, 2h, 3) and its usable / clipped (h, 2h)
+    masks: (directions (h, 2h, 3), solid angles (h, 2h), luminance (h, 2h), upper: above MIN_SKY_ELEVATION_DEG,
+    obs: upper, usable and not black (observed), cen: upper and clipped (censored: at least the clip level))."""
+    h, w = usable.shape
+    dirs = sh.pixel_directions(h, w)
+    upper = dirs[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG))
+    lum = rad @ LUMINANCE_WEIGHTS
+    return dirs, sh.pixel_solid_angles(h, w), lum, upper, upper & usable & (lum > 1e-4), upper & clipped
+
+
 def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun, table: SkyTable | None = None
                   ) -> SkyFit | None:
     """Fit the clear sky to a linear work map ``rad`` (h, 2h, 3) with the sun at unit ``sun``.
@@ -196,13 +207,7 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
     sun = np.asarray(sun, dtype=np.float64)
     if sun[2] <= 0:
         return None
-    h, w = usable.shape
-    dirs = sh.pixel_directions(h, w)
-    omega = sh.pixel_solid_angles(h, w)
-    upper = dirs[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG))
-    lum = rad @ LUMINANCE_WEIGHTS
-    obs = upper & usable & (lum > 1e-4)
-    cen = upper & clipped
+    dirs, omega, lum, upper, obs, cen = sky_cells(rad, usable, clipped)
     if obs.sum() < 16:
         return None
     d_obs, d_cen = dirs[obs], dirs[cen]

@@ -15,7 +15,7 @@ import numpy as np
 from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
 from .sky import (CLEAR_RMS, MIN_BLUENESS, MIN_SKY_ELEVATION_DEG, MIN_SKY_SR, OCCLUDER_LOG, SkyFit, SkyTable,
-                  fit_clear_sky, fit_rows, load_sky_table)
+                  fit_clear_sky, fit_rows, load_sky_table, sky_cells)
 
 SEARCH_ROWS, REFINE_ROWS = 16, 32  # rows of the coarse search's map (11 degree cells) and of its refinement's
 SEARCH_STEP_DEG, REFINE_STEP_DEG = 7.5, 2.5  # the candidate suns' spacing (elevation; azimuth at the horizon x 1.5)
@@ -137,13 +137,7 @@ def _visible_sky_sr(usable: np.ndarray) -> float:
 def _position_scores(rad, usable, clipped, suns, table: SkyTable, turbidities: slice = slice(None)):
     """((P,) each candidate sun's best score over the table's turbidities (``sky.fit_rows``, the sRGB curve;
     inf where no sky is seen), (P,) the index of that turbidity)."""
-    h, w = usable.shape
-    dirs = sh.pixel_directions(h, w)
-    omega = sh.pixel_solid_angles(h, w)
-    upper = dirs[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG))
-    lum = rad @ LUMINANCE_WEIGHTS
-    obs = upper & usable & (lum > 1e-4)
-    cen = upper & clipped
+    dirs, omega, lum, _, obs, cen = sky_cells(rad, usable, clipped)
     if obs.sum() < 16 or suns.shape[0] == 0:
         return np.full(suns.shape[0], np.inf), np.zeros(suns.shape[0], int)
     n_obs = int(obs.sum())

@@ -64,15 +64,8 @@ def _retouched_sky(paint=0.6, patch_deg=20.0):
     flat at ``paint`` x that level's colour: 1 = retouched out (sky-like), 0.02 = a building in front of it,
     2 = a clipped patch. Returns (ldr, sun direction, the sun's true energy in the picture's linear units)."""
     from panolight_core.camera.color import linear_to_srgb
-    from panolight_core.estimators import sky
 
-    t = sky.load_sky_table()
-    j = int(np.argmin(abs(t.turbidities - 3.0)))
-    e, az = math.radians(40.0), 1.0
-    s = np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
-    h = 128
-    d = sh.pixel_directions(h, 2 * h)
-    rad = t.sky_radiance(d.reshape(-1, 3), s)[j].reshape(h, 2 * h, 3)
+    rad, s, d, energy = _model_sky(40.0, 128)
     ang = np.degrees(np.arccos(np.clip(d @ s, -1, 1)))
     ring = (abs(ang - patch_deg) < 1.0) & (d[..., 2] > 0)
     k = 0.35 / float(np.median(rad[ring] @ LUMINANCE_WEIGHTS))
@@ -80,7 +73,22 @@ def _retouched_sky(paint=0.6, patch_deg=20.0):
     rad[ang < patch_deg] = paint * rad[ring].mean(axis=0)
     rad[d[..., 2] <= 0] = 0.03
     ldr = np.round(linear_to_srgb(np.clip(rad, 0, 1)) * 255).astype(np.uint8)
-    return ldr, s, k * float(t.sun_energy(40.0)[j] @ LUMINANCE_WEIGHTS)
+    return ldr, s, k * energy
+
+
+def _model_sky(elev_deg: float, h: int, turbidity: float = 3.0, az: float = 1.0):
+    """The tabulated clear sky with its sun ``elev_deg`` up at azimuth ``az`` (radians), on an h x 2h map:
+    (radiance (h, 2h, 3) in the table's units, 0 below the horizon; sun direction; pixel directions; the solar
+    disk's luminance energy in the same units)."""
+    from panolight_core.estimators import sky
+
+    t = sky.load_sky_table()
+    j = int(np.argmin(abs(t.turbidities - turbidity)))
+    e = math.radians(elev_deg)
+    s = np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
+    d = sh.pixel_directions(h, 2 * h)
+    rad = t.sky_radiance(d.reshape(-1, 3), s)[j].reshape(h, 2 * h, 3)
+    return rad, s, d, float(t.sun_energy(elev_deg)[j] @ LUMINANCE_WEIGHTS)
 
 
 def test_a_sun_retouched_out_of_a_clear_sky_is_put_back_from_the_sky():
@@ -215,15 +223,9 @@ def _clear_sky_with_pole(pole_deg=6.0):
     8 degrees in a darker sky, with a dark pole ``pole_deg`` wide standing through the sun (0: none).
     Returns (ldr, sun direction)."""
     from panolight_core.camera.color import linear_to_srgb
-    from panolight_core.estimators import sky
 
-    t = sky.load_sky_table()
-    j = int(np.argmin(abs(t.turbidities - 3.0)))
-    e, az = math.radians(35.0), 1.0
-    s = np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
-    h = 256
-    d = sh.pixel_directions(h, 2 * h)
-    rad = t.sky_radiance(d.reshape(-1, 3), s)[j].reshape(h, 2 * h, 3)
+    az = 1.0
+    rad, s, d, _ = _model_sky(35.0, 256, az=az)
     rad[d[..., 2] <= 0] = 0.02
     ang = np.degrees(np.arccos(np.clip(d @ s, -1, 1)))
     rad *= 0.15 / float((rad @ LUMINANCE_WEIGHTS)[(ang > 8.0) & (d[..., 2] > 0)].max())
