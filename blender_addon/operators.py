@@ -122,6 +122,16 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def hidden_sun_note(doc: dict) -> str:
+    """What an artist should know when the estimate put back a sun the photo does not show (lighting.json's
+    ``estimator.sun_search``): where, and how sure; "" otherwise."""
+    search = (doc.get("estimator") or {}).get("sun_search") or {}
+    if not search.get("hidden_sun"):
+        return ""
+    return (f"the photo shows no sun, so one was placed where its clear sky puts it ({search['elevation_deg']:.0f} deg "
+            f"up, within {search['direction_68_deg']:.0f} deg for 68 %): check its lamp against the photo's shadows")
+
+
 class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     """Estimate the lighting of the loaded panorama with the panel's settings (runs in the background; Esc
     cancels)"""
@@ -154,6 +164,9 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
             self.report({"WARNING"}, f"PanoLight: {store.stored_panorama(world).filepath or 'the panorama'}: {problem}")
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
+        hidden = hidden_sun_note(doc)
+        if hidden:
+            self.report({"INFO"}, f"PanoLight: {hidden}")
 
     @reports_errors
     def execute(self, context):

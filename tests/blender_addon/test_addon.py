@@ -451,6 +451,25 @@ def test_same_lighting_compares_every_light_not_only_their_number():
     assert not same_lighting(a, {"coefficients": [[1.0, 1.0, 1.1]], "lights": [sun]})
 
 
+def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
+    """A photo whose sun is retouched out: the estimate says a sun was placed from the sky, where and how sure."""
+    from blender_addon.operators import hidden_sun_note
+    from panolight_core.io import write_srgb8
+    from tests.panolight_core.estimators.test_keylight import _retouched_sky
+
+    path = write_srgb8(tmp_path / "retouched.png", _retouched_sky(paint=1.0)[0])
+    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
+    _configure()
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    doc = store.stored_lighting(bpy.context.scene.world)
+    search = doc["estimator"]["sun_search"]
+    assert search["hidden_sun"] and abs(search["elevation_deg"] - 40.0) < search["direction_68_deg"]  # sun 40 up
+    note = hidden_sun_note(doc)
+    assert note.startswith("the photo shows no sun") and f"{search['elevation_deg']:.0f} deg up" in note
+    assert hidden_sun_note({"estimator": {"sun_search": {"searched": True, "hidden_sun": False}}}) == ""
+    assert hidden_sun_note({}) == ""
+
+
 def _blender_site_packages():
     """The Python packages Blender ships (OpenImageIO among them): on sys.path inside Blender, not for the
     bpy module."""
