@@ -18,6 +18,9 @@ region that holds at least KEY_SHARE of the scene's predicted energy and makes i
   wide patch of overcast sky or a white wall is lit evenly, and a point light there would cast a shadow
   the scene does not have. One sun in the sky: of the regions whose fit passes, the best-fitting one holds
   it, and a region touching it (the sun's patch cut in two) is part of the same light.
+- a sun the photo does not show: where no region holds a clear-sky sun, the clear-sky position that best fits
+  the visible sky (``sun_search.search_sun``) becomes a sun when the sky is clear, singles the position out,
+  varies in colour as a sky does, and no occluder or clipped region stands there (``hidden_sun``).
 - shape and colour: a sun is a 0.53 degree disk in the fitted sun's colour (a sunset stays warm); a lamp
   takes the size of its clipped core and the colour of its glare (the unclipped ring's excess over the
   background just beyond it), unless that is blue sky.
@@ -137,7 +140,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     same work maps, for a study that finds the lights again with other settings.
 
     Where no region holds a clear-sky sun, ``hidden_sun`` may add one the photo does not show (retouched out,
-    veiled, behind the image's glare-free sky), located and weighed from the visible sky alone."""
+    veiled, or not clipped), located and weighed from the visible sky alone (``sun_search``)."""
     keys = _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits)
     if not any(k.method.startswith("clear-sky") for k in keys) and len(keys) < MAX_KEYS:
         if fits is not None and -1 in fits:
