@@ -164,11 +164,10 @@ def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: 
     whether to trust it. None when less than HIDDEN_MIN_SKY_SR of sky is seen, or (``max_contrast``, a study
     passes None to see every fit) when no position is singled out: the answer ``found`` would give, sooner."""
     table = table or load_sky_table()
-    coarse = _coarse(rad, usable, clipped, SEARCH_ROWS)
     if max_contrast is not None and _visible_sky_sr(usable) < HIDDEN_MIN_SKY_SR:
         return None
     suns = sun_candidates(SEARCH_STEP_DEG)
-    scores, turbidity = _position_scores(*coarse, suns, table)
+    scores, turbidity = _position_scores(*_coarse(rad, usable, clipped, SEARCH_ROWS), suns, table)
     finite = np.isfinite(scores)
     if not finite.any():
         return None
