@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Idempotent setup: creates ./.venv (Python >= 3.11) and installs PanoLight with every extra.
-# Re-running is cheap: it only reinstalls when pyproject.toml or this script changed.
+# Re-running is cheap: it only reinstalls when pyproject.toml, this script or scripts/constraints.txt changed.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 venv="$root/.venv"
 stamp="$venv/.panolight-setup-stamp"
-want="$(cat pyproject.toml scripts/setup.sh | sha256sum | cut -c1-16)"
+want="$(cat pyproject.toml scripts/setup.sh scripts/constraints.txt | sha256sum | cut -c1-16)"
 if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && [ -x "$venv/bin/panolight" ]; then
     exit 0
 fi
@@ -27,7 +27,8 @@ pip_install() {
 }
 # torch first, pinned to the local CPU wheel: any other spec would pull several GB of CUDA packages.
 pip_install "torch==2.13.0"
-pip_install -e ".[train,mitsuba,blender,usd,bench,dev,plot]"
+# every other package at the versions in scripts/constraints.txt: the shipped models are reproducible with them
+pip_install -c scripts/constraints.txt -e ".[train,mitsuba,blender,usd,bench,dev,plot]"
 # The checkout's own folders (training/, blender_addon/) are not installed as packages; this venv finds
 # them on its path instead, so `panolight train` and `python -m training...` work from any folder.
 site="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
