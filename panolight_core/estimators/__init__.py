@@ -170,7 +170,8 @@ _REGISTRY = {
     "sources": Entry(per_source, "Per-source energy", "Each clipped sun, lamp or window gets the energy a model "
                      "learned from real HDR panoramas predicts; exact for HDR"),
     "keylight": Entry(per_source_key_lights, "Per-source + key lights", "Per-source energy, and each clipped "
-                      "region holding a compact sun or lamp made one explicit light that casts shadows (exact for HDR)"),
+                      "region holding a compact sun or lamp made one explicit light that casts shadows; a sun the "
+                      "photo does not show (retouched out) put back where its clear sky places it (exact for HDR)"),
     "neural": Entry(neural_estimator(), "Neural", "The paper's network (numpy; no torch needed)"),
 }
 BUILTIN = tuple(_REGISTRY)  # register_model and register_source_model add labels beside these
