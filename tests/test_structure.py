@@ -125,3 +125,28 @@ def test_the_core_tests_need_no_training_code():
     bad = {str(p.relative_to(ROOT)) for p in (ROOT / "tests" / "panolight_core").rglob("*.py")
            for imp in _imports("tests.x", p, modules) if imp.split(".")[0] == "training"}
     assert not bad, sorted(bad)
+
+
+def test_every_dependency_the_setup_installs_is_pinned_in_the_constraints():
+    """scripts/setup.sh installs with -c scripts/constraints.txt so the shipped trees are reproducible: a new
+    dependency (or extra) must be pinned there too, at the version in this venv (torch: setup.sh pins it)."""
+    import re
+    import tomllib
+    from importlib.metadata import version
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    specs = list(project["dependencies"]) + [d for deps in project["optional-dependencies"].values() for d in deps]
+
+    def norm(name):
+        return re.sub(r"[-_.]+", "-", name).lower()
+
+    pins = {}
+    for line in (ROOT / "scripts" / "constraints.txt").read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            name, _, ver = line.partition("==")
+            pins[norm(name)] = ver.strip()
+    wanted = {norm(re.split(r"[<>=!~;\[ ]", s, maxsplit=1)[0]) for s in specs} - {"torch"}
+    assert not wanted - set(pins), f"scripts/constraints.txt pins no version of {sorted(wanted - set(pins))}"
+    if Path(sys.prefix).resolve() == (ROOT / ".venv").resolve():  # the venv setup.sh made holds exactly those
+        stale = {n: (pins[n], version(n)) for n in wanted if version(n) != pins[n]}
+        assert not stale, f"installed versions differ from scripts/constraints.txt: {stale}"
