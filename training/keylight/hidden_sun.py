@@ -14,6 +14,11 @@ often the estimator invents one.
 2. **Invented suns.** Every scene at each ev, unmasked, through the shipped estimator (``keylight``): each hidden
    sun it adds, and the angle to the truth's brightest source. Where the truth has no dominant source within
    20 degrees of it, the sun is false.
+3. **Retouched, end to end.** Every scene with a dominant source above the horizon, its HDR retouched as a photo
+   editor would: everything within ``--mask`` degrees of the source painted in the colour of the sky just beyond,
+   then the camera JPEG of that. The whole estimate (``keylight`` and ``sources``, the shipped model) is scored
+   against the ORIGINAL HDR, whose sun lit the scene: whether a hidden sun is made, its direction error, the
+   dominant source's energy ratio r (EVALUATION.md) and m-RMSE / naive at lmax 2.
 
     python -m training.keylight.hidden_sun [--evs -2 0 2] [--mask 20] [--out docs/hidden_sun.json]
     python -m training.keylight.hidden_sun --picture ../shared/data/ldr/examplepano.jpg docs/hidden_sun.jpg
@@ -75,6 +80,47 @@ def invented(hdr: np.ndarray, ev: float) -> dict:
     return out
 
 
+def retouch(hdr: np.ndarray, direction, mask_deg: float) -> np.ndarray:
+    """``hdr`` with every pixel within ``mask_deg`` of unit ``direction`` painted in the mean colour of the sky
+    ring mask_deg..mask_deg + 2 degrees from it (above the horizon): the sun and its glare retouched out."""
+    h, w = hdr.shape[:2]
+    dirs = sh.pixel_directions(h, w)
+    ang = np.degrees(np.arccos(np.clip(dirs @ np.asarray(direction, dtype=np.float64), -1.0, 1.0)))
+    ring = (ang >= mask_deg) & (ang < mask_deg + 2.0) & (dirs[..., 2] > 0)
+    out = np.array(hdr, dtype=np.float64, copy=True)
+    if ring.any():
+        out[ang < mask_deg] = hdr[ring].mean(axis=0)
+    return out
+
+
+def retouched(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
+    """The whole estimate of the camera JPEG of ``hdr`` with its dominant source retouched out (``retouch``),
+    scored against ``hdr`` itself; None when the scene has no dominant source above the horizon."""
+    from panolight_core.camera import ldr_to_linear
+    from panolight_core.pipeline.estimate import estimate_lighting
+    from panolight_core.pipeline.settings import Settings
+
+    ds = metrics.dominant_source(hdr)
+    if not ds["dominant"] or ds["direction"][2] <= 0:
+        return None
+    ldr = hdr_to_ldr(retouch(hdr, ds["direction"], mask_deg), ev, 90)
+    gt = sh.project(np.asarray(hdr, dtype=np.float64), 2)
+    naive = metrics.m_rmse(gt, sh.project(ldr_to_linear(ldr), 2))
+    row = {"ev": ev}
+    for name in ("sources", "keylight"):
+        res = estimate_lighting(ldr, Settings(estimator=name))
+        est = {"m_rmse_over_naive": metrics.m_rmse(gt, res.model.project(2)) / naive,
+               "ratio": metrics.source_energy_ratio(hdr, res.hdr_panorama(ldr), ds["direction"])}
+        if name == "keylight":
+            suns = [k for k in res.estimate.recovery.keys if k.region < 0]
+            est["hidden_sun"] = bool(suns)
+            if suns:
+                est["angle_deg"] = round(metrics.angle_deg(ds["direction"], suns[0].direction), 3)
+                est["direction_68_deg"] = round(float(np.degrees(suns[0].direction_68)), 3)
+        row[name] = est
+    return row
+
+
 def picture(photo: Path, out: Path, width: int = 1024) -> dict:
     """The sun search on a photo, drawn: the photo (``width`` x width / 2) with each sky position tinted by how
     well a clear sky with the sun there fits (the search's coarse score, relative to the best), the search's
@@ -134,7 +180,24 @@ def summary(rows: list[dict], evs) -> dict:
         lr = [abs(math.log2(r["energy_ratio"])) for r in suns if r["energy_ratio"] > 0]
         inv = [r for r in rows if r["kind"] == "invented" and r["ev"] == ev]
         hidden = [h for r in inv for h in r["hidden"]]
+        ret = [r for r in rows if r["kind"] == "retouched" and r["ev"] == ev and not r["clipped_truth"]]
+        made = [r for r in ret if r["keylight"]["hidden_sun"]]
+
+        def within(name, sel):
+            lr = [abs(math.log2(max(r[name]["ratio"], 1e-12))) for r in sel]
+            return 2 ** statistics.median(lr) if lr else None
+
+        retouched_summary = {
+            "scenes": len(ret), "hidden_suns": len(made),
+            "median_angle_deg": statistics.median(r["keylight"]["angle_deg"] for r in made) if made else None,
+            "energy_within": {"keylight": within("keylight", made), "sources": within("sources", made)},
+            "m_rmse_median": {n: statistics.median(r[n]["m_rmse_over_naive"] for r in made) if made else None
+                              for n in ("keylight", "sources")},
+            "m_rmse_mean": {n: statistics.mean(r[n]["m_rmse_over_naive"] for r in made) if made else None
+                            for n in ("keylight", "sources")},
+            "keylight_wins": sum(r["keylight"]["m_rmse_over_naive"] < r["sources"]["m_rmse_over_naive"] for r in made)}
         out[f"{ev:+g}"] = {
+            "retouched": retouched_summary,
             "dominant_above_horizon": len(loc), "found": len(suns),
             "median_angle_deg": statistics.median(errs) if errs else None,
             "angle_68_deg": float(np.percentile(errs, 68)) if errs else None,
@@ -172,6 +235,14 @@ def main(argv=None) -> int:
                 if loc["found"]:
                     print(f"[{i}/{len(files)}] {p.stem:28s} ev {ev:+g} located: {loc['angle_deg']:5.1f} deg off, "
                           f"energy x{loc['energy_ratio']:.2f} (contrast {loc['contrast']:.2f})", flush=True)
+            ret = retouched(hdr, ev, args.mask)
+            if ret is not None:
+                rows.append(dict(ret, kind="retouched", scene=p.stem, clipped_truth=p.name in clipped))
+                if ret["keylight"]["hidden_sun"]:
+                    print(f"[{i}/{len(files)}] {p.stem:28s} ev {ev:+g} retouched: hidden sun "
+                          f"{ret['keylight']['angle_deg']:5.1f} deg off, r {ret['keylight']['ratio']:.2f} "
+                          f"(sources {ret['sources']['ratio']:.3f}), m-RMSE / naive {ret['keylight']['m_rmse_over_naive']:.2f} "
+                          f"(sources {ret['sources']['m_rmse_over_naive']:.2f})", flush=True)
             inv = dict(invented(hdr, ev), kind="invented", scene=p.stem, clipped_truth=p.name in clipped)
             rows.append(inv)
             for h in inv["hidden"]:

@@ -72,3 +72,17 @@ def _write_hdr(tmp_path, hdr):
     path = tmp_path / "sky.exr"
     write_image(path, hdr.astype(np.float32))
     return path
+
+
+def test_retouching_paints_the_source_out_and_the_whole_estimate_brings_it_back():
+    hdr, s = _sky_hdr(with_sun=True)
+    painted = hidden_sun.retouch(hdr, s, 20.0)
+    d = sh.pixel_directions(*hdr.shape[:2])
+    near = d @ s > math.cos(math.radians(20.0))
+    assert np.ptp(painted[near], axis=0).max() == 0 and np.array_equal(painted[~near], hdr[~near])
+    assert painted[near].max() < hdr[near].max() / 100  # the sun is gone
+    row = hidden_sun.retouched(hdr, -2.0, 20.0)
+    key, plain = row["keylight"], row["sources"]
+    assert key["hidden_sun"] and key["angle_deg"] < key["direction_68_deg"]
+    assert plain["ratio"] < 0.05 < key["ratio"]  # the retouched photo alone shows no sun; the sky puts it back
+    assert key["m_rmse_over_naive"] < plain["m_rmse_over_naive"]
