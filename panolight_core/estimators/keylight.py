@@ -142,7 +142,7 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     Where no region holds a clear-sky sun, ``hidden_sun`` may add one the photo does not show (retouched out,
     veiled, or not clipped), located and weighed from the visible sky alone (``sun_search``)."""
     keys = _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits)
-    if not any(k.method.startswith("clear-sky") for k in keys) and len(keys) < MAX_KEYS:
+    if not _holds_clear_sky_sun(keys) and len(keys) < MAX_KEYS:
         if fits is not None and -1 in fits:
             search = fits[-1]
         else:
@@ -153,6 +153,11 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
         if hidden is not None:
             keys.append(hidden)
     return keys
+
+
+def _holds_clear_sky_sun(keys) -> bool:
+    """Whether a clipped region's key light is a clear-sky sun (then no hidden sun is searched for)."""
+    return any(k.method.startswith("clear-sky") for k in keys)
 
 
 def hidden_refusals(search: sun_search.SunSearch | None, regions) -> list[str]:
@@ -175,7 +180,7 @@ def sun_search_report(fits: dict, keys: list, regions) -> dict:
     """lighting.json's account of the sun search (``estimator.sun_search``) after ``find_key_lights`` found
     ``keys`` and filled ``fits`` on these ``regions``: whether it ran, where the sky puts a sun, and whether a
     hidden sun was made or why not."""
-    if any(k.method.startswith("clear-sky") for k in keys):
+    if _holds_clear_sky_sun(keys):
         return {"searched": False, "why": "a clipped region holds a clear-sky sun"}
     if -1 not in fits:
         return {"searched": False, "why": f"{MAX_KEYS} key lights already"}

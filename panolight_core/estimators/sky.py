@@ -76,9 +76,7 @@ class SkyTable:
         d = np.asarray(dirs, dtype=np.float64)
         x0, y0, fx, fy = _table_coordinates(d, sun[None], nt, nph)
         x0, y0, fx, fy = x0[0], y0[0], fx[0][:, None], fy[0][:, None]
-        i00 = x0 * nph + y0
-        out = ((1 - fx) * (1 - fy) * rows[i00] + fx * (1 - fy) * rows[i00 + nph]
-               + (1 - fx) * fy * rows[i00 + 1] + fx * fy * rows[i00 + nph + 1])
+        out = _bilinear(rows, x0 * nph + y0, nph, fx, fy)
         out = np.where((d[:, 2] > 0)[:, None], out, 0.0)
         return np.moveaxis(out.reshape(d.shape[0], tab.shape[0], *tab.shape[3:]), 1, 0)
 
@@ -105,15 +103,20 @@ class SkyTable:
         rows = np.ascontiguousarray(np.moveaxis(tab, 1, 3)).reshape(u * nt * nph, nt_)  # one row per table cell
         d = np.asarray(dirs, dtype=np.float64)
         x0, y0, fx, fy = _table_coordinates(d, suns, nt, nph)  # (P, N)
-        i00 = (ring.reshape(-1)[:, None] * nt + x0) * nph + y0
-        out = ((1 - fx) * (1 - fy))[..., None] * rows[i00] + (fx * (1 - fy))[..., None] * rows[i00 + nph] \
-            + ((1 - fx) * fy)[..., None] * rows[i00 + 1] + (fx * fy)[..., None] * rows[i00 + nph + 1]
+        out = _bilinear(rows, (ring.reshape(-1)[:, None] * nt + x0) * nph + y0, nph, fx[..., None], fy[..., None])
         out = np.where((d[:, 2] > 0)[None, :, None], out, 0.0)  # (P, N, T)
         return np.moveaxis(out, 2, 1)
 
     def sun_energy(self, elevation_deg: float) -> np.ndarray:
         """(T, 3) the solar disk's RGB energy at this elevation for every table turbidity."""
         return self._at_elevation(self.sun, elevation_deg)
+
+
+def _bilinear(rows: np.ndarray, i00: np.ndarray, nph: int, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
+    """The table ``rows`` (one per table cell, nph cells to a view-zenith row) bilinearly at cell indices ``i00``
+    with fractions ``fx`` (along view zenith) and ``fy`` (along azimuth), broadcast against rows[i00]."""
+    return ((1 - fx) * (1 - fy) * rows[i00] + fx * (1 - fy) * rows[i00 + nph]
+            + (1 - fx) * fy * rows[i00 + 1] + fx * fy * rows[i00 + nph + 1])
 
 
 def _table_coordinates(dirs: np.ndarray, suns: np.ndarray, nt: int, nph: int):

@@ -12,10 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
-from .sky import (CLEAR_RMS, MIN_BLUENESS, MIN_SKY_ELEVATION_DEG, MIN_SKY_SR, OCCLUDER_LOG, SkyFit, SkyTable,
-                  fit_clear_sky, fit_rows, load_sky_table, sky_cells)
+from .sky import (CLEAR_RMS, MIN_BLUENESS, MIN_SKY_SR, OCCLUDER_LOG, SkyFit, SkyTable, fit_clear_sky, fit_rows,
+                  load_sky_table, sky_cells)
 
 SEARCH_ROWS, REFINE_ROWS = 16, 32  # rows of the coarse search's map (11 degree cells) and of its refinement's
 SEARCH_STEP_DEG, REFINE_STEP_DEG = 7.5, 2.5  # the candidate suns' spacing (elevation; azimuth at the horizon x 1.5)
@@ -127,11 +126,10 @@ def _coarse(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, rows: int)
     return mean(np.asarray(rad, dtype=np.float64)), mean(usable.astype(np.float64)) > 0.999, mean(clipped.astype(np.float64)) > 0.5
 
 
-def _visible_sky_sr(usable: np.ndarray) -> float:
+def _visible_sky_sr(rad: np.ndarray, usable: np.ndarray) -> float:
     """The solid angle (sr) of usable cells above MIN_SKY_ELEVATION_DEG: the most sky any fit can rest on."""
-    h, w = usable.shape
-    upper = sh.pixel_directions(h, w)[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG))
-    return float(sh.pixel_solid_angles(h, w)[upper & usable].sum())
+    _, omega, _, upper, _, _ = sky_cells(rad, usable, usable)
+    return float(omega[upper & usable].sum())
 
 
 def _position_scores(rad, usable, clipped, suns, table: SkyTable, turbidities: slice = slice(None)):
@@ -164,7 +162,7 @@ def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: 
     whether to trust it. None when less than HIDDEN_MIN_SKY_SR of sky is seen, or (``max_contrast``, a study
     passes None to see every fit) when no position is singled out: the answer ``found`` would give, sooner."""
     table = table or load_sky_table()
-    if max_contrast is not None and _visible_sky_sr(usable) < HIDDEN_MIN_SKY_SR:
+    if max_contrast is not None and _visible_sky_sr(rad, usable) < HIDDEN_MIN_SKY_SR:
         return None
     suns = sun_candidates(SEARCH_STEP_DEG)
     scores, turbidity = _position_scores(*_coarse(rad, usable, clipped, SEARCH_ROWS), suns, table)
@@ -196,9 +194,8 @@ def colour_match(rad: np.ndarray, usable: np.ndarray, fit: SkyFit, sun, table: S
     offset): a clear sky is bluer away from the sun and the horizon, a ceiling or a wall does not follow it.
     0 where the model's colour does not vary over those cells."""
     table = table or load_sky_table()
-    h, w = usable.shape
-    dirs = sh.pixel_directions(h, w)
-    cells = usable & (dirs[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG))) & (rad.min(axis=-1) > 1e-4)
+    dirs, omega, _, upper, _, _ = sky_cells(rad, usable, usable)
+    cells = usable & upper & (rad.min(axis=-1) > 1e-4)
     if cells.sum() < 16:
         return 0.0
     j = int(np.argmin(abs(table.turbidities - fit.turbidity)))
@@ -208,7 +205,7 @@ def colour_match(rad: np.ndarray, usable: np.ndarray, fit: SkyFit, sun, table: S
     keep = log_ratio - np.median(log_ratio) > OCCLUDER_LOG
     o = np.log(obs[keep, 2] / obs[keep, 0])
     m = np.log(np.maximum(model[keep, 2], 1e-30) / np.maximum(model[keep, 0], 1e-30))
-    wt = sh.pixel_solid_angles(h, w)[cells][keep]
+    wt = omega[cells][keep]
     do, dm = o - (o * wt).sum() / wt.sum(), m - (m * wt).sum() / wt.sum()
     norm = math.sqrt(float((do ** 2 * wt).sum() * (dm ** 2 * wt).sum()))
     return float((do * dm * wt).sum() / norm) if norm > 0 else 0.0
@@ -217,13 +214,11 @@ def colour_match(rad: np.ndarray, usable: np.ndarray, fit: SkyFit, sun, table: S
 def _seen(rad, usable, clipped, sun) -> bool:
     """Whether the cells within SUN_PATCH_DEG of ``sun`` show sky: any clipped, or a mean luminance at least
     the median of the usable sky above MIN_SKY_ELEVATION_DEG (an occluder in front of the sun is darker)."""
-    h, w = usable.shape
-    dirs = sh.pixel_directions(h, w)
-    near = dirs @ np.asarray(sun, dtype=np.float64) >= math.cos(math.radians(max(SUN_PATCH_DEG, 90.0 / h)))
+    dirs, _, lum, upper, _, _ = sky_cells(rad, usable, clipped)
+    near = dirs @ np.asarray(sun, dtype=np.float64) >= math.cos(math.radians(max(SUN_PATCH_DEG, 90.0 / usable.shape[0])))
     if (near & clipped).any():
         return True
-    lum = rad @ LUMINANCE_WEIGHTS
-    sky = usable & (dirs[..., 2] > math.sin(math.radians(MIN_SKY_ELEVATION_DEG)))
+    sky = usable & upper
     if not (near & usable).any() or not sky.any():
         return False
     return float(lum[near & usable].mean()) >= float(np.median(lum[sky]))

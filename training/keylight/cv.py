@@ -113,6 +113,13 @@ def correction_cv(rows, files) -> dict:
     return out
 
 
+def save_study(result: dict, out: Path | None) -> None:
+    """Write a key-light study's result (summary and rows) as JSON to ``out``, when one is given."""
+    if out:
+        out.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+        print(f"wrote {out}")
+
+
 def real_hdri_parser(prog: str, doc: str) -> argparse.ArgumentParser:
     """The options every key-light study over the real HDRs takes: --hdri and --evs."""
     ap = argparse.ArgumentParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -168,9 +175,7 @@ def main(argv=None) -> int:
               "sky_correction": correction_cv(rows, files), "shipped_sky_correction": keylight.SKY_CORRECTION,
               "rows": rows}
     print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=1))
-    if args.out:
-        args.out.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
-        print(f"wrote {args.out}")
+    save_study(result, args.out)
     return 0
 
 

@@ -39,7 +39,7 @@ import numpy as np
 from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.estimators import keylight, sources, sun_search
-from training.keylight.cv import clipped_truth, real_hdri_parser
+from training.keylight.cv import clipped_truth, real_hdri_parser, save_study
 from training.source_energy.fit import load_hdr, scene_files
 
 RIGHT_DEG = 20.0  # a hidden sun this close to the truth's dominant source is that source
@@ -250,9 +250,7 @@ def main(argv=None) -> int:
                       f"brightest source ({'right' if h['right'] else 'FALSE'})", flush=True)
     result = {"mask_deg": args.mask, "summary": summary(rows, args.evs), "rows": rows}
     print(json.dumps(result["summary"], indent=1))
-    if args.out:
-        args.out.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
-        print(f"wrote {args.out}")
+    save_study(result, args.out)
     return 0
 
 

@@ -29,7 +29,6 @@ and for every other region it was tried on.
 """
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 import math
 import statistics
@@ -43,7 +42,8 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators.sources.fill import fill_with_keys
 from panolight_core.pipeline import fit_radiance
-from training.keylight.cv import clipped_truth, fold_model_paths, fold_models_option, real_hdri_parser
+from training.keylight.cv import (clipped_truth, fold_model_paths, fold_models_option, real_hdri_parser,
+                                  save_study)
 from training.source_energy.fit import load_hdr, scene_files
 from training.source_energy.cv import fold_of, scene_folds
 
@@ -220,9 +220,7 @@ def main(argv=None) -> int:
     for name, v in result["blueness"].items():
         print(f"clear-sky blueness, {name}: {len(v)} fits, " + (f"min {v[0]:.2f}, median {statistics.median(v):.2f}, "
                                                                  f"max {v[-1]:.2f}" if v else "none"))
-    if args.out:
-        args.out.write_text(json.dumps(dict(result, rows=rows), indent=1) + "\n", encoding="utf-8")
-        print(f"wrote {args.out}")
+    save_study(dict(result, rows=rows), args.out)
     return 0
 
 
