@@ -160,13 +160,14 @@ def _holds_clear_sky_sun(keys) -> bool:
     return any(k.method.startswith("clear-sky") for k in keys)
 
 
-def hidden_refusals(search: sun_search.SunSearch | None, regions) -> list[str]:
+def hidden_refusals(search: sun_search.SunSearch | sun_search.NoSun, regions) -> list[str]:
     """Why no hidden sun is made from this search, one phrase per reason (empty: it is): the search's own tests
-    (``SunSearch.refusals``), a sun behind an occluder (whose shade the camera would be in), or a clipped region
-    within its radius plus HIDDEN_CLEARANCE_DEG of it (the sun the photo shows, weighed as a region)."""
-    if search is None:
-        return ["too little sky is seen, or no position stands out"]
+    (``SunSearch.refusals``, or why it stopped: ``NoSun``), a sun behind an occluder (whose shade the camera would
+    be in), or a clipped region within its radius plus HIDDEN_CLEARANCE_DEG of it (the sun the photo shows,
+    weighed as a region)."""
     out = search.refusals()
+    if not isinstance(search, sun_search.SunSearch):
+        return out
     if not search.seen:
         out.append("behind an occluder (the camera would be in its shade)")
     if regions.count:
@@ -186,13 +187,13 @@ def sun_search_report(fits: dict, keys: list, regions) -> dict:
         return {"searched": False, "why": f"{MAX_KEYS} key lights already"}
     search = fits[-1]
     out = {"searched": True, "hidden_sun": any(k.region < 0 for k in keys), "refused": hidden_refusals(search, regions)}
-    if search is not None:
+    if isinstance(search, sun_search.SunSearch):
         out.update(direction=[round(float(v), 6) for v in search.direction], elevation_deg=round(search.elevation_deg, 2),
                    direction_68_deg=round(search.direction_68_deg, 2))
     return out
 
 
-def hidden_sun(search: sun_search.SunSearch | None, regions) -> KeyLight | None:
+def hidden_sun(search: sun_search.SunSearch | sun_search.NoSun, regions) -> KeyLight | None:
     """The key light of a sun the photo does not show, from ``sun_search.search_sun``, where ``hidden_refusals``
     has nothing against it. Its energy is the fit's solar disk x SKY_CORRECTION, added to the map (no region's
     fill holds it), a 0.53 degree disk in the model sun's colour; its direction's 68 % radius

@@ -31,6 +31,8 @@ DIRECTION_68_SCORE_MARGIN = 0.2  # a found sun's direction is uncertain over eve
 # this share of the best: over the real suns found with their sun hidden (docs/keylight.md), the farthest such
 # position's angle covered the error for 68 % (17 of 25; median radius 10 degrees; a sharp sky 2.5, a long ridge
 # of equal fits 20-30)
+NO_SKY = (f"no open sky to fit (no {180.0 / SEARCH_ROWS:g}-degree patch of sky above the horizon without clipped "
+          "pixels: a canopy or a sky clipped all over)")
 SUN_PATCH_DEG = 3.0  # the cells around a found sun that tell whether it is seen (sky) or behind an occluder
 
 
@@ -70,14 +72,34 @@ class SunSearch:
         if f.blueness < MIN_BLUENESS:
             out.append(f"the sky is not blue (blue/red {f.blueness:.2f} of a clear sky's < {MIN_BLUENESS})")
         if f.sky_sr < max(HIDDEN_MIN_SKY_SR, MIN_SKY_SR):
-            out.append(f"too little sky ({f.sky_sr:.2f} sr < {HIDDEN_MIN_SKY_SR})")
+            out.append(_too_little_sky(f.sky_sr))
         if self.contrast > HIDDEN_MAX_CONTRAST:
-            out.append(f"no position stands out (best score {self.contrast:.2f} of the median's > {HIDDEN_MAX_CONTRAST})")
+            out.append(_no_position_stands_out(self.contrast))
         if self.elevation_deg < HIDDEN_MIN_ELEVATION_DEG:
             out.append(f"at the horizon ({self.elevation_deg:.1f} deg < {HIDDEN_MIN_ELEVATION_DEG})")
         if not self.colour_match > HIDDEN_MIN_COLOUR_MATCH:
             out.append(f"the sky's colour does not vary as a clear sky's (correlation {self.colour_match:.2f})")
         return out
+
+
+@dataclass(frozen=True)
+class NoSun:
+    """A search that stopped before fitting a sun (``search_sun``): too little sky, or none singles a position
+    out. ``reason`` is the phrase ``refusals`` gives, in the words ``SunSearch.refusals`` uses."""
+
+    reason: str
+    found = False
+
+    def refusals(self) -> list[str]:
+        return [self.reason]
+
+
+def _too_little_sky(sky_sr: float) -> str:
+    return f"too little sky ({sky_sr:.2f} sr < {HIDDEN_MIN_SKY_SR})"
+
+
+def _no_position_stands_out(contrast: float, limit: float = HIDDEN_MAX_CONTRAST) -> str:
+    return f"no position stands out (best score {contrast:.2f} of the median's > {limit:g})"
 
 
 def sun_candidates(step_deg: float, centre=None, reach_deg: float | None = None) -> np.ndarray:
@@ -154,25 +176,28 @@ def position_scores(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, su
 
 
 def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: SkyTable | None = None,
-               max_contrast: float | None = HIDDEN_MAX_CONTRAST) -> SunSearch | None:
+               max_contrast: float | None = HIDDEN_MAX_CONTRAST) -> SunSearch | NoSun:
     """Locate a sun from the sky alone: the position whose clear sky best fits the visible sky (a coarse grid
     over the whole sky at SEARCH_ROWS, refined at REFINE_ROWS within 1.5 coarse steps of the best, over the
     coarse best turbidity and its neighbours), fitted there on the whole work map. rad (h, 2h, 3) linear work
     map (clip units), usable / clipped (h, 2h) bool as ``fit_clear_sky`` takes them. ``SunSearch.found`` says
-    whether to trust it. None when less than HIDDEN_MIN_SKY_SR of sky is seen, or (``max_contrast``, a study
-    passes None to see every fit) when no position is singled out: the answer ``found`` would give, sooner."""
+    whether to trust it. ``NoSun``, saying why, when less than HIDDEN_MIN_SKY_SR of sky is seen, when no sky is
+    seen at all, or (``max_contrast``; a study passes None to see every fit) when no position is singled out: the
+    answer ``found`` would give, sooner."""
     table = table or load_sky_table()
-    if max_contrast is not None and _visible_sky_sr(rad, usable) < HIDDEN_MIN_SKY_SR:
-        return None
+    if max_contrast is not None:
+        visible = _visible_sky_sr(rad, usable)
+        if visible < HIDDEN_MIN_SKY_SR:
+            return NoSun(_too_little_sky(visible))
     suns = sun_candidates(SEARCH_STEP_DEG)
     scores, turbidity = _position_scores(*_coarse(rad, usable, clipped, SEARCH_ROWS), suns, table)
     finite = np.isfinite(scores)
     if not finite.any():
-        return None
+        return NoSun(NO_SKY)
     i = int(np.argmin(scores))
     contrast = float(scores[i] / max(float(np.median(scores[finite])), 1e-12))
     if max_contrast is not None and contrast > max_contrast:
-        return None
+        return NoSun(_no_position_stands_out(contrast, max_contrast))
     best = suns[i]
     close = suns[finite][scores[finite] <= (1.0 + DIRECTION_68_SCORE_MARGIN) * scores[i]]
     fine = sun_candidates(REFINE_STEP_DEG, best, 1.5 * SEARCH_STEP_DEG)
@@ -182,7 +207,7 @@ def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: 
         best = fine[int(np.argmin(fine_scores))]
     fit = fit_clear_sky(rad, usable, clipped, best, table)
     if fit is None:
-        return None
+        return NoSun(NO_SKY)
     spread = float(np.degrees(np.arccos(np.clip(close @ best, -1.0, 1.0))).max())
     return SunSearch(best, fit, contrast, _seen(rad, usable, clipped, best), colour_match(rad, usable, fit, best, table),
                      max(spread, REFINE_STEP_DEG))

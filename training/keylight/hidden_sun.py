@@ -56,7 +56,7 @@ def located(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
     found = sun_search.search_sun(rad, (frac_any == 0) & ~near, (frac_all > 0.5) & ~near, max_contrast=None)
     row = {"ev": ev, "true_elevation_deg": round(math.degrees(math.asin(float(ds["direction"][2]))), 2),
            "share": round(float(ds["share"]), 4), "found": False}
-    if found is None:
+    if not isinstance(found, sun_search.SunSearch):  # no sky to fit at all
         return row
     truth = float(ds["energy"]) * auto_exposure(hdr, ev)
     return dict(row, found=bool(found.found), angle_deg=round(metrics.angle_deg(ds["direction"], found.direction), 3),

@@ -40,7 +40,7 @@ def test_the_sky_alone_locates_and_weighs_a_hidden_sun(elev, turbidity):
     """The sun and the 20 degrees around it hidden: the clear sky's own falloff puts it back."""
     rad, usable, clipped, s, energy = _hidden_sun_maps(elev=elev, turbidity=turbidity)
     found = sun_search.search_sun(rad, usable, clipped)
-    assert found is not None and found.found
+    assert isinstance(found, sun_search.SunSearch) and found.found
     assert metrics.angle_deg(found.direction, s) <= sun_search.REFINE_STEP_DEG  # the refinement's grid step
     assert found.fit.sun_energy == pytest.approx(energy, rel=0.25)
     assert found.contrast < 0.5
@@ -57,7 +57,27 @@ def test_an_overcast_sky_puts_no_sun_anywhere():
     ldr = np.round(linear_to_srgb(np.clip(rad, 0, 1)) * 255).astype(np.uint8)
     w, fa, fall = sources.work_maps(ldr)
     found = sun_search.search_sun(w, fa == 0, fall > 0.5)
-    assert found is None or not found.found
+    assert not found.found
+    (why,) = found.refusals()  # the search stops early, and says why in the words lighting.json carries
+    assert why.startswith("no position stands out (best score ")
+
+
+def test_a_search_with_too_little_sky_says_so():
+    """Most of the sky clipped (an over-exposed photo): the search stops before fitting and names the reason
+    with its numbers; with no unclipped sky at all, even a study's search (no early stop) says there is none."""
+    rad, usable, clipped, s, _ = _hidden_sun_maps(mask_deg=0.0)
+    d = sh.pixel_directions(*usable.shape)
+    up = d[..., 2]
+    behind = np.degrees(np.arccos(np.clip(-(d[..., :2] @ s[:2]) / np.maximum(np.linalg.norm(d[..., :2], axis=-1), 1e-9)
+                                          / np.linalg.norm(s[:2]), -1, 1)))
+    wedge = usable & (behind < 30.0)  # only a 60-degree wedge of sky, opposite the sun, is left (about 1 sr)
+    found = sun_search.search_sun(rad, wedge, clipped)
+    assert isinstance(found, sun_search.NoSun) and not found.found
+    (why,) = found.refusals()
+    sr = float(why.split("(")[1].split(" sr")[0])
+    assert why.startswith("too little sky (") and 0.3 < sr < sun_search.HIDDEN_MIN_SKY_SR
+    none = sun_search.search_sun(rad, usable & (up < 0), clipped, max_contrast=None)
+    assert none.refusals() == [sun_search.NO_SKY]
 
 
 def test_a_sun_behind_an_occluder_is_not_seen():
@@ -65,7 +85,7 @@ def test_a_sun_behind_an_occluder_is_not_seen():
     dark = sh.pixel_directions(*usable.shape) @ s > math.cos(math.radians(15.0))
     rad = np.where(dark[..., None], 0.01, rad)  # a building in front of the sun
     found = sun_search.search_sun(rad, usable | dark, clipped & ~dark)
-    assert found is not None and metrics.angle_deg(found.direction, s) < 10.0
+    assert isinstance(found, sun_search.SunSearch) and metrics.angle_deg(found.direction, s) < 10.0
     assert not found.seen
 
 
@@ -87,7 +107,7 @@ def test_a_sky_whose_colour_runs_against_a_clear_skys_puts_no_sun():
     a, b = (rad[sky_cells] * om).sum(axis=0), (wall[sky_cells] * om).sum(axis=0)
     wall[..., 2] *= (a[2] / a[0]) / (b[2] / b[0])
     mirrored = sun_search.search_sun(wall, usable, clipped)
-    assert mirrored is not None and mirrored.colour_match < 0 and not mirrored.found
+    assert isinstance(mirrored, sun_search.SunSearch) and mirrored.colour_match < 0 and not mirrored.found
     assert mirrored.fit.clear and mirrored.contrast <= sun_search.HIDDEN_MAX_CONTRAST  # every other test passes
     (why,) = mirrored.refusals()
     assert why.startswith("the sky's colour does not vary as a clear sky's")
