@@ -30,14 +30,42 @@ def auto_exposure(hdr: np.ndarray, ev: float = 0.0, robust: bool = False) -> flo
     return 0.18 * 2.0 ** ev / med
 
 
+TONE_CURVES = {  # name: (what it is, its parameter's default)
+    "srgb": ("the sRGB curve (IEC 61966-2-1): EVALUATION.md's camera", None),
+    "gamma": ("a pure power law x^(1/gamma), no linear toe (the training camera draws gamma 1.8-2.6)", 2.2),
+    "shoulder": ("a soft highlight shoulder x (1 + x / wp^2) / (1 + x), reaching white at wp, then sRGB (the training "
+                 "camera draws wp 2-8)", 4.0),
+    "contrast": ("a camera's midtone S-curve: 0.18 (x / 0.18)^g, steeper about mid grey (g > 1), then sRGB (not "
+                 "drawn in training)", 1.6),
+}
+
+
+def tone_curve(x: np.ndarray, curve: str = "srgb", param: float | None = None) -> np.ndarray:
+    """Exposed linear values x (>= 0, 1 = the clip level of the sRGB camera) -> encoded values in [0, 1] through
+    one of TONE_CURVES (``param``: gamma, wp or g; None for the curve's default). ValueError naming the curves for
+    an unknown one."""
+    if curve not in TONE_CURVES:
+        raise ValueError(f"unknown tone curve {curve!r}; choose one of {', '.join(TONE_CURVES)}")
+    p = TONE_CURVES[curve][1] if param is None else float(param)
+    if curve == "srgb":
+        return linear_to_srgb(np.clip(x, 0.0, 1.0))
+    if curve == "gamma":
+        return np.clip(x, 0.0, 1.0) ** (1.0 / p)
+    if curve == "shoulder":
+        return linear_to_srgb(np.clip(x * (1.0 + x / p ** 2) / (1.0 + x), 0.0, 1.0))
+    return linear_to_srgb(np.clip(0.18 * (np.maximum(x, 0.0) / 0.18) ** p, 0.0, 1.0))
+
+
 def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None, robust: bool = False,
-               scale: float | None = None) -> np.ndarray:
+               scale: float | None = None, curve: str = "srgb", curve_param: float | None = None) -> np.ndarray:
     """(H, W, 3) linear HDR -> (H, W, 3) uint8 sRGB as an auto-exposing camera would (EVALUATION.md).
 
     robust: see auto_exposure (for training data with masked or black regions). scale: use this exposure
-    factor instead of the automatic one (training code that needs k itself)."""
+    factor instead of the automatic one (training code that needs k itself). curve, curve_param: another
+    camera's tone curve (``tone_curve``; EVALUATION.md's is "srgb")."""
     k = auto_exposure(hdr, ev, robust) if scale is None else float(scale)
-    ldr = np.round(linear_to_srgb(np.clip(k * np.asarray(hdr, dtype=np.float64), 0.0, 1.0)) * 255.0).astype(np.uint8)
+    x = k * np.asarray(hdr, dtype=np.float64)
+    ldr = np.round(tone_curve(x, curve, curve_param) * 255.0).astype(np.uint8)
     return ldr if jpeg_quality is None else jpeg_roundtrip(ldr, jpeg_quality)
 
 

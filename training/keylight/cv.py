@@ -14,6 +14,7 @@ table then shows how far that lands from the shipped all-scene value.
 
     python -m training.keylight.cv [--evs -2 0 2] [--out docs/keylight.json]
     python -m training.keylight.cv --fold-models 'runs/folds/sources_{k}.safetensors'   # by scene, out of sample
+    python -m training.keylight.cv --curve contrast:1.6     # through another camera's tone curve
 
 ``--fold-models`` scores each scene with the per-source model of its fold (``training.source_energy.fit ship
 --hold-out K/5``), which never saw it: a cross-validation of the estimator, not only of SKY_CORRECTION.
@@ -28,12 +29,15 @@ import statistics
 from pathlib import Path
 
 from panolight_core import metrics
-from panolight_core.camera import auto_exposure, hdr_to_ldr
+from panolight_core.camera import TONE_CURVES, auto_exposure, hdr_to_ldr
 from panolight_core.estimators import keylight, register_source_model
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.source_energy.fit import DEFAULT_HDRI, load_hdr, scene_files
 from training.source_energy.cv import fold_of, scene_folds
+
+
+SRGB = ("srgb", None)  # EVALUATION.md's camera curve (``--curve``)
 
 
 def clipped_truth(folder: Path) -> set:
@@ -46,14 +50,16 @@ def clipped_truth(folder: Path) -> set:
     return out
 
 
-def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight") -> list[dict]:
+def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight", curve=SRGB) -> list[dict]:
+    """The dominant source's rows of one scene (none without one), one per ev, through the camera ``curve``
+    ((name, parameter) of ``camera.TONE_CURVES``; EVALUATION.md's sRGB by default)."""
     hdr = load_hdr(path)
     ds = metrics.dominant_source(hdr)
     if not ds["dominant"]:
         return []
     rows = []
     for ev in evs:
-        ldr = hdr_to_ldr(hdr, ev, 90)
+        ldr = hdr_to_ldr(hdr, ev, 90, curve=curve[0], curve_param=curve[1])
         res = estimate_lighting(ldr, Settings(estimator=estimator))
         est_hdr = res.hdr_panorama(ldr)
         lights = res.model.lights
@@ -62,7 +68,8 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight") -> 
         rec = res.estimate.recovery
         sky_key = next((k for k in (rec.keys if rec is not None else []) if k.method.startswith("clear-sky")), None)
         physical = None
-        if sky_key is not None and metrics.angle_deg(sky_key.direction, ds["direction"]) <= 10.0:
+        # the physical energy in camera units against the truth's: only through EVALUATION.md's sRGB curve
+        if sky_key is not None and curve == SRGB and metrics.angle_deg(sky_key.direction, ds["direction"]) <= 10.0:
             k = auto_exposure(hdr, ev)
             physical = sky_key.physical / keylight.SKY_CORRECTION / (ds["energy"] * k)
         rows.append({"scene": path.stem, "ev": ev, "clipped_truth": clipped, "share": round(ds["share"], 4),
@@ -128,6 +135,31 @@ def real_hdri_parser(prog: str, doc: str) -> argparse.ArgumentParser:
     return ap
 
 
+def parse_curve(text: str) -> tuple:
+    """``--curve`` NAME[:PARAM] -> (name, parameter or None), a name of ``camera.TONE_CURVES``."""
+    name, _, param = text.partition(":")
+    if name not in TONE_CURVES:
+        raise argparse.ArgumentTypeError(f"unknown tone curve {name!r}; choose one of {', '.join(TONE_CURVES)}")
+    if name == "srgb" and param:
+        raise argparse.ArgumentTypeError("the sRGB curve takes no parameter")
+    try:
+        value = float(param) if param else None
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--curve {text!r}: the parameter after ':' must be a number") from None
+    if value is not None and not value > 0:
+        raise argparse.ArgumentTypeError(f"--curve {text!r}: the parameter must be positive")
+    return name, value
+
+
+def curve_option(ap: argparse.ArgumentParser) -> None:
+    """``--curve``: the camera's tone curve for a study's JPEGs (EVALUATION.md's sRGB by default)."""
+    ap.add_argument("--curve", type=parse_curve, default=SRGB, metavar="NAME[:PARAM]",
+                    help="the camera's tone curve: " + "; ".join(
+                        f"'{n}'" + (f" (default {d:g})" if d is not None else "") + f": {what}"
+                        for n, (what, d) in TONE_CURVES.items())
+                    + ". EVALUATION.md's camera is 'srgb' (the default); e.g. --curve contrast:1.6")
+
+
 def fold_models_option(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--fold-models", default=None, metavar="PATTERN",
                     help="score each scene with the per-source model of its fold, PATTERN with {k} = 1..5 "
@@ -151,6 +183,7 @@ def main(argv=None) -> int:
     ap.add_argument("--estimator", default="keylight", help="estimator to score (default: %(default)s; "
                     "'sources' gives the baseline)")
     fold_models_option(ap)
+    curve_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
@@ -164,13 +197,13 @@ def main(argv=None) -> int:
         estimator_of = {p: label[k] for p, k in fold_of(files).items()}
     rows = []
     for i, p in enumerate(files, 1):
-        got = score_scene(p, args.evs, p.name in clipped, estimator_of[p])
+        got = score_scene(p, args.evs, p.name in clipped, estimator_of[p], args.curve)
         rows += got
         for r in got:
             print(f"[{i}/{len(files)}] {r['scene']:28s} ev {r['ev']:+g}{' (clipped truth)' if r['clipped_truth'] else ''}: "
                   f"angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  lights {r['lights']}  {r['key_method'] or '-'}",
                   flush=True)
-    result = {"estimator": args.estimator, "fold_models": args.fold_models,
+    result = {"estimator": args.estimator, "fold_models": args.fold_models, "curve": list(args.curve),
               "summary": {f"{ev:+g}": summary(rows, ev) for ev in args.evs},
               "sky_correction": correction_cv(rows, files), "shipped_sky_correction": keylight.SKY_CORRECTION,
               "rows": rows}

@@ -25,7 +25,7 @@ sky's blue/red over the model's; ``sky.MIN_BLUENESS``) for real suns (a dominant
 and for every other region it was tried on.
 
     python -m training.keylight.rules [--evs -2 0 2] [--gate] [--plateaus 15 30 60] [--fold-models 'f_{k}.safetensors']
-                                      [--out docs/keylight_rules.json]
+                                      [--curve NAME[:PARAM]] [--out docs/keylight_rules.json]
 """
 from __future__ import annotations
 
@@ -42,8 +42,8 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators.sources.fill import fill_with_keys
 from panolight_core.pipeline import fit_radiance
-from training.keylight.cv import (clipped_truth, fold_model_paths, fold_models_option, real_hdri_parser,
-                                  save_study)
+from training.keylight.cv import (SRGB, clipped_truth, curve_option, fold_model_paths, fold_models_option,
+                                  real_hdri_parser, save_study)
 from training.source_energy.fit import load_hdr, scene_files
 from training.source_energy.cv import fold_of, scene_folds
 
@@ -59,12 +59,13 @@ def _energies(rule: str, keys: list[dict]) -> list[float]:
     return [keylight.rule_energy(rule, k["physical"], k["learned"], k["decided"]) for k in keys]
 
 
-def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
+def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB) -> dict:
     """One scene at one ev: the key lights' candidates and every rule's scores; for each of ``plateaus``
-    (degrees) the shipped rule's scores with that ``find_key_lights`` plateau_deg (the sensitivity check)."""
+    (degrees) the shipped rule's scores with that ``find_key_lights`` plateau_deg (the sensitivity check).
+    curve: the camera's tone curve ((name, parameter) of ``camera.TONE_CURVES``; EVALUATION.md's sRGB)."""
     ds = metrics.dominant_source(hdr)
     gt = sh.project(hdr, 2)
-    ldr = hdr_to_ldr(hdr, ev, 90, robust=True)
+    ldr = hdr_to_ldr(hdr, ev, 90, robust=True, curve=curve[0], curve_param=curve[1])
     rad, frac_any, frac_all = maps = sources.work_maps(ldr)
     rec = sources.recover(ldr, model, maps=maps)  # the default's regions, prediction and decision
     reg, mu, sigma, reported = rec.regions, rec.mu, rec.sigma, rec.log_ratio
@@ -90,6 +91,9 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=()) -> dict:
     if ds["dominant"]:
         cone = sh.pixel_directions(h, w) @ np.asarray(ds["direction"]) > math.cos(math.radians(CONE_DEG + 90.0 / h))
         truth = float(ds["energy"]) * auto_exposure(hdr, ev, robust=True)
+        if curve != SRGB:  # the picture's linear units are not k x the HDR's: scale by the medians (EVALUATION.md's r)
+            truth = float(ds["energy"]) * float(np.median(ldr_to_linear(ldr) @ LUMINANCE_WEIGHTS)) / float(
+                np.median(hdr @ LUMINANCE_WEIGHTS))
 
     def scores(keys):
         work = fill_with_keys(rad, reg, reported, keys)[1]
@@ -184,6 +188,7 @@ def main(argv=None) -> int:
     ap.add_argument("--plateaus", type=float, nargs="*", default=[],
                     help="also score the shipped rule with these plateau extents (degrees; keylight.PLATEAU_EXTENT_DEG)")
     fold_models_option(ap)
+    curve_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
@@ -198,11 +203,12 @@ def main(argv=None) -> int:
             continue
         hdr = load_hdr(p)
         for ev in args.evs:
-            row = dict(score_scene(hdr, ev, model_of[p], args.plateaus), scene=p.stem)
+            row = dict(score_scene(hdr, ev, model_of[p], args.plateaus, args.curve), scene=p.stem)
             rows.append(row)
             print(f"[{i}/{len(files)}] {p.stem:28s} ev {ev:+g}: " + "  ".join(
                 f"{rule} {row['rules'][rule][0]:.3f}" for rule in RULES), flush=True)
-    result = {"fold_models": args.fold_models, "summary": {}, "gates": None, "blueness": blueness(rows)}
+    result = {"fold_models": args.fold_models, "curve": list(args.curve), "summary": {}, "gates": None,
+              "blueness": blueness(rows)}
     gate = None
     if args.gate:
         names = sorted(next((_region_keys(r)[0]["features"] for r in rows if _region_keys(r)), {}))

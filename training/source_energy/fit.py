@@ -35,8 +35,8 @@ import numpy as np
 
 from panolight_core import sh, threads
 from panolight_core.estimators import sources
-from panolight_core.camera import auto_exposure, jpeg_roundtrip
-from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
+from panolight_core.camera import auto_exposure, jpeg_roundtrip, tone_curve
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.errors import PanoLightError
 from panolight_core.io import read_image
 from panolight_core.camera.resample import area_downsample
@@ -90,12 +90,11 @@ def camera(hdr: np.ndarray, rng: np.random.Generator, inject: float = 0.0):
     x = np.clip(k * p, 0.0, None)
     curve = rng.random()
     if curve < 0.7:
-        enc = linear_to_srgb(np.clip(x, 0.0, 1.0))
+        enc = tone_curve(x, "srgb")
     elif curve < 0.85:
-        enc = np.clip(x, 0.0, 1.0) ** (1.0 / rng.uniform(1.8, 2.6))
+        enc = tone_curve(x, "gamma", rng.uniform(1.8, 2.6))
     else:  # a soft shoulder reaching white at wp
-        wp = rng.uniform(2.0, 8.0)
-        enc = linear_to_srgb(np.clip(x * (1.0 + x / wp ** 2) / (1.0 + x), 0.0, 1.0))
+        enc = tone_curve(x, "shoulder", rng.uniform(2.0, 8.0))
     ldr = np.round(enc * 255.0).astype(np.uint8)
     q = rng.choice([0, 75, 85, 90, 95])
     if q:

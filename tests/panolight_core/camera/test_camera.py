@@ -36,3 +36,26 @@ def test_inverse_is_the_srgb_curve_and_clipping_is_flagged():
     np.testing.assert_allclose(linear_to_srgb(ldr_to_linear(v).astype(np.float64)) * 255, v, atol=1e-3)
     px = np.array([[[254, 0, 0], [253, 253, 253], [0, 0, 255]]], dtype=np.uint8)
     np.testing.assert_array_equal(clipped_mask(px), [[True, False, True]])
+
+
+def test_tone_curves_the_cameras_draw():
+    """The shared tone curves (training's camera and the studies' --curve): sRGB is EVALUATION.md's; a pure gamma;
+    a shoulder that reaches white exactly at wp; a midtone S-curve that keeps mid grey and steepens about it."""
+    from panolight_core.camera import TONE_CURVES, tone_curve
+
+    x = np.array([0.0, 0.01, 0.18, 0.5, 1.0, 3.0])
+    np.testing.assert_array_equal(tone_curve(x), linear_to_srgb(np.clip(x, 0, 1)))
+    np.testing.assert_allclose(tone_curve(x, "gamma", 2.0), np.sqrt(np.clip(x, 0, 1)))
+    np.testing.assert_allclose(tone_curve(np.array([4.0, 8.0]), "shoulder", 4.0), [1.0, 1.0])
+    assert tone_curve(np.array([3.9]), "shoulder", 4.0)[0] < 1.0  # only beyond wp is it white
+    g = 1.6
+    lin = srgb_to_linear(tone_curve(np.array([0.09, 0.18, 0.36]), "contrast", g))
+    np.testing.assert_allclose(lin[1], 0.18, rtol=1e-12)  # mid grey stays
+    np.testing.assert_allclose(np.log(lin[2] / lin[0]) / np.log(4.0), g, rtol=1e-9)  # a slope g in log-log
+    for name, (_, default) in TONE_CURVES.items():  # every curve maps into [0, 1], rising
+        y = tone_curve(np.linspace(0, 10, 200), name)
+        assert y.min() >= 0 and y.max() <= 1 and (np.diff(y) >= 0).all()
+    with pytest.raises(ValueError, match="unknown tone curve 'log'.*srgb, gamma, shoulder, contrast"):
+        tone_curve(x, "log")
+    ldr = hdr_to_ldr(np.full((4, 8, 3), 0.5), 0.0, curve="contrast", curve_param=g)
+    assert ldr.dtype == np.uint8 and int(ldr[0, 0, 0]) == round(255 * float(linear_to_srgb(np.array(0.18))))
