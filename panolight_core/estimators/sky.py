@@ -28,6 +28,7 @@ MIN_SKY_SR = 0.3  # ... nor one resting on less visible sky than this (sr)
 MIN_BLUENESS = 0.85  # ... nor one whose kept sky is redder than this times the model's blue/red: a grey room, a
 # night sky under sodium light (docs/keylight.md: 25 of 26 real suns' skies at 0.96 or bluer, the other a lamp at
 # night; grey studios, a chapel and night skies at 0.41-0.82)
+MID_GREY = 0.18  # the linear value an auto-exposing camera puts its metered mid grey at (EVALUATION.md's k)
 CONTRAST_RANGE = (0.5, 2.5)  # a sky that fails the gate through sRGB is fitted again through a tone curve: log
 # observed = s + g log model, g in this range (a camera's S-curve steepens the sky's falloff, a tone-mapped look
 # flattens it), and passes when that fit's residual does with g inside the range (a grey studio's walls ask
@@ -152,8 +153,8 @@ def load_sky_table(path=MODEL_PATH) -> SkyTable:
 
 @dataclass(frozen=True)
 class SkyFit:
-    """A clear-sky fit: scale (camera units per Mitsuba unit: the fitted sky's energy over the model's, the
-    per-pixel scale when ``contrast`` is 1), turbidity, the sky residual's RMS (natural log, over the sky
+    """A clear-sky fit: scale (camera units per Mitsuba unit: the sky as the camera's linear sensor saw it,
+    before any tone curve ``contrast`` reveals, over the model's; see ``fit_clear_sky``), turbidity, the sky residual's RMS (natural log, over the sky
     pixels kept), the solid angle of sky it rests on (sr), the sun's RGB energy in camera
     units (radiance x sr, in the model's colour: re-balancing it by the sky's observed colour made five
     real suns' colours worse, docs/keylight.md) and the kept sky's blue/red over the model's (blueness)."""
@@ -164,7 +165,8 @@ class SkyFit:
     sky_sr: float
     sun_rgb: np.ndarray
     blueness: float = 1.0
-    contrast: float = 1.0  # g of log observed = s + g log model: 1 for the sRGB curve, else the tone curve's
+    contrast: float = 1.0  # g of log observed = s + g log model: 1 for the sRGB curve, else the tone curve's (about
+    # MID_GREY)
 
     @property
     def luminance_clear(self) -> bool:
@@ -229,11 +231,10 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
         return None
     j, s, g, rms, sky_sr, keep = fit
     elev = math.degrees(math.asin(float(sun[2])))
-    if g == 1.0:
-        ratio = math.exp(s)
-    else:  # the sun keeps its share of the sky's energy: sun / sky of the model, times the fitted sky here
-        m = table.sky_luminance(dirs[upper], sun, j)[0]
-        ratio = float((np.exp(s) * m ** g * omega[upper]).sum() / (m * omega[upper]).sum())
+    # the sky before the tone curve, in the camera's linear units: a camera's curve keeps mid grey (what its
+    # exposure aims at) and steepens about it, observed = MID_GREY (c model / MID_GREY)^g, so log observed =
+    # s + g log model gives c = exp((s + (g - 1) log MID_GREY) / g); through sRGB (g = 1) c = exp(s)
+    ratio = math.exp((s + (g - 1.0) * math.log(MID_GREY)) / g)
     sun_rgb = ratio * table.sun_energy(elev)[j]
     blueness = _blueness(rad[obs][keep], table.sky_radiance(d_obs[keep], sun, j)[0], w_obs[keep])
     return SkyFit(ratio, float(table.turbidities[j]), rms, sky_sr, sun_rgb, blueness, g)

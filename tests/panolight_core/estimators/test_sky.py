@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from panolight_core import sh
+from panolight_core.camera import tone_curve
 from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
 from panolight_core.errors import PanoLightError
 from panolight_core.estimators import sky, sources
@@ -16,8 +17,9 @@ def _sun(elev_deg, az=1.0):
 
 def _clear_sky_ldr(elev=40.0, turbidity=3.0, h=256, clip_deg=20.0, contrast=1.0):
     """An 8-bit camera picture of the tabulated sky over a grey ground, exposed so that the sky clips out
-    to clip_deg from the sun (a ~40 degree patch), through a tone curve that raises the linear value to
-    ``contrast`` before the sRGB curve (1: plain sRGB). Returns (ldr, sun, exposure k, true sun energy)."""
+    to clip_deg from the sun (a ~40 degree patch; through sRGB), through a camera's midtone S-curve of slope
+    ``contrast`` about mid grey (``camera.tone_curve`` "contrast"; 1: plain sRGB). Returns (ldr, sun, exposure k,
+    true sun energy in the camera's linear units, turbidity)."""
     t = sky.load_sky_table()
     j = int(np.argmin(abs(t.turbidities - turbidity)))
     s = _sun(elev)
@@ -26,7 +28,7 @@ def _clear_sky_ldr(elev=40.0, turbidity=3.0, h=256, clip_deg=20.0, contrast=1.0)
     rad[d[..., 2] <= 0] = 0.02
     ring = (abs(np.degrees(np.arccos(np.clip(d @ s, -1, 1))) - clip_deg) < 1.0) & (d[..., 2] > 0)
     k = 1.0 / float(np.median(rad[ring] @ LUMINANCE_WEIGHTS))
-    ldr = np.round(linear_to_srgb(np.clip(k * rad, 0, 1) ** contrast) * 255).astype(np.uint8)
+    ldr = np.round(tone_curve(k * rad, "contrast", contrast) * 255).astype(np.uint8)
     return ldr, s, k, k * float(t.sun_energy(elev)[j] @ LUMINANCE_WEIGHTS), t.turbidities[j]
 
 
@@ -67,15 +69,17 @@ def test_clear_sky_fit_weighs_a_sun_inside_a_40_degree_clipped_patch():
     assert fit.sun_rgb[0] > fit.sun_rgb[2]  # a 40 degree sun through the atmosphere is warmer than white
 
 
-def test_a_clear_sky_through_a_steep_tone_curve_is_fitted_and_keeps_the_suns_share():
-    """A camera's S-curve steepens the sky's falloff (log observed = g log true): the sRGB fit fails the gate,
-    the fit with the curve's slope passes, and the sun keeps its share of the sky's energy (the shadow's
-    contrast) in the picture's own units."""
+def test_a_clear_sky_through_a_steep_tone_curve_is_fitted_and_weighs_the_sun_before_the_curve():
+    """A camera's S-curve steepens the sky's falloff about mid grey (log observed = g log true + const): the sRGB
+    fit fails the gate, the fit with the curve's slope passes, and the sun is weighed in the camera's linear units
+    before its curve (what a mid-grey metered sRGB camera would have recorded: k x its true energy). The sky's
+    energy as the picture shows it would overweigh it, the sky being brighter than mid grey."""
     g, elev = 1.8, 10.0
-    ldr, s, k, _, turbidity = _clear_sky_ldr(elev=elev, contrast=g)
+    ldr, s, k, energy, turbidity = _clear_sky_ldr(elev=elev, contrast=g, clip_deg=10.0)
     rad, frac_any, frac_all = sources.work_maps(ldr)
     fit = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
     assert fit.clear and fit.contrast == pytest.approx(g, abs=0.15)
+    assert 1 / 1.1 < fit.sun_energy / energy < 1.1
     t = sky.load_sky_table()
     j = int(np.argmin(abs(t.turbidities - turbidity)))
     d = sh.pixel_directions(*frac_all.shape)
@@ -83,8 +87,8 @@ def test_a_clear_sky_through_a_steep_tone_curve_is_fitted_and_keeps_the_suns_sha
     upper = d[..., 2] > math.sin(math.radians(sky.MIN_SKY_ELEVATION_DEG))
     true_sky = t.sky_radiance(d[upper], s)[j] @ LUMINANCE_WEIGHTS
     share = float(t.sun_energy(elev)[j] @ LUMINANCE_WEIGHTS) / float((true_sky * om[upper]).sum())
-    seen_sky = float(((k * true_sky) ** g * om[upper]).sum())  # the sky in the picture's linear units
-    assert 1 / 1.25 < fit.sun_energy / (share * seen_sky) < 1.25
+    seen_sky = float((sky.MID_GREY * (k * true_sky / sky.MID_GREY) ** g * om[upper]).sum())  # as the picture shows it
+    assert share * seen_sky > 1.5 * energy  # the sun's share of that sky: too strong
     rad, frac_any, frac_all = sources.work_maps(_clear_sky_ldr(elev=elev)[0])
     plain = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
     assert plain.clear and plain.contrast == 1.0  # an sRGB camera's sky is fitted as before
@@ -94,7 +98,7 @@ def test_a_tone_curve_slope_held_at_its_bound_is_refused(monkeypatch):
     """A slope pinned at CONTRAST_RANGE's bound is no camera's curve but a light the model does not describe
     (a grey studio asks for the lower bound): with the range cut to 1.5, a 1.8 curve's sky fits with a small
     residual at g = 1.5, and is still refused."""
-    ldr, s, _, _, _ = _clear_sky_ldr(elev=10.0, contrast=1.8)
+    ldr, s, _, _, _ = _clear_sky_ldr(elev=10.0, contrast=1.8, clip_deg=10.0)
     rad, frac_any, frac_all = sources.work_maps(ldr)
     monkeypatch.setattr(sky, "CONTRAST_RANGE", (0.5, 1.5))
     fit = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
