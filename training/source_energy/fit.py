@@ -4,8 +4,9 @@ Data: real HDR panoramas (default ``../shared/data/hdri``, 74 Poly Haven scenes;
 HDRIs, the public set, are refused). Each scene is seen through many cameras: yaw rotation, mirroring,
 white balance, exposure ev in [-3, 3] (the EVALUATION.md auto-exposure), tone curves other than pure
 sRGB (``camera.tone_curve``: a gamma 1.8-2.6 or a soft filmic shoulder; a midtone S-curve was tried and not
-kept, docs/keylight.md), JPEG quality 75-95 or none, and input sizes 512 to 2048 wide. Every clipped region of each LDR becomes one row: its features (sources.FEATURES) and its
-target, the natural log of true energy / held energy over the region's work cells.
+kept, docs/keylight.md), JPEG quality 75-95 or none, and input sizes 512 to 2048 wide. Every clipped
+region of each LDR becomes one row: its features (sources.FEATURES) and its target, the natural log of true
+energy / held energy over the region's work cells.
 
 Model: gradient-boosted regression trees (scikit-learn, squared loss on the log ratio, rows weighted by
 0.02 + sqrt of their share of the scene's true energy) for mu, and a second ensemble on the
