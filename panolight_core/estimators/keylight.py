@@ -42,7 +42,7 @@ from . import sun_search
 SUN_DIAMETER_DEG = 0.53  # the sun's angular diameter seen from the earth
 KEY_SHARE = 0.1  # a region whose predicted energy is at least this share of the scene's holds a key light
 MAX_KEYS = 3
-SKY_CORRECTION = 2.25  # true / physical sun energy: the real suns' median (training/keylight/cv.py: 2.23 over 28, folds 2.11-2.81)
+SKY_CORRECTION = 2.25  # true / physical sun energy: the real suns' median (training/keylight/cv.py: 2.20 over 28, folds 2.05-2.37)
 SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)
 LAMP_MIN_DIAMETER_DEG = 1.0
 SHOULDER = 0.75  # linear (clip level 1; sRGB 225): above it a channel sits on the camera's highlight shoulder
