@@ -50,3 +50,36 @@ def test_fold_model_patterns_name_every_fold_or_fail_clearly(tmp_path):
         fold_model_paths(str(tmp_path / "m_{k}.safetensors"), 4)
     with pytest.raises(SystemExit, match="needs"):
         fold_model_paths(str(tmp_path / "m.safetensors"))
+
+
+def test_curve_option_names_a_camera_curve_or_fails_clearly():
+    import argparse
+
+    from training.keylight.cv import SRGB, parse_curve
+
+    assert parse_curve("srgb") == SRGB
+    assert parse_curve("contrast:1.6") == ("contrast", 1.6)
+    assert parse_curve("gamma") == ("gamma", None)  # the curve's default parameter
+    for bad, why in [("log", "unknown tone curve 'log'"), ("gamma:x", "must be a number"),
+                     ("srgb:2", "takes no parameter"), ("shoulder:-1", "must be positive")]:
+        with pytest.raises(argparse.ArgumentTypeError, match=why):
+            parse_curve(bad)
+
+
+def test_a_scene_through_another_curve_is_scored_in_the_pictures_units():
+    """Through a tone curve the picture's linear units are not k x the HDR's, so the cone's truth is scaled by
+    the medians (EVALUATION.md's r). A contrast curve of slope 1 is the sRGB camera: the same lights, and the
+    same cone ratio to within the 8-bit median's rounding."""
+    h = 128
+    d = sh.pixel_directions(h, 2 * h)
+    sun = np.array([0.4, 0.3, 0.866])
+    hdr = np.full((h, 2 * h, 3), 0.3)
+    hdr[d[..., 2] < -0.3] = 0.1  # the sky and a band of ground alike: the median lies on one plateau
+    hdr[d @ sun > math.cos(math.radians(3.0))] = 2000.0
+    model = sources.load_source_model()
+    plain = keylight_rules.score_scene(hdr, 0.0, model)
+    flat = keylight_rules.score_scene(hdr, 0.0, model, curve=("contrast", 1.0))
+    assert [k["method"] for k in flat["keys"]] == [k["method"] for k in plain["keys"]]
+    assert flat["rules"]["hybrid"][2] == pytest.approx(plain["rules"]["hybrid"][2], rel=0.02)
+    steep = keylight_rules.score_scene(hdr, 0.0, model, curve=("contrast", 1.6))
+    assert all(np.isfinite(v).all() for v in steep["rules"].values())
