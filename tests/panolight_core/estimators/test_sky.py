@@ -5,7 +5,7 @@ import pytest
 
 from panolight_core import sh
 from panolight_core.camera import tone_curve
-from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.errors import PanoLightError
 from panolight_core.estimators import sky, sources
 
