@@ -84,8 +84,8 @@ class SunSearch:
 
 @dataclass(frozen=True)
 class NoSun:
-    """A search that stopped before fitting a sun (``search_sun``): too little sky, or none singles a position
-    out. ``reason`` is the phrase ``refusals`` gives, in the words ``SunSearch.refusals`` uses."""
+    """A search that stopped before fitting a sun (``search_sun``): too little sky, no open sky at all, or none
+    that singles a position out. ``reason`` is the phrase ``refusals`` gives, in ``SunSearch.refusals``'s words."""
 
     reason: str
     found = False
