@@ -156,9 +156,9 @@ class SkyFit:
     """A clear-sky fit: scale (camera units per Mitsuba unit: the sky as the camera's linear sensor saw it,
     before any tone curve ``contrast`` reveals, over the model's; see ``fit_clear_sky``), turbidity, the sky
     residual's RMS (natural log, over the sky pixels kept), the solid angle of sky it rests on (sr), the sun's
-    RGB energy in camera
-    units (radiance x sr, in the model's colour: re-balancing it by the sky's observed colour made five
-    real suns' colours worse, docs/keylight.md) and the kept sky's blue/red over the model's (blueness)."""
+    RGB energy in camera units (radiance x sr, in the model's colour: re-balancing it by the sky's observed
+    colour made five real suns' colours worse, docs/keylight.md) and the kept sky's blue/red over the model's
+    (blueness)."""
 
     scale: float
     turbidity: float
