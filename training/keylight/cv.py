@@ -28,6 +28,8 @@ import math
 import statistics
 from pathlib import Path
 
+import numpy as np
+
 from panolight_core import metrics
 from panolight_core.camera import TONE_CURVES, auto_exposure, hdr_to_ldr
 from panolight_core.estimators import keylight, register_source_model
@@ -178,6 +180,68 @@ def fold_model_paths(pattern: str, folds: int = 5) -> dict:
     return paths
 
 
+PICTURE_CURVES = (SRGB, ("gamma", 2.2), ("shoulder", 4.0), ("contrast", 1.6))
+
+
+def curve_picture(path: Path, out: Path, ev: float = 0.0, curves=PICTURE_CURVES, estimator: str = "keylight",
+                  width: int = 640) -> list[dict]:
+    """One real HDR with a dominant source through each camera curve, drawn: per curve the camera JPEG's sky
+    around the source (upper hemisphere, 180 degrees of azimuth centred on it, ``width`` wide), its clipped pixels
+    tinted red, the true source (yellow ring) and the estimate's brightest light (cyan cross), with the
+    direction error and the energy ratio r. Returns the rows drawn (curve, angle_deg, ratio)."""
+    from PIL import Image, ImageDraw
+
+    from panolight_core import sh
+
+    hdr = load_hdr(path)
+    ds = metrics.dominant_source(hdr)
+    if not ds["dominant"]:
+        raise SystemExit(f"{path}: no dominant compact source (EVALUATION.md) to draw")
+    H, W = hdr.shape[:2]
+    ty, tx = sh.grid.pixel_at(ds["direction"], H, W)
+    cols = (tx + np.arange(-W // 4, W // 4)) % W  # 180 degrees of azimuth around the source
+    panels, rows = [], []
+    for curve in curves:
+        ldr = hdr_to_ldr(hdr, ev, 90, curve=curve[0], curve_param=curve[1])
+        res = estimate_lighting(ldr, Settings(estimator=estimator))
+        lights = res.model.lights
+        key = max(lights, key=lambda light: light["intensity"]) if lights else None
+        angle = metrics.angle_deg(ds["direction"], key["peak_direction"]) if key else 180.0
+        ratio = metrics.source_energy_ratio(hdr, res.hdr_panorama(ldr), ds["direction"])
+        sky = ldr[: H // 2][:, cols].astype(np.float64)
+        white = ldr[: H // 2][:, cols].min(axis=-1) >= 254
+        sky[white] = 0.55 * sky[white] + 0.45 * np.array([255.0, 0.0, 0.0])
+        scale = width / sky.shape[1]
+        img = Image.fromarray(sky.astype(np.uint8)).resize((width, round(sky.shape[0] * scale)), Image.BILINEAR)
+        draw = ImageDraw.Draw(img)
+
+        def at(direction):
+            y, x = sh.grid.pixel_at(direction, H, W)
+            return ((x - cols[0]) % W + 0.5) * scale, (y + 0.5) * scale
+
+        x, y = at(ds["direction"])
+        r = 5.0 / 180.0 * H * scale  # the metric's 5-degree cone
+        draw.ellipse([x - r, y - r, x + r, y + r], outline=(255, 230, 0), width=2)
+        if key is not None and key["peak_direction"][2] > 0:
+            x, y = at(key["peak_direction"])
+            draw.line([x - 7, y, x + 7, y], fill=(0, 255, 255), width=2)
+            draw.line([x, y - 7, x, y + 7], fill=(0, 255, 255), width=2)
+        name = curve[0] + (f" {curve[1]:g}" if curve[1] is not None else "")
+        label = f"{name}: key light {angle:.1f} deg off, r {ratio:.2g}" if key else f"{name}: no light, r {ratio:.2g}"
+        draw.rectangle([0, 0, width, 15], fill=(0, 0, 0))
+        draw.text((4, 2), label, fill=(255, 255, 255))
+        panels.append(img)
+        rows.append({"curve": list(curve), "angle_deg": round(angle, 3), "ratio": ratio})
+    canvas = Image.new("RGB", (width, sum(p.height for p in panels)))
+    y0 = 0
+    for p in panels:
+        canvas.paste(p, (0, y0))
+        y0 += p.height
+    out.parent.mkdir(parents=True, exist_ok=True)
+    canvas.save(out, **({"quality": 88} if out.suffix.lower() in (".jpg", ".jpeg") else {}))
+    return rows
+
+
 def main(argv=None) -> int:
     ap = real_hdri_parser("python -m training.keylight.cv", __doc__)
     ap.add_argument("--estimator", default="keylight", help="estimator to score (default: %(default)s; "
@@ -185,7 +249,24 @@ def main(argv=None) -> int:
     fold_models_option(ap)
     curve_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
+    ap.add_argument("--picture", nargs=2, type=Path, metavar=("HDR", "IMAGE"), default=None,
+                    help="instead: draw one real HDR's sky around its dominant source through each camera curve "
+                         "(sRGB, gamma 2.2, shoulder 4, contrast 1.6) at the first --evs value, with the clipped "
+                         "pixels, the true source and the estimate's key light (e.g. docs/tone_curves.jpg)")
     args = ap.parse_args(argv)
+    if args.picture:
+        estimator = args.estimator
+        if args.fold_models:  # the trees of the scene's fold, which never saw it
+            files = scene_files(args.hdri)
+            k = fold_of(files).get(next((p for p in files if p.name == args.picture[0].name), None))
+            if k is None:
+                raise SystemExit(f"--picture with --fold-models: {args.picture[0].name} is not a scene of {args.hdri}")
+            estimator = register_source_model(f"{args.estimator}-fold{k}", fold_model_paths(args.fold_models)[k],
+                                              key_lights=args.estimator == "keylight")
+        for row in curve_picture(args.picture[0], args.picture[1], args.evs[0], estimator=estimator):
+            print(f"{row['curve'][0]} {row['curve'][1] or ''}: angle {row['angle_deg']:.1f} deg, r {row['ratio']:.3g}")
+        print(f"wrote {args.picture[1]}")
+        return 0
     files = scene_files(args.hdri)
     clipped = clipped_truth(args.hdri)
     estimator_of = {p: args.estimator for p in files}
