@@ -122,14 +122,21 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         return {"FINISHED"}
 
 
-def hidden_sun_note(doc: dict) -> str:
-    """What an artist should know when the estimate put back a sun the photo does not show (lighting.json's
-    ``estimator.sun_search``): where, and how sure; "" otherwise."""
+def key_light_note(doc: dict) -> str:
+    """What an artist should know about the key light from lighting.json's ``estimator.sun_search``: a sun the
+    photo does not show that was placed from its clear sky (where, and how sure); or, where no key light (sun or
+    lamp) was found at all, why the sky search found no sun either, so nothing will cast a hard shadow; ""
+    otherwise (a key light from the photo's own clipped sun or lamp, or a search that did not run)."""
     search = (doc.get("estimator") or {}).get("sun_search") or {}
-    if not search.get("hidden_sun"):
-        return ""
-    return (f"the photo shows no sun, so one was placed where its clear sky puts it ({search['elevation_deg']:.0f} deg "
-            f"up, within {search['direction_68_deg']:.0f} deg for 68 %): check its lamp against the photo's shadows")
+    if search.get("hidden_sun"):
+        return (f"the photo shows no sun, so one was placed where its clear sky puts it ({search['elevation_deg']:.0f} "
+                f"deg up, within {search['direction_68_deg']:.0f} deg for 68 %): check its lamp against the photo's "
+                f"shadows")
+    keys = [light for light in doc.get("lights", []) if light.get("source")]  # key lights name their source
+    if search.get("searched") and not keys and search.get("refused"):
+        return (f"no sun or lamp found to cast a hard shadow: {'; '.join(search['refused'])}. If the photo shows "
+                f"one, add a sun lamp by hand")
+    return ""
 
 
 class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
@@ -164,9 +171,9 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
             self.report({"WARNING"}, f"PanoLight: {store.stored_panorama(world).filepath or 'the panorama'}: {problem}")
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
-        hidden = hidden_sun_note(doc)
-        if hidden:
-            self.report({"INFO"}, f"PanoLight: {hidden}")
+        note = key_light_note(doc)
+        if note:
+            self.report({"INFO"}, f"PanoLight: {note}")
 
     @reports_errors
     def execute(self, context):

@@ -452,8 +452,9 @@ def test_same_lighting_compares_every_light_not_only_their_number():
 
 
 def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
-    """A photo whose sun is retouched out: the estimate says a sun was placed from the sky, where and how sure."""
-    from blender_addon.operators import hidden_sun_note
+    """A photo whose sun is retouched out: the estimate says a sun was placed from the sky, where and how sure.
+    Where no key light was found at all, the note says why the sky search found none either."""
+    from blender_addon.operators import key_light_note
     from panolight_core.io import write_srgb8
     from tests.panolight_core.estimators.test_keylight import _retouched_sky
 
@@ -464,10 +465,18 @@ def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
     doc = store.stored_lighting(bpy.context.scene.world)
     search = doc["estimator"]["sun_search"]
     assert search["hidden_sun"] and abs(search["elevation_deg"] - 40.0) < search["direction_68_deg"]  # sun 40 up
-    note = hidden_sun_note(doc)
+    note = key_light_note(doc)
     assert note.startswith("the photo shows no sun") and f"{search['elevation_deg']:.0f} deg up" in note
-    assert hidden_sun_note({"estimator": {"sun_search": {"searched": True, "hidden_sun": False}}}) == ""
-    assert hidden_sun_note({}) == ""
+    why = "no position stands out (best score 0.68 of the median's > 0.65)"
+    overcast = {"estimator": {"sun_search": {"searched": True, "hidden_sun": False, "refused": [why]}},
+                "lights": [{"type": "area", "intensity": 1.0}]}  # the adaptive model's light is no key light
+    note = key_light_note(overcast)
+    assert note.startswith("no sun or lamp found to cast a hard shadow") and why in note
+    lamp = {"type": "area", "intensity": 2.0, "source": "per-source model"}
+    assert key_light_note(dict(overcast, lights=[lamp])) == ""  # a lamp from the photo's clipped region
+    assert key_light_note({"estimator": {"sun_search": {"searched": False, "why": "a clipped region holds a "
+                                                                           "clear-sky sun"}}}) == ""
+    assert key_light_note({}) == ""
 
 
 def _blender_site_packages():
