@@ -52,6 +52,19 @@ def clipped_truth(folder: Path) -> set:
     return out
 
 
+def estimate_scene(hdr, ds: dict, ev: float, estimator: str, curve=SRGB):
+    """The camera JPEG (q90) of ``hdr`` at ``ev`` through ``curve``, its estimate, the estimate's brightest light
+    (None without one), that light's angle to the dominant source ``ds`` (``metrics.dominant_source``; 180 degrees
+    without a light) and the source's energy ratio r from the estimate's ``hdr.exr``:
+    (ldr, result, key, angle_deg, r)."""
+    ldr = hdr_to_ldr(hdr, ev, 90, curve=curve[0], curve_param=curve[1])
+    res = estimate_lighting(ldr, Settings(estimator=estimator))
+    lights = res.model.lights
+    key = max(lights, key=lambda light: light["intensity"]) if lights else None
+    angle = metrics.angle_deg(ds["direction"], key["peak_direction"]) if key else 180.0
+    return ldr, res, key, angle, metrics.source_energy_ratio(hdr, res.hdr_panorama(ldr), ds["direction"])
+
+
 def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight", curve=SRGB) -> list[dict]:
     """The dominant source's rows of one scene (none without one), one per ev, through the camera ``curve``
     ((name, parameter) of ``camera.TONE_CURVES``; EVALUATION.md's sRGB by default)."""
@@ -61,12 +74,7 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight", cur
         return []
     rows = []
     for ev in evs:
-        ldr = hdr_to_ldr(hdr, ev, 90, curve=curve[0], curve_param=curve[1])
-        res = estimate_lighting(ldr, Settings(estimator=estimator))
-        est_hdr = res.hdr_panorama(ldr)
-        lights = res.model.lights
-        key = max(lights, key=lambda light: light["intensity"]) if lights else None
-        angle = metrics.angle_deg(ds["direction"], key["peak_direction"]) if key else 180.0
+        _, res, key, angle, ratio = estimate_scene(hdr, ds, ev, estimator, curve)
         rec = res.estimate.recovery
         sky_key = next((k for k in (rec.keys if rec is not None else []) if k.method.startswith("clear-sky")), None)
         physical = None
@@ -75,8 +83,8 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight", cur
             k = auto_exposure(hdr, ev)
             physical = sky_key.physical / keylight.SKY_CORRECTION / (ds["energy"] * k)
         rows.append({"scene": path.stem, "ev": ev, "clipped_truth": clipped, "share": round(ds["share"], 4),
-                     "angle_deg": round(angle, 3), "ratio": metrics.source_energy_ratio(hdr, est_hdr, ds["direction"]),
-                     "lights": len(lights), "key_method": key.get("source") if key else None,
+                     "angle_deg": round(angle, 3), "ratio": ratio,
+                     "lights": len(res.model.lights), "key_method": key.get("source") if key else None,
                      "direction_68_deg": key.get("direction_68_deg") if key else None,
                      "physical_over_true": physical})
     return rows
@@ -200,25 +208,20 @@ def curve_picture(path: Path, out: Path, ev: float = 0.0, curves=PICTURE_CURVES,
     H, W = hdr.shape[:2]
     ty, tx = sh.grid.pixel_at(ds["direction"], H, W)
     cols = (tx + np.arange(-W // 4, W // 4)) % W  # 180 degrees of azimuth around the source
+    scale = width / cols.size
+
+    def at(direction):  # a direction's (x, y) in a panel
+        y, x = sh.grid.pixel_at(direction, H, W)
+        return ((x - cols[0]) % W + 0.5) * scale, (y + 0.5) * scale
+
     panels, rows = [], []
     for curve in curves:
-        ldr = hdr_to_ldr(hdr, ev, 90, curve=curve[0], curve_param=curve[1])
-        res = estimate_lighting(ldr, Settings(estimator=estimator))
-        lights = res.model.lights
-        key = max(lights, key=lambda light: light["intensity"]) if lights else None
-        angle = metrics.angle_deg(ds["direction"], key["peak_direction"]) if key else 180.0
-        ratio = metrics.source_energy_ratio(hdr, res.hdr_panorama(ldr), ds["direction"])
+        ldr, _, key, angle, ratio = estimate_scene(hdr, ds, ev, estimator, curve)
         sky = ldr[: H // 2][:, cols].astype(np.float64)
         white = ldr[: H // 2][:, cols].min(axis=-1) >= 254
         sky[white] = 0.55 * sky[white] + 0.45 * np.array([255.0, 0.0, 0.0])
-        scale = width / sky.shape[1]
         img = Image.fromarray(sky.astype(np.uint8)).resize((width, round(sky.shape[0] * scale)), Image.BILINEAR)
         draw = ImageDraw.Draw(img)
-
-        def at(direction):
-            y, x = sh.grid.pixel_at(direction, H, W)
-            return ((x - cols[0]) % W + 0.5) * scale, (y + 0.5) * scale
-
         x, y = at(ds["direction"])
         r = 5.0 / 180.0 * H * scale  # the metric's 5-degree cone
         draw.ellipse([x - r, y - r, x + r, y + r], outline=(255, 230, 0), width=2)
