@@ -53,7 +53,8 @@ class TreeEnsemble:
 
 @dataclass(frozen=True)
 class SourceModel:
-    """mean: trees for mu = E[log r]; spread: trees for E|log r - mu| (sigma = sqrt(pi/2) x it)."""
+    """mean: trees for mu = E[log r]; spread: trees for E|log r - mu| (sigma = sqrt(pi/2) x it). features: the
+    names the trees' columns stand for, any of FEATURES in any order (a model trained on fewer still runs)."""
 
     mean: TreeEnsemble
     spread: TreeEnsemble
@@ -63,7 +64,11 @@ class SourceModel:
     path: Path
 
     def predict(self, feats: np.ndarray):
-        """(n, F) features -> (mu, sigma, reported log ratio), each (n,), natural log."""
+        """(n, len(FEATURES)) features, in FEATURES' order (``Regions.features``) -> (mu, sigma, reported log
+        ratio), each (n,), natural log."""
+        feats = np.asarray(feats, dtype=np.float64)
+        if tuple(self.features) != FEATURES:
+            feats = feats[:, [FEATURES.index(n) for n in self.features]]
         mu = self.mean.predict(feats)
         sigma = math.sqrt(math.pi / 2.0) * np.maximum(self.spread.predict(feats), 0.02)
         return mu, sigma, np.maximum(mu - self.shrink * sigma ** 2, 0.0)
@@ -77,7 +82,7 @@ def ensemble_arrays(prefix: str, e: TreeEnsemble) -> dict:
             f"{prefix}.base": np.array([e.base], dtype=np.float64)}
 
 
-def _ensemble(t: dict, prefix: str, path: Path) -> TreeEnsemble:
+def _ensemble(t: dict, prefix: str, path: Path, n_features: int) -> TreeEnsemble:
     try:
         parts = {k: t[f"{prefix}.{k}"] for k in ("feature", "threshold", "left", "right", "value", "roots", "base")}
     except KeyError as exc:
@@ -88,7 +93,7 @@ def _ensemble(t: dict, prefix: str, path: Path) -> TreeEnsemble:
             raise PanoLightError(f"{path}: source-energy model tensor {prefix}.{k} has the wrong shape")
     inner = parts["feature"] >= 0
     kids = np.concatenate([parts["left"][inner], parts["right"][inner], parts["roots"]])
-    if kids.size and (kids.min() < 0 or kids.max() >= n) or parts["feature"].max(initial=-1) >= len(FEATURES):
+    if kids.size and (kids.min() < 0 or kids.max() >= n) or parts["feature"].max(initial=-1) >= n_features:
         raise PanoLightError(f"{path}: source-energy model has node or feature indices out of range")
     return TreeEnsemble(parts["feature"].astype(np.int64), parts["threshold"], parts["left"].astype(np.int64),
                         parts["right"].astype(np.int64), parts["value"], parts["roots"].astype(np.int64),
@@ -105,8 +110,11 @@ def load_source_model(path=MODEL_PATH) -> SourceModel:
     path = Path(path)
     tensors, meta = load_shipped(path, "source-energy model")
     feats = tuple(json.loads(meta.get("features", "[]")))
-    if feats != FEATURES:
-        raise PanoLightError(f"{path}: the model was trained on other features than this PanoLight computes "
-                             f"(retrain it with training/source_energy/fit.py)")
-    return SourceModel(_ensemble(tensors, "mean", path), _ensemble(tensors, "spread", path),
+    unknown = [n for n in feats if n not in FEATURES]
+    if not feats or unknown or len(set(feats)) != len(feats):
+        why = f"features this PanoLight does not compute ({', '.join(unknown)})" if unknown else "no valid feature list"
+        raise PanoLightError(f"{path}: the source-energy model was trained on {why}; retrain it with "
+                             f"training/source_energy/fit.py")
+    n = len(feats)
+    return SourceModel(_ensemble(tensors, "mean", path, n), _ensemble(tensors, "spread", path, n),
                        float(meta.get("shrink", 1.0)), feats, dict(meta), path)

@@ -59,10 +59,32 @@ def test_shipped_model_loads_without_torch_and_names_bad_files(tmp_path):
         sources.load_source_model(tmp_path / "bad.safetensors")
     other = dict(meta, features=json.dumps(["x"]))
     save_file(tensors, str(tmp_path / "other.safetensors"), metadata=other)
-    with pytest.raises(PanoLightError, match="other features"):
+    with pytest.raises(PanoLightError, match="other.safetensors: .*does not compute \\(x\\)"):
         sources.load_source_model(tmp_path / "other.safetensors")
     short = dict(tensors)
     del short["spread.value"]
     save_file(short, str(tmp_path / "short.safetensors"), metadata=meta)
     with pytest.raises(PanoLightError, match="missing tensor"):
         sources.load_source_model(tmp_path / "short.safetensors")
+
+
+def test_a_model_reads_the_columns_it_was_trained_on_by_name(rng, tmp_path):
+    """A model trained on some of FEATURES, in any order, is given those columns of the full feature rows."""
+    from safetensors.numpy import save_file
+
+    names = (sources.FEATURES[5], sources.FEATURES[0], sources.FEATURES[-1], sources.FEATURES[9])
+    mean, spread = _random_ensemble(rng), _random_ensemble(rng)
+    save_file({**sources.ensemble_arrays("mean", mean), **sources.ensemble_arrays("spread", spread)},
+              str(tmp_path / "four.safetensors"), metadata={"features": json.dumps(list(names)), "shrink": "0.5"})
+    model = sources.load_source_model(tmp_path / "four.safetensors")
+    assert model.features == names
+    full = rng.normal(size=(30, len(sources.FEATURES)))
+    mu, sigma, _ = model.predict(full)
+    np.testing.assert_allclose(mu, mean.predict(full[:, [sources.FEATURES.index(n) for n in names]]), rtol=0, atol=1e-12)
+    assert not np.allclose(mu, mean.predict(full[:, :4]))  # by name, not by position
+    # a tree that asks for a fifth column of a four-column model is refused
+    bad = dict(sources.ensemble_arrays("mean", mean), **sources.ensemble_arrays("spread", spread))
+    bad["mean.feature"] = np.where(bad["mean.feature"] >= 0, 4, -1).astype(np.int32)
+    save_file(bad, str(tmp_path / "five.safetensors"), metadata={"features": json.dumps(list(names)), "shrink": "0.5"})
+    with pytest.raises(PanoLightError, match="out of range"):
+        sources.load_source_model(tmp_path / "five.safetensors")
