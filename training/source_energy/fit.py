@@ -179,6 +179,25 @@ def build_table(files, augment: int = 16, seed: int = 0, workers: int | None = N
     return X, y, s, g
 
 
+def cached_table(path, files, augment: int, seed: int, inject: float, log=print):
+    """``build_table`` of ``files``, kept in ``path`` (.npz, no pickle) and read back when it was made from the same
+    scenes, cameras and FEATURES: one table serves the shipped model and every fold's (``--hold-out`` then drops
+    the fold's rows, so every model sees the same cameras of the scenes it trains on)."""
+    key = json.dumps({"scenes": [Path(f).name for f in files], "augment": augment, "seed": seed, "inject": inject,
+                      "features": list(sources.FEATURES)})
+    path = Path(path)
+    if path.exists():
+        with np.load(path, allow_pickle=False) as z:
+            if str(z["key"]) == key:
+                log(f"  regions: read from {path}")
+                return z["X"], z["y"], z["share"], z["scene"]
+        log(f"  {path} was made from other scenes, cameras or features: building the table again")
+    X, y, s, g = build_table(files, augment, seed, log=log, inject=inject)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(path, X=X, y=y, share=s, scene=g, key=np.array(key))
+    return X, y, s, g
+
+
 def sample_weight(share: np.ndarray) -> np.ndarray:
     """Rows weighted by how much of their scene's energy they hold (speckles count a little)."""
     return 0.02 + np.sqrt(np.clip(share, 0.0, 1.0))
@@ -237,14 +256,16 @@ def environment() -> dict:
     return out
 
 
-def save(path, mean: sources.TreeEnsemble, spread: sources.TreeEnsemble, shrink: float, meta: dict) -> Path:
+def save(path, mean: sources.TreeEnsemble, spread: sources.TreeEnsemble, shrink: float, meta: dict,
+         features=sources.FEATURES) -> Path:
+    """Write a model: its trees, the names of the columns they were trained on (``features``) and ``meta``."""
     from safetensors.numpy import save_file
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tensors = {**sources.ensemble_arrays("mean", mean), **sources.ensemble_arrays("spread", spread)}
     md = {k: (v if isinstance(v, str) else json.dumps(v)) for k, v in meta.items()}
-    md.update({"features": json.dumps(list(sources.FEATURES)), "shrink": str(shrink)})
+    md.update({"features": json.dumps(list(features)), "shrink": str(shrink)})
     save_file(tensors, str(path), metadata=md)
     return path
 
@@ -269,20 +290,33 @@ def main(argv=None) -> int:
     ap.add_argument("--hold-out", type=parse_fold, default=None, metavar="K/N",
                     help="ship: leave fold K of N of the scenes out (the folds of cv), for a network trained "
                          "with the same --hold-out that corrects this model (guess 'sources')")
+    ap.add_argument("--table", type=Path, default=None, metavar="NPZ",
+                    help="ship: keep the training rows of all the scenes here and reuse them (cached_table): the "
+                         "shipped model and the five --hold-out models then share one table and its cameras")
+    ap.add_argument("--drop-features", nargs="+", default=[], metavar="NAME", choices=sources.FEATURES,
+                    help="ship: train without these features (an ablation; the model names the columns it uses)")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
-    if args.hold_out:
-        test = fold_files(files, args.hold_out)
+    test = fold_files(files, args.hold_out) if args.hold_out else []
+    if args.table and args.command == "ship":
+        X, y, s, g = cached_table(args.table, files, args.augment, args.seed, args.inject)
+        keep = ~np.isin(g, [i for i, f in enumerate(files) if f in test])
+        X, y, s, g = X[keep], y[keep], s[keep], g[keep]
         files = [f for f in files if f not in test]
-    print(f"source energy: {len(files)} scenes x {args.augment} cameras")
-    X, y, s, g = build_table(files, args.augment, args.seed, inject=args.inject)
+        print(f"source energy: {len(files)} scenes x {args.augment} cameras")
+    else:
+        files = [f for f in files if f not in test]
+        print(f"source energy: {len(files)} scenes x {args.augment} cameras")
+        X, y, s, g = build_table(files, args.augment, args.seed, inject=args.inject)
     w = sample_weight(s)
     if args.command == "ship":
+        names = tuple(n for n in sources.FEATURES if n not in args.drop_features)
+        X = X[:, [sources.FEATURES.index(n) for n in names]]
         mean, spread, _ = fit(X, y, w, args.seed, g)
         out = save(args.out or sources.MODEL_PATH, mean, spread, args.shrink, {
             "trained_on": f"{len(files)} scenes of {Path(args.hdri).name} x {args.augment} cameras, {y.size} regions",
             "scenes": [f.name for f in files], "gbt": GBT, "spread_gbt": SPREAD_GBT, "seed": args.seed,
-            "environment": environment()})
+            "environment": environment()}, names)
         print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} kB)")
         return 0
     from training.source_energy.cv import cross_validate
