@@ -47,3 +47,40 @@ def test_wide_regions_follow_the_concentration_they_are_given():
     a = sources.recover(ldr, log_ratio_fn=fixed_ratio(10.0))
     b = sources.recover(ldr, log_ratio_fn=fixed_ratio(10.0), wide_concentration=3.0)
     assert np.abs(a.work - b.work).max() > 0
+
+
+def test_the_largest_regions_above_the_horizon_carry_what_a_clear_sky_says_of_them():
+    """A clear sky's clipped sun: its region's sky features are the clear-sky fit with the sun at its centre (the
+    solar disk over what the region holds, the residual, the blueness), the fit the key light then uses; a region
+    below the horizon, or past the SKY_FIT_REGIONS largest, gets NO_SKY_FIT."""
+    from panolight_core.estimators import keylight, sky
+    from panolight_core.estimators.sources.features import NO_SKY_FIT, SKY_FEATURES, SKY_FIT_REGIONS
+
+    from ..test_sky import _clear_sky_ldr
+
+    ldr, sun, k, true_sun, _ = _clear_sky_ldr(h=128)
+    ldr = ldr.copy()
+    h = ldr.shape[0]
+    ldr[int(0.8 * h):int(0.8 * h) + 4, 10:14] = 255  # a glint on the ground, below the horizon
+    for j in range(SKY_FIT_REGIONS):  # small white speckles high in the sky, far from the sun: ranks after the sun's
+        ldr[6, 60 + 40 * j] = 255
+    rad, frac_any, frac_all = sources.work_maps(ldr)
+    reg = sources.region_features(rad, frac_any, frac_all)
+    assert reg.count == SKY_FIT_REGIONS + 2
+    i = int(np.argmax([metrics.angle_deg(c, sun) < 15.0 for c in reg.centre]))
+    assert i == 0  # the sun's patch is the largest
+    fit = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, reg.centre[0])
+    assert reg.sky_fits[0].sun_energy == pytest.approx(fit.sun_energy, rel=1e-12)
+    got = dict(zip(SKY_FEATURES, (reg.feature(n)[0] for n in SKY_FEATURES)))
+    assert got["log_sky_sun_over_held"] == pytest.approx(math.log10(fit.sun_energy / reg.held[0]), rel=1e-9)
+    assert got["sky_fit_rms"] == pytest.approx(fit.rms) and got["sky_fit_blueness"] == pytest.approx(fit.blueness)
+    assert got["log_sky_sun_over_held"] > 0.5  # the sun outweighs its 20-degree clipped patch several times
+    below = [j for j in range(reg.count) if reg.centre[j][2] < 0]
+    beyond = [j for j in range(SKY_FIT_REGIONS, reg.count)]
+    assert below and beyond
+    for j in set(below) | set(beyond):
+        assert j not in reg.sky_fits
+        assert {n: reg.feature(n)[j] for n in SKY_FEATURES} == NO_SKY_FIT
+    mu = np.log(np.maximum(fit.sun_energy / reg.held, 2.0))
+    keys = keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, np.full(reg.count, 0.3))
+    assert keys and keys[0].sky is reg.sky_fits[0]  # the key light weighs the sun with that same fit
