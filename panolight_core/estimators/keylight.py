@@ -233,8 +233,6 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
             break
         if fits is not None and int(i) in fits:
             fit = fits[int(i)]
-        elif int(i) in regions.sky_fits:  # made for the per-source model's features, the same fit
-            fit = regions.sky_fits[int(i)]
         else:
             fit = fit_at(regions.centre[i])
             if fits is not None:

@@ -4,10 +4,7 @@
 and extent, elevation, how many channels clipped around it, its glare (ring luminance at four angular
 distances beyond its edge, the power-law exponent fitted on it and the physical model's gain,
 ``highlights.power_law_gain``), and the scene around it (exposure statistics, sky brightness and colour,
-lit/shadow contrast, the other regions), and, for the SKY_FIT_REGIONS largest above the horizon, what a clear
-sky with its sun there says (``sky.fit_clear_sky``: the solar disk's energy over what the region holds, the fit's
-residual and blueness), so the trees can weigh the physics where it holds and discount it where it does not.
-FEATURES fixes the columns' order (a model names the columns it was trained on, ``trees.SourceModel``).
+lit/shadow contrast, the other regions). FEATURES fixes the columns' order (the trained model's).
 """
 from __future__ import annotations
 
@@ -17,7 +14,6 @@ import numpy as np
 
 from ... import sh
 from ...camera.color import LUMINANCE_WEIGHTS
-from .. import sky as clear_sky
 from ..highlights import MAX_EXPONENT, _ring_fit, power_law_gain, region_cells, region_centres, region_sums
 from .regions import MAX_REGIONS, WIDE_CONCENTRATION, Regions, label_regions, profile_shares
 
@@ -31,22 +27,9 @@ SCENE_FEATURES = (
     "log_regions", "log_scene_clipped", "log_median", "log_mean", "log_upper_lower", "sky_blue_red",
     "log_lower_contrast",
 )
-SKY_FEATURES = ("log_sky_sun_over_held", "sky_fit_rms", "sky_fit_blueness")
 FEATURES = REGION_FEATURES + SCENE_FEATURES + (
     "log_brightest_ring_elsewhere", "log_scene_over_held", "log_upper_over_held",
-) + SKY_FEATURES
-SKY_FIT_REGIONS = 3  # the largest regions (by clipped solid angle) above the horizon get a clear-sky fit
-NO_SKY_FIT = {"log_sky_sun_over_held": -3.0, "sky_fit_rms": 3.0, "sky_fit_blueness": 0.0}  # below the horizon, or
-# no sky to fit: no sun the sky could weigh (a ratio of 1e-3, a residual and a colour no clear sky has)
-
-
-def sky_fit_features(fit: clear_sky.SkyFit | None, held: float) -> dict:
-    """SKY_FEATURES of a region holding ``held`` (luminance x sr, clip units) from the clear-sky fit with the sun
-    at its centre (None: NO_SKY_FIT)."""
-    if fit is None:
-        return dict(NO_SKY_FIT)
-    return {"log_sky_sun_over_held": _log10(fit.sun_energy / max(held, 1e-12), 1e-3),
-            "sky_fit_rms": min(float(fit.rms), NO_SKY_FIT["sky_fit_rms"]), "sky_fit_blueness": float(fit.blueness)}
+)
 
 
 def _log10(v, floor=1e-6):
@@ -167,16 +150,12 @@ def region_features(rad: np.ndarray, frac_any: np.ndarray, frac_all: np.ndarray,
                  share_of_clipped=clipped_sr[i] / max(float(clipped_sr.sum()), 1e-12), rank=min(i, 10),
                  log_scene_over_held=_log10(scene_e / max(held[i], 1e-12)),
                  log_upper_over_held=_log10(upper_e / max(held[i], 1e-12)), ring0_linear=rings[0])
-    sky_fits = {}
     for i, f in enumerate(rows):
         others = [g["ring0_linear"] for j, g in enumerate(rows) if j != i]
         f["log_brightest_ring_elsewhere"] = _log10(max(others) if others else 1e-4, 1e-4)
-        if i < SKY_FIT_REGIONS and centre[i][2] > 0:
-            sky_fits[i] = clear_sky.fit_clear_sky(rad, frac_any == 0, frac > 0.5, centre[i])
-        f.update(sky_fit_features(sky_fits.get(i), held[i]))
     feats = np.array([[f[name] for name in FEATURES] for f in rows], dtype=np.float64)
     color = np.ones((n, 3))  # the excess is white (luminance 1): see Regions
     regions = Regions(labels, clipped_sr, held, centre, color, exponent, feats, np.zeros((h, w)), FEATURES,
-                      wide_concentration, sky_fits)
+                      wide_concentration)
     regions.share = profile_shares(regions, frac)
     return regions

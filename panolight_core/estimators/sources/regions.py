@@ -5,7 +5,7 @@ Work maps: radiance (h, 2h, 3) linear in clip units (1 = white), Blender world f
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -39,8 +39,6 @@ class Regions:
     share: np.ndarray
     names: tuple = ()  # the features' names, in their columns' order (``features.FEATURES``)
     wide_concentration: float = WIDE_CONCENTRATION  # the profile exponent of wide regions (``shape_exponents``)
-    sky_fits: dict = field(default_factory=dict)  # region index -> its clear-sky fit (``sky.SkyFit`` or None), sun at
-    # its centre: made for the features (``features.SKY_FIT_REGIONS``), kept for the key lights
 
     @property
     def count(self) -> int:
