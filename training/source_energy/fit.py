@@ -21,6 +21,8 @@ and the learned one; the pooled table goes to docs/accuracy.md.
 
     python -m training.source_energy.fit cv   [--augment 16] [--out docs/source_energy_cv.json]   # about 13 min here
     python -m training.source_energy.fit ship [--augment 16] [--out panolight_core/models/sources.safetensors]
+    python -m training.source_energy.fit ship --table runs/table.npz --hold-out K/5 [--drop-features NAME ...] --out F
+        # the five fold models (and the shipped one) from one cached table; --drop-features for an ablation
 """
 from __future__ import annotations
 

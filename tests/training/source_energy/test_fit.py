@@ -102,3 +102,31 @@ def test_each_scene_is_in_the_fold_whose_hold_out_model_never_saw_it():
     assert sorted(of) == sorted(files) and set(of.values()) == {1, 2, 3, 4, 5}
     for k in range(1, 6):
         assert sorted(fold_files(files, (k, 5))) == sorted(f for f, j in of.items() if j == k)
+
+
+def test_one_cached_table_serves_every_model_and_is_built_again_for_other_cameras(tmp_path, monkeypatch, rng):
+    """``cached_table`` builds the rows once and reads them back (no pickle) for the same scenes, cameras and seed;
+    other cameras build them again. An ablation names the columns it was trained on and is given them by name."""
+    from sklearn.ensemble import GradientBoostingRegressor
+
+    calls = []
+
+    def fake_build(files, augment, seed, log=print, inject=0.0):
+        calls.append((tuple(files), augment, seed))
+        n = 6 * len(files)
+        return (rng.normal(size=(n, len(sources.FEATURES))), rng.random(n), rng.random(n),
+                np.repeat(np.arange(len(files)), 6))
+
+    monkeypatch.setattr(se, "build_table", fake_build)
+    files = [tmp_path / "a.hdr", tmp_path / "b.hdr"]
+    first = se.cached_table(tmp_path / "t.npz", files, 16, 0, 0.0, log=lambda *_: None)
+    again = se.cached_table(tmp_path / "t.npz", files, 16, 0, 0.0, log=lambda *_: None)
+    assert len(calls) == 1 and all(np.array_equal(u, v) for u, v in zip(first, again))
+    se.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None)  # another seed: other cameras
+    assert len(calls) == 2
+    names = sources.FEATURES[3:7]
+    X = first[0][:, [sources.FEATURES.index(n) for n in names]]
+    ens = se._export(GradientBoostingRegressor(n_estimators=5, max_depth=2).fit(X, first[1]))
+    model = sources.load_source_model(se.save(tmp_path / "ablation.safetensors", ens, ens, 0.5, {}, names))
+    assert model.features == names
+    np.testing.assert_allclose(model.predict(first[0])[0], ens.predict(X), atol=1e-12)
