@@ -38,8 +38,14 @@ def parse(argv, core):
     ap.add_argument("--resolution", default=None, help="render size WxH (default: the scene's)")
     ap.add_argument("--light-with", choices=("sh", "hdri"), default="sh",
                     help="sh (default): the SH radiance map plus sun lamps; hdri: the reconstructed HDRI")
+    ap.add_argument("--sun-strength", type=float, default=1.0, metavar="X",
+                    help="scale PanoLight's sun lamps alone (the panel's Sun lamp strength; default 1: the "
+                         "estimate's strength; lighting.json's energy_68 gives each key light's 68 %% range)")
     core.pipeline.settings.add_arguments(ap)
-    return ap.parse_args(argv)
+    args = ap.parse_args(argv)
+    if not args.sun_strength >= 0:
+        ap.error(f"--sun-strength: must be 0 or more, got {args.sun_strength}")
+    return args
 
 
 def configure(scene, args, core) -> None:
@@ -51,6 +57,7 @@ def configure(scene, args, core) -> None:
     s.estimator, s.model, s.lmax, s.tolerance = args.estimator, args.model, args.lmax or "auto", args.tolerance
     s.window, s.window_width, s.exposure = args.window, args.window_width or 0.0, args.exposure
     s.lighting_source = args.light_with.upper()
+    s.sun_strength = args.sun_strength
 
 
 def run(args, addon) -> None:

@@ -38,6 +38,11 @@ class PanoLightSettings(bpy.types.PropertyGroup):
     # the world built from the estimate
     background_strength: FloatProperty(name="Background strength", default=1.0, min=0.0, soft_max=10.0)
     lighting_strength: FloatProperty(name="Lighting strength", default=1.0, min=0.0, soft_max=10.0)
+    sun_strength: FloatProperty(
+        name="Sun lamp strength", default=1.0, min=0.0, soft_max=10.0,
+        description="Scales PanoLight's sun lamps alone (on top of Lighting strength), not the SH lighting. The "
+                    "estimate gives a sun the strength it is sure of: if the photo's shadows are harder than the "
+                    "render's, raise it within the range the panel shows")
     background_rotation: FloatProperty(name="Background rotation", subtype="ANGLE", default=0.0)
     lighting_rotation: FloatProperty(name="Lighting rotation", subtype="ANGLE", default=0.0,
                                      description="Turns the SH lighting and the sun lamps together")
@@ -79,6 +84,11 @@ def draw_panel(layout, context):
     for prop in ("lighting_source", "background_strength", "lighting_strength", "background_rotation",
                  "lighting_rotation", "glossy_panorama", "create_lights", "radiance_height"):
         box.prop(s, prop)
+    if s.lighting_source == "SH" and s.create_lights:
+        box.prop(s, "sun_strength")
+        key = store.key_light_range(world)
+        if key is not None:
+            box.label(text=f"Key light: 68 % range {key['low']:.2g}-{key['high']:.2g} x its estimate", icon="INFO")
     box.operator("panolight.build_environment", icon="WORLD")
     layout.operator("panolight.export_lighting", icon="EXPORT")
 

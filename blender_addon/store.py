@@ -65,3 +65,14 @@ def store_lighting(world, doc: dict | None) -> None:
 
 def has_lighting(world) -> bool:
     return bool(world is not None and world.get(LIGHTING_KEY))
+
+
+def key_light_range(world) -> dict | None:
+    """The stored estimate's key light and its 68 % energy range over the strength it was given
+    (``lighting.lights.key_light_range``), for the panel; None without an estimate or a key light. Never raises:
+    the panel draws it on every redraw."""
+    raw = world.get(LIGHTING_KEY) if world is not None else None
+    try:
+        return core.lighting.lights.key_light_range(json.loads(raw)) if raw else None
+    except (TypeError, ValueError, KeyError, IndexError):
+        return None

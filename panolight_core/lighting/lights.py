@@ -220,3 +220,26 @@ def sun_lamp(light: dict, strength: float = 1.0, rotation: float = 0.0) -> dict:
     return {"direction": np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]]),
             "color": color / top, "energy": float(light["intensity"]) * strength * top,
             "angle": float(light.get("angle", 0.0))}
+
+
+def key_light_range(doc: dict) -> dict | None:
+    """The brightest key light of a lighting document (a light that names its ``source`` and carries its source's
+    68 % energy range, ``energy_68``) and how that range stands to the energy it was given: {"index" (in
+    doc["lights"]), "source", "elevation_deg", "low", "high"}, low and high the range's ends over its
+    ``intensity`` (a clear-sky sun kept below its sky fit, so that a hazy sky does not get a blinding one, has
+    low > 1). None where no light carries a range."""
+    best = None
+    for i, light in enumerate(doc.get("lights", [])):
+        rng, energy = light.get("energy_68"), float(light.get("intensity", 0.0))
+        if not light.get("source") or not rng or len(rng) != 2 or not energy > 0:
+            continue
+        if best is None or energy > float(doc["lights"][best]["intensity"]):
+            best = i
+    if best is None:
+        return None
+    light = doc["lights"][best]
+    energy = float(light["intensity"])
+    d = np.asarray(light["direction"], dtype=np.float64)
+    elevation = math.degrees(math.asin(float(np.clip(d[2] / max(float(np.linalg.norm(d)), 1e-300), -1.0, 1.0))))
+    return {"index": best, "source": str(light["source"]), "elevation_deg": elevation,
+            "low": float(light["energy_68"][0]) / energy, "high": float(light["energy_68"][1]) / energy}

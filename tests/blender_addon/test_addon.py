@@ -266,12 +266,16 @@ def test_batch_script_end_to_end_and_clear_failure(tmp_path):
     batch = ROOT / "blender_addon" / "batch.py"
     r = subprocess.run([sys.executable, str(batch), "--", "--input", str(pano), "--output-blend",
                         str(tmp_path / "out.blend"), "--render", str(tmp_path / "shot.png"), "--samples", "2",
+                        "--sun-strength", "1.5",
                         "--resolution", "64x36"], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     assert (tmp_path / "out.blend").stat().st_size > 0 and (tmp_path / "shot.png").stat().st_size > 0
     r = subprocess.run([sys.executable, str(batch), "--", "--input", str(tmp_path / "missing.jpg")],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode != 0 and "missing.jpg: file not found" in r.stderr
+    r = subprocess.run([sys.executable, str(batch), "--", "--input", str(pano), "--sun-strength", "-1"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and "--sun-strength: must be 0 or more" in r.stderr
 
 
 def test_build_from_the_reconstructed_hdri(tmp_path):
@@ -477,6 +481,76 @@ def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
     assert key_light_note({"estimator": {"sun_search": {"searched": False, "why": "a clipped region holds a "
                                                                            "clear-sky sun"}}}) == ""
     assert key_light_note({}) == ""
+    capped = {"lights": [{"type": "sun", "direction": [0.74, 0.67, 0.09], "intensity": 0.49,
+                          "source": "clear-sky fit (turbidity 8)", "energy_68": [1.19, 4.76]}]}
+    note = key_light_note(capped)
+    assert note.startswith("the key light (5 deg up) has the strength the estimate is sure of")
+    assert "2.4-9.7x that (68 %)" in note and "Sun lamp strength" in note
+    whole = {"lights": [dict(capped["lights"][0], intensity=2.38)]}  # given its evidence: nothing to say
+    assert key_light_note(whole) == ""
+
+
+def test_sun_lamp_strength_scales_the_lamps_alone_and_the_panel_shows_the_key_lights_range(tmp_path):
+    """Sun lamp strength multiplies PanoLight's sun lamps, not the SH lighting; the panel's range comes from the
+    stored estimate, and a stored estimate it cannot read shows none (the panel never raises)."""
+    _estimate_and_build(_small_city(tmp_path, 32))
+    s = bpy.context.scene.panolight
+    world = bpy.context.scene.world
+    from blender_addon.lights import LIGHTS_COLLECTION
+
+    lamps = lambda: sorted(o.data.energy for o in store.ours(bpy.data.collections,  # noqa: E731
+                                                            LIGHTS_COLLECTION).objects if o.type == "LIGHT")
+    lighting = lambda: [n.inputs["Strength"].default_value for n in world.node_tree.nodes  # noqa: E731
+                        if n.type == "BACKGROUND"]
+    before, sh_before = lamps(), lighting()
+    assert before and all(e > 0 for e in before)
+    s.sun_strength = 2.5
+    try:
+        assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+        np.testing.assert_allclose(lamps(), [2.5 * e for e in before], rtol=1e-6)
+        assert lighting() == sh_before
+    finally:
+        s.sun_strength = 1.0
+    doc = store.stored_lighting(world)
+    assert store.key_light_range(world) is None  # an HDR input: exact lights, none of them a key light
+    doc["lights"].append({"type": "sun", "direction": [0.0, 0.6, 0.8], "intensity": 0.5, "color": [1.0, 1.0, 1.0],
+                          "source": "clear-sky fit (turbidity 6.5)", "energy_68": [1.0, 4.0]})
+    store.store_lighting(world, doc)
+    key = store.key_light_range(world)
+    assert key["index"] == len(doc["lights"]) - 1 and (key["low"], key["high"]) == pytest.approx((2.0, 8.0))
+    from blender_addon.panel import draw_panel
+
+    class Layout:  # records what the panel draws
+        def __init__(self):
+            self.props, self.labels = [], []
+
+        def column(self, **_):
+            return self
+
+        box = column
+
+        def prop(self, _, name):
+            self.props.append(name)
+
+        def label(self, text="", **_):
+            self.labels.append(text)
+
+        def operator(self, *_, **__):
+            return None
+
+    drawn = Layout()
+    draw_panel(drawn, bpy.context)
+    assert "sun_strength" in drawn.props and "Key light: 68 % range 2-8 x its estimate" in drawn.labels
+    s.lighting_source = "HDRI"  # no lamps to scale: the control is not offered
+    try:
+        hdri = Layout()
+        draw_panel(hdri, bpy.context)
+        assert "sun_strength" not in hdri.props and not any(t.startswith("Key light") for t in hdri.labels)
+    finally:
+        s.lighting_source = "SH"
+    world[store.LIGHTING_KEY] = "{not json"
+    assert store.key_light_range(world) is None
+    store.store_lighting(world, None)
 
 
 def _blender_site_packages():

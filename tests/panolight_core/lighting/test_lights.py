@@ -6,7 +6,7 @@ import pytest
 
 from panolight_core import metrics, sh
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
-from panolight_core.lighting.lights import extract_lights, light_irradiance, sun_lamp
+from panolight_core.lighting.lights import extract_lights, key_light_range, light_irradiance, sun_lamp
 
 
 def _map(h=128, bg=0.1):
@@ -98,3 +98,17 @@ def test_a_sun_lamp_turns_with_the_lighting_and_keeps_the_lights_energy(rotation
     np.testing.assert_allclose(mapping @ lamp["direction"], d, atol=1e-12)  # the texture lookup lands on the light
     assert lamp["color"].max() == 1.0 and lamp["angle"] == 0.01
     np.testing.assert_allclose(lamp["energy"] * lamp["color"], 1.5 * 2.5 * np.array(light["color"]), rtol=1e-12)
+
+
+def test_the_key_light_range_is_the_brightest_key_lights_68_percent_over_its_strength():
+    sun = {"type": "sun", "direction": [0.0, 0.6, 0.8], "intensity": 0.5, "source": "clear-sky fit (turbidity 6.5)",
+           "energy_68": [1.2, 4.8]}
+    lamp = {"type": "area", "direction": [1.0, 0.0, 0.0], "intensity": 0.3, "source": "per-source model",
+            "energy_68": [0.2, 0.9]}
+    adaptive = {"type": "area", "direction": [0.0, 0.0, 1.0], "intensity": 9.0}  # no source: no key light
+    key = key_light_range({"lights": [adaptive, lamp, sun]})
+    assert key["index"] == 2 and key["source"].startswith("clear-sky")
+    assert key["low"] == pytest.approx(2.4) and key["high"] == pytest.approx(9.6)
+    assert key["elevation_deg"] == pytest.approx(math.degrees(math.asin(0.8)))
+    assert key_light_range({"lights": [adaptive]}) is None and key_light_range({}) is None
+    assert key_light_range({"lights": [dict(sun, intensity=0.0)]}) is None  # nothing to scale
