@@ -122,32 +122,6 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         return {"FINISHED"}
 
 
-KEPT_BELOW = 1.25  # a key light whose 68 % range starts this far above its strength was kept below its evidence
-
-
-def key_light_note(doc: dict) -> str:
-    """What an artist should know about the key light from lighting.json: a sun the photo does not show that was
-    placed from its clear sky (where, and how sure); where no key light (sun or lamp) was found at all, why the
-    sky search found no sun either, so nothing will cast a hard shadow; a key light given less than its own
-    evidence says (a clear-sky sun capped so that a hazy sky does not get a blinding one: its 68 % range, and
-    the Sun lamp strength that raises it); "" otherwise."""
-    search = (doc.get("estimator") or {}).get("sun_search") or {}
-    if search.get("hidden_sun"):
-        return (f"the photo shows no sun, so one was placed where its clear sky puts it ({search['elevation_deg']:.0f} "
-                f"deg up, within {search['direction_68_deg']:.0f} deg for 68 %): check its lamp against the photo's "
-                f"shadows")
-    keys = [light for light in doc.get("lights", []) if light.get("source")]  # key lights name their source
-    if search.get("searched") and not keys and search.get("refused"):
-        return (f"no sun or lamp found to cast a hard shadow: {'; '.join(search['refused'])}. If the photo shows "
-                f"one, add a sun lamp by hand")
-    key = core.lighting.lights.key_light_range(doc)
-    if key is not None and key["low"] >= KEPT_BELOW:
-        return (f"the key light ({key['elevation_deg']:.0f} deg up) has the strength the estimate is sure of; its "
-                f"own evidence ({key['source']}) puts it at {key['low']:.1f}-{key['high']:.1f}x that (68 %). If the "
-                f"photo's shadows are harder than the render's, raise Sun lamp strength toward that")
-    return ""
-
-
 class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     """Estimate the lighting of the loaded panorama with the panel's settings (runs in the background; Esc
     cancels)"""
@@ -180,7 +154,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
             self.report({"WARNING"}, f"PanoLight: {store.stored_panorama(world).filepath or 'the panorama'}: {problem}")
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
-        note = key_light_note(doc)
+        note = core.lighting.lights.key_light_note(doc, light="lamp", raise_with="Sun lamp strength")
         if note:
             self.report({"INFO"}, f"PanoLight: {note}")
 

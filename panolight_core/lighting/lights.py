@@ -243,3 +243,30 @@ def key_light_range(doc: dict) -> dict | None:
     elevation = math.degrees(math.asin(float(np.clip(d[2] / max(float(np.linalg.norm(d)), 1e-300), -1.0, 1.0))))
     return {"index": best, "source": str(light["source"]), "elevation_deg": elevation,
             "low": float(light["energy_68"][0]) / energy, "high": float(light["energy_68"][1]) / energy}
+
+
+KEPT_BELOW = 1.25  # a key light whose 68 % range starts this far above its strength was kept below its evidence
+
+
+def key_light_note(doc: dict, light: str = "light", raise_with: str = "its strength") -> str:
+    """What an artist should know about the key light from lighting.json, in one line: a sun the photo does not
+    show that was placed from its clear sky (where, and how sure); where no key light (sun or lamp) was found at
+    all, why the sky search found no sun either, so nothing will cast a hard shadow; a key light given less than
+    its own evidence says (a clear-sky sun capped so that a hazy sky does not get a blinding one: its 68 % range
+    over the strength it was given, and what raises it: ``raise_with``); "" otherwise. ``light``: what the
+    reader's tool calls a light (Blender: "lamp")."""
+    search = (doc.get("estimator") or {}).get("sun_search") or {}
+    if search.get("hidden_sun"):
+        return (f"the photo shows no sun, so one was placed where its clear sky puts it ({search['elevation_deg']:.0f} "
+                f"deg up, within {search['direction_68_deg']:.0f} deg for 68 %): check its {light} against the photo's "
+                f"shadows")
+    keys = [light for light in doc.get("lights", []) if light.get("source")]  # key lights name their source
+    if search.get("searched") and not keys and search.get("refused"):
+        return (f"no sun or lamp found to cast a hard shadow: {'; '.join(search['refused'])}. If the photo shows "
+                f"one, add a sun {light} by hand")
+    key = key_light_range(doc)
+    if key is not None and key["low"] >= KEPT_BELOW:
+        return (f"the key light ({key['elevation_deg']:.0f} deg up) has the strength the estimate is sure of; its "
+                f"own evidence ({key['source']}) puts it at {key['low']:.1f}-{key['high']:.1f}x that (68 %). If the "
+                f"photo's shadows are harder than a render's, raise {raise_with} toward that")
+    return ""

@@ -17,6 +17,7 @@ from ..io import ownership
 from ..io.atomic import folder_lock
 from ..io.images import write_exr_rows
 from ..io.lighting import write_lighting
+from ..lighting.lights import key_light_note
 from .estimate import estimate_lighting, require_finite
 from .settings import Settings
 
@@ -126,6 +127,9 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
     doc.setdefault("model", {}).setdefault("ringing", {})["emitter"] = {
         "negative_fraction": round(made["negative_fraction"], 6), "moment_error": made["moment_error"]}
+    note = key_light_note(doc, raise_with="its intensity in lighting.json (Blender: Sun lamp strength)")
+    if note:
+        logger.info("note: %s", note)
     logger.info("writing %s/", out_dir)
     return _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, settings.exposure_ev)
 

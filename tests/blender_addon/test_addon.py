@@ -456,38 +456,33 @@ def test_same_lighting_compares_every_light_not_only_their_number():
 
 
 def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
-    """A photo whose sun is retouched out: the estimate says a sun was placed from the sky, where and how sure.
-    Where no key light was found at all, the note says why the sky search found none either."""
-    from blender_addon.operators import key_light_note
+    """A photo whose sun is retouched out: the estimate says a sun was placed from the sky, where and how sure, in
+    the status bar, in Blender's words (``lighting.lights.key_light_note``: its lamp, Sun lamp strength)."""
     from panolight_core.io import write_srgb8
+    from panolight_core.lighting.lights import key_light_note
     from tests.panolight_core.estimators.test_keylight import _retouched_sky
 
     path = write_srgb8(tmp_path / "retouched.png", _retouched_sky(paint=1.0)[0])
     assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
     _configure()
-    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    from blender_addon.operators import PANOLIGHT_OT_estimate_lighting
+
+    reports = []
+
+    class Operator:  # what the estimate operator reports, recorded
+        _pixels = None
+
+        def report(self, kind, text):
+            reports.append(text)
+
+    result = blender_addon.core.core.pipeline.estimate_lighting(read_image(path, ldr_as_uint8=True),
+                                                                bpy.context.scene.panolight.estimate_settings())
+    PANOLIGHT_OT_estimate_lighting._store(Operator(), bpy.context, bpy.context.scene.world, result)
     doc = store.stored_lighting(bpy.context.scene.world)
     search = doc["estimator"]["sun_search"]
     assert search["hidden_sun"] and abs(search["elevation_deg"] - 40.0) < search["direction_68_deg"]  # sun 40 up
-    note = key_light_note(doc)
-    assert note.startswith("the photo shows no sun") and f"{search['elevation_deg']:.0f} deg up" in note
-    why = "no position stands out (best score 0.68 of the median's > 0.65)"
-    overcast = {"estimator": {"sun_search": {"searched": True, "hidden_sun": False, "refused": [why]}},
-                "lights": [{"type": "area", "intensity": 1.0}]}  # the adaptive model's light is no key light
-    note = key_light_note(overcast)
-    assert note.startswith("no sun or lamp found to cast a hard shadow") and why in note
-    lamp = {"type": "area", "intensity": 2.0, "source": "per-source model"}
-    assert key_light_note(dict(overcast, lights=[lamp])) == ""  # a lamp from the photo's clipped region
-    assert key_light_note({"estimator": {"sun_search": {"searched": False, "why": "a clipped region holds a "
-                                                                           "clear-sky sun"}}}) == ""
-    assert key_light_note({}) == ""
-    capped = {"lights": [{"type": "sun", "direction": [0.74, 0.67, 0.09], "intensity": 0.49,
-                          "source": "clear-sky fit (turbidity 8)", "energy_68": [1.19, 4.76]}]}
-    note = key_light_note(capped)
-    assert note.startswith("the key light (5 deg up) has the strength the estimate is sure of")
-    assert "2.4-9.7x that (68 %)" in note and "Sun lamp strength" in note
-    whole = {"lights": [dict(capped["lights"][0], intensity=2.38)]}  # given its evidence: nothing to say
-    assert key_light_note(whole) == ""
+    note = key_light_note(doc, light="lamp", raise_with="Sun lamp strength")
+    assert f"PanoLight: {note}" in reports and "check its lamp against the photo's shadows" in note
 
 
 def test_sun_lamp_strength_scales_the_lamps_alone_and_the_panel_shows_the_key_lights_range(tmp_path):

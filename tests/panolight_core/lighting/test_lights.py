@@ -6,7 +6,8 @@ import pytest
 
 from panolight_core import metrics, sh
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
-from panolight_core.lighting.lights import extract_lights, key_light_range, light_irradiance, sun_lamp
+from panolight_core.lighting.lights import (extract_lights, key_light_note, key_light_range, light_irradiance,
+                                           sun_lamp)
 
 
 def _map(h=128, bg=0.1):
@@ -112,3 +113,30 @@ def test_the_key_light_range_is_the_brightest_key_lights_68_percent_over_its_str
     assert key["elevation_deg"] == pytest.approx(math.degrees(math.asin(0.8)))
     assert key_light_range({"lights": [adaptive]}) is None and key_light_range({}) is None
     assert key_light_range({"lights": [dict(sun, intensity=0.0)]}) is None  # nothing to scale
+
+
+def test_the_key_light_note_says_what_an_artist_should_know():
+    """A sun placed from the sky (where, how sure), no key light at all (why the sky search found none either), a
+    key light given less than its evidence (its 68 % range and what raises it), and nothing otherwise."""
+    hidden = {"estimator": {"sun_search": {"searched": True, "hidden_sun": True, "refused": [], "elevation_deg": 23.75,
+                                           "direction_68_deg": 27.2}}, "lights": []}
+    assert key_light_note(hidden) == ("the photo shows no sun, so one was placed where its clear sky puts it (24 deg "
+                                      "up, within 27 deg for 68 %): check its light against the photo's shadows")
+    assert "check its lamp" in key_light_note(hidden, light="lamp")
+    why = "no position stands out (best score 0.68 of the median's > 0.65)"
+    overcast = {"estimator": {"sun_search": {"searched": True, "hidden_sun": False, "refused": [why]}},
+                "lights": [{"type": "area", "intensity": 1.0}]}  # the adaptive model's light is no key light
+    note = key_light_note(overcast)
+    assert note.startswith("no sun or lamp found to cast a hard shadow") and why in note
+    lamp = {"type": "area", "direction": [0.0, 0.0, 1.0], "intensity": 2.0, "source": "per-source model"}
+    assert key_light_note(dict(overcast, lights=[lamp])) == ""  # a lamp from the photo's clipped region
+    assert key_light_note({"estimator": {"sun_search": {"searched": False, "why": "a clipped region holds a "
+                                                                           "clear-sky sun"}}}) == ""
+    assert key_light_note({}) == ""
+    capped = {"lights": [{"type": "sun", "direction": [0.74, 0.67, 0.09], "intensity": 0.49,
+                          "source": "clear-sky fit (turbidity 8)", "energy_68": [1.19, 4.76]}]}
+    note = key_light_note(capped, raise_with="Sun lamp strength")
+    assert note.startswith("the key light (5 deg up) has the strength the estimate is sure of")
+    assert "2.4-9.7x that (68 %)" in note and note.endswith("raise Sun lamp strength toward that")
+    assert key_light_note({"lights": [dict(capped["lights"][0], intensity=2.38)]}) == ""  # given its evidence
+    assert key_light_note({"lights": [dict(capped["lights"][0], intensity=1.19 / 1.2)]}) == ""  # under KEPT_BELOW

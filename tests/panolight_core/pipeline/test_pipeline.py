@@ -108,6 +108,23 @@ def test_run_estimate_reports_progress_through_logging_and_prints_nothing(tmp_pa
     assert capsys.readouterr() == ("", "")  # a library user's terminal stays theirs
 
 
+def test_run_estimate_says_what_an_artist_should_know_of_the_key_light(tmp_path, caplog):
+    """A photo whose sun is retouched out: the run logs that a sun was placed from its sky (``key_light_note``),
+    where and how sure, in the words of a tool that has no lamps."""
+    import logging
+
+    from panolight_core.io import write_srgb8
+    from tests.panolight_core.estimators.test_keylight import _retouched_sky
+
+    src = write_srgb8(tmp_path / "retouched.png", _retouched_sky(paint=1.0)[0])
+    with caplog.at_level(logging.INFO, logger="panolight_core"):
+        doc = run_estimate(src, tmp_path / "out", outputs=("lighting",))
+    said = [r.getMessage() for r in caplog.records if r.name == "panolight_core.pipeline.job"]
+    notes = [m for m in said if m.startswith("note: ")]
+    assert len(notes) == 1 and notes[0].startswith("note: the photo shows no sun, so one was placed")
+    assert f"{doc['estimator']['sun_search']['elevation_deg']:.0f} deg up" in notes[0] and "its light" in notes[0]
+
+
 def test_run_estimate_refuses_to_replace_its_input(tmp_path, sunny):
     hdr, _ = sunny
     src = write_image(tmp_path / "hdr.exr", hdr)
