@@ -260,10 +260,14 @@ def key_light_note(doc: dict, light: str = "light", raise_with: str = "its stren
         return (f"the photo shows no sun, so one was placed where its clear sky puts it ({search['elevation_deg']:.0f} "
                 f"deg up, within {search['direction_68_deg']:.0f} deg for 68 %): check its {light} against the photo's "
                 f"shadows")
-    keys = [light for light in doc.get("lights", []) if light.get("source")]  # key lights name their source
+    lights = doc.get("lights", [])
+    keys = [one for one in lights if one.get("source")]  # key lights name their source
     if search.get("searched") and not keys and search.get("refused"):
-        return (f"no sun or lamp found to cast a hard shadow: {'; '.join(search['refused'])}. If the photo shows "
-                f"one, add a sun {light} by hand")
+        why = "; ".join(search["refused"])
+        cast = (f"the {len(lights)} explicit light(s) are the brightest spots of the recovered map" if lights else
+                "nothing will cast a hard shadow")
+        return (f"no sun or lamp was weighed as a key light, and no sun was placed from the sky ({why}): {cast}. If "
+                f"the photo shows a sun, add a sun {light} by hand")
     key = key_light_range(doc)
     if key is not None and key["low"] >= KEPT_BELOW:
         return (f"the key light ({key['elevation_deg']:.0f} deg up) has the strength the estimate is sure of; its "

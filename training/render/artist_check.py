@@ -11,7 +11,10 @@ For each photo (default: every JPEG in ../shared/data/ldr; never trained or tune
   1 % of the ground's A/B ratio), against the photo's own sunlit/shadowed ground where it shows one
   (``PHOTO_GROUND``: two patches picked by eye, one sunlit and one in shadow, on the same material);
 - the key light's direction against the visible sun (``SUNS``, ../shared/data/ldr/README.md), and its
-  colour (the tunnel's sodium lamps must come out orange).
+  colour (the tunnel's sodium lamps must come out orange);
+- what the product tells the artist of the key light (``lighting.lights.key_light_note``) and, for a key light
+  kept below its own evidence, the same render with it at the low end of its 68 % range (what raising Blender's
+  Sun lamp strength there gives).
 Writes OUT/<photo>.png (photo | composite per estimator) and OUT/artist_check.md (the table).
 
     python -m training.render.artist_check [--photos a.jpg ...] [--estimators sources auto] [--spp 64] --out docs/artist_check
@@ -22,11 +25,13 @@ import argparse
 import math
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
+from panolight_core.lighting.lights import KEPT_BELOW, key_light_note, key_light_range
 
 ROOT = Path(__file__).resolve().parents[2]
 LDR = ROOT.parent / "shared" / "data" / "ldr"
@@ -96,10 +101,21 @@ def check(photo: Path, estimators, spp: int, size=(320, 240), fov: float = 70.0,
     px = read_image(photo, ldr_as_uint8=True)
     linear = ldr_to_linear(area_downsample(px, min(512, px.shape[0])).round().astype(np.uint8))
     rows = {"photo": photo.name, "photo_ratio": photo_ratio(photo.name, linear), "estimates": []}
+    runs = []
     for name in estimators:
-        t = time.perf_counter()
         res = estimate_lighting(px, Settings(estimator=name))
-        model = res.model
+        runs.append((name, res.model, key_light_note(res.document)))
+        key = key_light_range(res.document)
+        if key is not None and key["low"] >= KEPT_BELOW:
+            # what the artist gets by raising Sun lamp strength to the low end of the key light's 68 % range
+            lights = [dict(light) for light in res.model.lights]
+            raised = res.document["lights"][key["index"]]
+            for light in lights:
+                if np.allclose(light["direction"], raised["direction"]) and light["intensity"] == raised["intensity"]:
+                    light["intensity"] *= key["low"]
+            runs.append((f"{name}, key x{key['low']:.1f}", replace(res.model, lights=lights), ""))
+    for name, model, note in runs:
+        t = time.perf_counter()
         d, kind = key_direction(model)
         yaw = math.degrees(math.atan2(d[1], d[0])) + 90.0  # the key light from the right: the shadow crosses the view
         pitch = -25.0
@@ -114,7 +130,8 @@ def check(photo: Path, estimators, spp: int, size=(320, 240), fov: float = 70.0,
         colour = np.asarray(max(keys, key=lambda light: light["intensity"])["color"]) if keys else None
         sun = SUNS.get(photo.name)
         err = math.degrees(math.acos(np.clip(d @ (np.asarray(sun) / np.linalg.norm(sun)), -1, 1))) if sun else None
-        rows["estimates"].append({"estimator": name, "key": kind, "direction": d.round(3).tolist(), "sun_error_deg": err,
+        rows["estimates"].append({"estimator": name, "note": note, "key": kind, "direction": d.round(3).tolist(),
+                                  "sun_error_deg": err,
                                   "lights": len(model.lights), "colour": None if colour is None else colour.round(3).tolist(),
                                   "plane_ratio": ratio, "rendered_ratio": rendered, "composite": comp["composite"],
                                   "background": bg, "seconds": time.perf_counter() - t})
@@ -163,6 +180,12 @@ def write(results, out: Path) -> Path:
         picture = out / f"{Path(r['photo']).stem}.png"
         write_srgb8(picture, np.concatenate(panels[:-1], axis=1))
         pictures += ["", f"**{r['photo']}**", "", f"![{r['photo']}]({picture.name})"]
+    notes = [f"- **{r['photo']}**, `{e['estimator']}`: {e['note']}"
+             for r in results for e in r["estimates"] if e["note"]]
+    if notes:
+        lines += ["", "What `panolight estimate` and the Blender status bar tell the artist "
+                  "(`lighting.lights.key_light_note`; a key light kept below its evidence is also rendered at the low "
+                  "end of its 68 % range, what raising *Sun lamp strength* there gives):", ""] + notes
     lines += pictures
     report = out / "artist_check.md"
     report.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")

@@ -127,7 +127,10 @@ def test_the_key_light_note_says_what_an_artist_should_know():
     overcast = {"estimator": {"sun_search": {"searched": True, "hidden_sun": False, "refused": [why]}},
                 "lights": [{"type": "area", "intensity": 1.0}]}  # the adaptive model's light is no key light
     note = key_light_note(overcast)
-    assert note.startswith("no sun or lamp found to cast a hard shadow") and why in note
+    assert note.startswith("no sun or lamp was weighed as a key light, and no sun was placed from the sky (")
+    assert why in note
+    assert "the 1 explicit light(s) are the brightest spots" in note
+    assert "nothing will cast a hard shadow" in key_light_note(dict(overcast, lights=[]))
     lamp = {"type": "area", "direction": [0.0, 0.0, 1.0], "intensity": 2.0, "source": "per-source model"}
     assert key_light_note(dict(overcast, lights=[lamp])) == ""  # a lamp from the photo's clipped region
     assert key_light_note({"estimator": {"sun_search": {"searched": False, "why": "a clipped region holds a "

@@ -35,3 +35,31 @@ def test_a_photo_with_a_sun_gets_a_sphere_with_a_shadow(tmp_path):
     e = result["estimates"][0]
     assert e["key"] in ("sun", "area") and e["plane_ratio"] > 1.05 and np.isfinite(e["rendered_ratio"])
     assert (tmp_path / "out" / "sunny.png").is_file() and "sunny.jpg" in report.read_text()
+
+
+def test_a_key_light_kept_below_its_evidence_is_also_shown_raised(tmp_path, monkeypatch):
+    """Where the key light's 68 % range starts above its strength, the check renders it again at the range's low
+    end (what Blender's Sun lamp strength there gives): a harder shadow, and the note that says so."""
+    from PIL import Image
+
+    from panolight_core import sh
+
+    dirs = sh.pixel_directions(128, 256)
+    img = np.full((128, 256, 3), 140, np.uint8)
+    img[dirs[..., 2] < 0] = 90
+    img[dirs @ np.array([0.0, 0.8, 0.6]) > np.cos(np.radians(4))] = 255
+    photo = tmp_path / "sunny.jpg"
+    Image.fromarray(img).save(photo, quality=95)
+
+    def kept_below(doc):  # the brightest light, as if capped at a third of its evidence
+        i = max(range(len(doc["lights"])), key=lambda j: doc["lights"][j]["intensity"])
+        return {"index": i, "source": "test", "elevation_deg": 37.0, "low": 3.0, "high": 12.0}
+
+    monkeypatch.setattr(A, "key_light_range", kept_below)
+    monkeypatch.setattr(A, "key_light_note", lambda doc: "kept below its evidence")
+    result = A.check(photo, ["auto"], spp=4, size=(48, 36))
+    plain, raised = result["estimates"]
+    assert raised["estimator"] == "auto, key x3.0" and plain["note"] == "kept below its evidence"
+    assert raised["plane_ratio"] > plain["plane_ratio"] > 1.0
+    report = A.write([result], tmp_path / "out").read_text()
+    assert "`auto`: kept below its evidence" in report and "auto, key x3.0" in report
