@@ -250,11 +250,11 @@ KEPT_BELOW = 1.25  # a key light whose 68 % range starts this far above its stre
 
 def key_light_note(doc: dict, light: str = "light", raise_with: str = "its strength") -> str:
     """What an artist should know about the key light from lighting.json, in one line: a sun the photo does not
-    show that was placed from its clear sky (where, and how sure); where no key light (sun or lamp) was found at
-    all, why the sky search found no sun either, so nothing will cast a hard shadow; a key light given less than
-    its own evidence says (a clear-sky sun capped so that a hazy sky does not get a blinding one: its 68 % range
-    over the strength it was given, and what raises it: ``raise_with``); "" otherwise. ``light``: what the
-    reader's tool calls a light (Blender: "lamp")."""
+    show that was placed from its clear sky (where, and how sure); where no key light (sun or lamp) was weighed at
+    all, why the sky search placed no sun either (``sun_search.refused``), and whether any explicit light is left
+    to cast a shadow; a key light given less than its own evidence says (a clear-sky sun capped so that a hazy sky
+    does not get a blinding one: its 68 % range over the strength it was given, from KEPT_BELOW up, and what raises
+    it: ``raise_with``); "" otherwise. ``light``: what the reader's tool calls a light (Blender: "lamp")."""
     search = (doc.get("estimator") or {}).get("sun_search") or {}
     if search.get("hidden_sun"):
         return (f"the photo shows no sun, so one was placed where its clear sky puts it ({search['elevation_deg']:.0f} "
