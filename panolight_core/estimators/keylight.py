@@ -2,7 +2,8 @@
 
 An auto-exposing camera clips a wide patch of bright sky or wall around a sun or lamp, and the
 per-source model's even fill of that patch is no shadow-casting light. ``find_key_lights`` takes each
-region that holds at least KEY_SHARE of the scene's predicted energy and makes it one explicit light:
+region that holds at least KEY_SHARE of the scene's predicted energy (a clear sky's sun from SUN_SHARE) and
+makes it one explicit light:
 
 - where: the region's clipped-area centroid. Measured on the real HDRs at ev 0 (docs/keylight.md), it
   beat a glare-law fit of the unclipped ring, a clear-sky fit with the sun's position free, and a
@@ -41,6 +42,8 @@ from . import sun_search
 
 SUN_DIAMETER_DEG = 0.53  # the sun's angular diameter seen from the earth
 KEY_SHARE = 0.1  # a region whose predicted energy is at least this share of the scene's holds a key light
+SUN_SHARE = 0.05  # ... or half that, if a clear sky's sun is in it: a low sun's share wavers about KEY_SHARE with
+# the pixel grid (dawn.jpg turned by 333 pixels: 0.086 against 0.103), and the sun should not come and go with it
 MAX_KEYS = 3
 SKY_CORRECTION = 2.25  # true / physical sun energy: the real suns' median (training/keylight/cv.py: 2.20 over 28, folds 2.05-2.37)
 SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)
@@ -227,16 +230,23 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
     def fit_at(direction):  # the clear-sky fit with the sun there; None below the horizon
         return clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
 
-    chosen = []
+    chosen, weak = [], set()
     for i in np.argsort(-predicted):
-        if predicted[i] < KEY_SHARE * scene:
+        if predicted[i] < SUN_SHARE * scene:
             break
+        if predicted[i] < KEY_SHARE * scene:  # only a sun in a clear sky, where no stronger region holds one
+            if regions.centre[i][2] <= 0 or any(f is not None and f.clear for _, f in chosen):
+                continue
+            weak.add(int(i))
         if fits is not None and int(i) in fits:
             fit = fits[int(i)]
         else:
             fit = fit_at(regions.centre[i])
             if fits is not None:
                 fits[int(i)] = fit
+        if int(i) in weak and not (fit is not None and fit.clear):
+            weak.discard(int(i))
+            continue
         chosen.append((int(i), fit))
     # one sun in the sky: of the regions whose clear-sky fit passes, the best-fitting one holds it; a region
     # next to it (the same sun's patch split in two) makes no light of its own, one further off is weighed
@@ -253,7 +263,7 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
     for i, fit in chosen:
         if len(keys) == MAX_KEYS:
             break
-        if i in part_of_sun:
+        if i in part_of_sun or (i in weak and i != sun):
             continue
         direction = regions.centre[i]
         parts = [i, *sorted(part_of_sun)] if i == sun else [i]  # the regions this light stands for

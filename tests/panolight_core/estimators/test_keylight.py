@@ -267,3 +267,46 @@ def test_the_sky_rule_gives_a_clear_sky_sun_its_whole_fitted_energy():
     (b,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="sky")
     assert a.method.startswith("clear-sky fit") and metrics.angle_deg(b.direction, s) < 1.5
     assert b.energy == pytest.approx(b.physical) and b.energy > a.energy  # the cap bites here
+
+
+def _share_mu(reg, rad, share, which=0):
+    """mu (n,) that gives region ``which`` ``share`` of the scene's predicted energy (``find_key_lights``'s
+    test), every other region its held energy (mu 0)."""
+    lum = rad @ LUMINANCE_WEIGHTS
+    e_map = float((lum * sh.pixel_solid_angles(*lum.shape)).sum())
+    predicted = share * (e_map - reg.held[which]) / (1.0 - share)
+    mu = np.zeros(reg.count)
+    mu[which] = math.log(predicted / reg.held[which])
+    return mu
+
+
+@pytest.mark.parametrize("share, sun", [(0.07, True), (0.03, False)])
+def test_a_clear_sky_sun_is_a_key_light_from_half_the_key_share(share, sun):
+    """A low sun's predicted share wavers about KEY_SHARE with the pixel grid (a photo turned by a few pixels), so a
+    region with a clear sky's sun in it makes a key light from SUN_SHARE up; under that, none."""
+    from panolight_core.estimators import keylight
+
+    from .test_sky import _clear_sky_ldr
+
+    ldr, s, *_ = _clear_sky_ldr(elev=12.0, h=128, clip_deg=12.0)  # a low sun's small, lopsided clipped patch
+    rad, fa, fb = sources.work_maps(ldr)
+    reg = sources.region_features(rad, fa, fb)
+    assert reg.count == 1
+    i = 0
+    mu = _share_mu(reg, rad, share, i)
+    assert keylight.SUN_SHARE <= 0.07 < keylight.KEY_SHARE and 0.03 < keylight.SUN_SHARE
+    keys = keylight.find_key_lights(rad, fa, fb, reg, mu, np.full(reg.count, 0.3))
+    region_suns = [k for k in keys if k.region == i and k.method.startswith("clear-sky")]
+    assert len(region_suns) == int(sun)
+    if sun:  # at the patch's centroid, which the horizon's brightening pulls off the sun (docs/keylight.md)
+        assert metrics.angle_deg(region_suns[0].direction, s) < 8.0
+
+
+def test_a_weak_region_in_a_grey_room_makes_no_light():
+    """From SUN_SHARE to KEY_SHARE only a clear sky's sun makes a light: a lamp of that share stays in the fill."""
+    from panolight_core.estimators import keylight
+
+    rad, fa, fb = sources.work_maps(hdr_to_ldr(_lamps([(0.2, 0.5, 0.8)]), 0.0))
+    reg = sources.region_features(rad, fa, fb)
+    assert keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.07), np.full(reg.count, 0.3)) == []
+    assert keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.2), np.full(reg.count, 0.3))
