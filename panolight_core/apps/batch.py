@@ -12,6 +12,7 @@ from pathlib import Path
 from ..errors import PanoLightError, PanoLightWarning, printable
 from ..io.atomic import atomic_path, folder_lock, pid_alive
 from ..io.ownership import digest
+from ..lighting.lights import key_light_note
 
 EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
 
@@ -214,11 +215,14 @@ def _process(job, src: Path, dst: Path, settings) -> dict:
         (dst / SIDECAR).unlink(missing_ok=True)
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always", PanoLightWarning)
-            job(src, dst)
+            doc = job(src, dst)
         _write_json(dst / SIDECAR, {"sha256": digest, "settings": settings})
         result = {"input": str(src), "status": "ok", "output": str(dst), "seconds": round(time.perf_counter() - t, 4)}
         notes = [str(w.message) for w in said if issubclass(w.category, PanoLightWarning)]
-        return {**result, "warnings": notes} if notes else result
+        if notes:
+            result["warnings"] = notes
+        note = key_light_note(doc) if isinstance(doc, dict) else ""
+        return {**result, "key_light": note} if note else result
     except PanoLightError as exc:
         error = str(exc)
     except (KeyboardInterrupt, SystemExit):

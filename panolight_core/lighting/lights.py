@@ -248,7 +248,8 @@ def key_light_range(doc: dict) -> dict | None:
 KEPT_BELOW = 1.25  # a key light whose 68 % range starts this far above its strength was kept below its evidence
 
 
-def key_light_note(doc: dict, light: str = "light", raise_with: str = "its strength") -> str:
+def key_light_note(doc: dict, light: str = "light",
+                   raise_with: str = "its intensity in lighting.json (Blender: Sun lamp strength)") -> str:
     """What an artist should know about the key light from lighting.json, in one line: a sun the photo does not
     show that was placed from its clear sky (where, and how sure); where no key light (sun or lamp) was weighed at
     all, why the sky search placed no sun either (``sun_search.refused``), and whether any explicit light is left

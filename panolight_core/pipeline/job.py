@@ -127,7 +127,7 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
     doc.setdefault("model", {}).setdefault("ringing", {})["emitter"] = {
         "negative_fraction": round(made["negative_fraction"], 6), "moment_error": made["moment_error"]}
-    note = key_light_note(doc, raise_with="its intensity in lighting.json (Blender: Sun lamp strength)")
+    note = key_light_note(doc)
     if note:
         logger.info("note: %s", note)
     logger.info("writing %s/", out_dir)

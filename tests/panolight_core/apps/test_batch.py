@@ -1,6 +1,7 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from panolight_core.apps.batch import collect_inputs, output_names, parse_shard, shard
@@ -270,3 +271,24 @@ def test_workers_die_with_a_killed_batch(tmp_path):
     assert not any(running(p) for p in pids)
     _, err = proc.communicate(timeout=30)  # every process that shared stderr has gone
     assert b"Traceback" not in err, err.decode()
+
+
+def test_the_report_names_the_plates_whose_key_light_needs_a_look(tmp_path):
+    """A render farm's report carries each input's key-light note (``lighting.lights.key_light_note``): a sun put
+    back from the sky of a photo whose sun was retouched out; a grey panorama with no light at all; a lamp whose
+    key light is as strong as its evidence has nothing to say."""
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.io import write_srgb8
+    from tests.panolight_core.estimators.test_keylight import _lamps, _retouched_sky
+
+    src = tmp_path / "in"
+    src.mkdir()
+    write_srgb8(src / "retouched.png", _retouched_sky(paint=1.0)[0])
+    write_image(src / "grey.png", np.full((32, 64, 3), 0.3))
+    write_srgb8(src / "lamp.png", hdr_to_ldr(_lamps([(0.2, 0.5, 0.8)], h=64), 0.0))
+    out = tmp_path / "out"
+    assert main(["batch", str(src), "-o", str(out), "-q", "--outputs", "lighting"]) == 0
+    results = {Path(r["input"]).name: r for r in json.loads((out / "batch_report.json").read_text())["results"]}
+    assert results["retouched.png"]["key_light"].startswith("the photo shows no sun, so one was placed")
+    assert results["grey.png"]["key_light"].startswith("no sun or lamp was weighed as a key light")
+    assert "key_light" not in results["lamp.png"]
