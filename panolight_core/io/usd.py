@@ -108,7 +108,14 @@ def _distant_light(stage, Gf, UsdGeom, UsdLux, prim_path: str, light: dict) -> N
     sun.CreateColorAttr(Gf.Vec3f(*(float(c / peak) if peak > 0 else 1.0 for c in color)))
     sun.CreateAngleAttr(math.degrees(float(light.get("angle", 0.0))))
     UsdGeom.Xformable(sun).AddTransformOp().Set(_transform(Gf, light_frame(light["direction"])))
-    sun.GetPrim().SetCustomDataByKey("panolight:type", light.get("type", "sun"))
+    prim = sun.GetPrim()
+    prim.SetCustomDataByKey("panolight:type", light.get("type", "sun"))
+    if light.get("source"):  # a key light: how it was found and how sure it is (lighting.json's fields)
+        prim.SetCustomDataByKey("panolight:source", str(light["source"]))
+        if light.get("energy_68"):  # the source's 68 % energy range, in this light's intensity units
+            prim.SetCustomDataByKey("panolight:intensity68", Gf.Vec2d(*(float(v) * peak for v in light["energy_68"])))
+        if "direction_68_deg" in light:
+            prim.SetCustomDataByKey("panolight:direction68Deg", float(light["direction_68_deg"]))
 
 
 def read_usd(path, variant: str = "lights") -> dict:

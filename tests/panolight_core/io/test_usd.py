@@ -104,3 +104,22 @@ def test_distant_lights_are_normalised_so_intensity_is_irradiance(tmp_path):
     lights = [UsdLux.DistantLight(p) for p in stage.Traverse() if p.IsA(UsdLux.DistantLight)]
     assert len(lights) == 1 and lights[0].GetNormalizeAttr().Get() is True
     assert lights[0].GetAngleAttr().Get() == pytest.approx(math.degrees(0.01), rel=1e-6)
+
+
+def test_a_key_light_says_how_it_was_found_and_how_sure_it_is(tmp_path):
+    """A key light's source and its 68 % ranges (energy, in the light's intensity units; direction) ride along as
+    custom data, so a pipeline reading only the stage knows a capped sun could be brighter; other lights carry none."""
+    from pxr import Usd, UsdLux
+
+    key = {"type": "sun", "direction": [0.0, 0.6, 0.8], "color": [1.6, 0.8, 0.2], "intensity": 0.5, "angle": 0.01,
+           "source": "clear-sky fit (turbidity 6.5)", "energy_68": [1.2, 4.8], "direction_68_deg": 2.5}
+    other = {"type": "area", "direction": [1.0, 0.0, 0.0], "color": [1.0, 1.0, 1.0], "intensity": 2.0, "angle": 0.1}
+    write_usd(tmp_path / "l.usda", {"lights": [key, other]})
+    stage = Usd.Stage.Open(str(tmp_path / "l.usda"))
+    prims = {p.GetName(): p for p in stage.Traverse() if p.IsA(UsdLux.DistantLight)}
+    data = prims["Light_0"].GetCustomData()["panolight"]  # USD reads "panolight:x" as the nested key path
+    assert data["source"] == key["source"] and data["direction68Deg"] == 2.5 and data["type"] == "sun"
+    lo, hi = data["intensity68"]
+    intensity = UsdLux.DistantLight(prims["Light_0"]).GetIntensityAttr().Get()
+    assert (lo / intensity, hi / intensity) == pytest.approx((1.2 / 0.5, 4.8 / 0.5))  # the range over the light
+    assert set(prims["Light_1"].GetCustomData()["panolight"]) == {"type"}
