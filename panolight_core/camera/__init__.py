@@ -13,6 +13,9 @@ import numpy as np
 
 from .color import SRGB8_TO_LINEAR, linear_to_srgb, luminance, srgb_to_linear
 
+MID_GREY = 0.18  # the linear value an auto-exposing camera puts its metered median at (EVALUATION.md's k), and the
+# value a midtone S-curve turns about (TONE_CURVES "contrast")
+
 
 def auto_exposure(hdr: np.ndarray, ev: float = 0.0, robust: bool = False) -> float:
     """k = 0.18 * 2^ev / median(luminance(hdr)) (median over all pixels, unweighted).
@@ -26,8 +29,8 @@ def auto_exposure(hdr: np.ndarray, ev: float = 0.0, robust: bool = False) -> flo
         if not robust:
             raise ValueError("the median luminance of the HDR image is not positive; auto-exposure is undefined")
         mean = float(lum.mean())
-        return 0.18 * 2.0 ** ev / mean if mean > 0 else 1.0
-    return 0.18 * 2.0 ** ev / med
+        return MID_GREY * 2.0 ** ev / mean if mean > 0 else 1.0
+    return MID_GREY * 2.0 ** ev / med
 
 
 TONE_CURVES = {  # name: (what it is, its parameter's default)
@@ -53,7 +56,7 @@ def tone_curve(x: np.ndarray, curve: str = "srgb", param: float | None = None) -
         return np.clip(x, 0.0, 1.0) ** (1.0 / p)
     if curve == "shoulder":
         return linear_to_srgb(np.clip(x * (1.0 + x / p ** 2) / (1.0 + x), 0.0, 1.0))
-    return linear_to_srgb(np.clip(0.18 * (np.maximum(x, 0.0) / 0.18) ** p, 0.0, 1.0))
+    return linear_to_srgb(np.clip(MID_GREY * (np.maximum(x, 0.0) / MID_GREY) ** p, 0.0, 1.0))
 
 
 def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None, robust: bool = False,

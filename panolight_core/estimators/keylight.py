@@ -231,23 +231,23 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
         return clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, direction) if direction[2] > 0 else None
 
     chosen, weak = [], set()
-    for i in np.argsort(-predicted):
+    for i in map(int, np.argsort(-predicted)):
         if predicted[i] < SUN_SHARE * scene:
             break
-        if predicted[i] < KEY_SHARE * scene:  # only a sun in a clear sky, where no stronger region holds one
-            if regions.centre[i][2] <= 0 or any(f is not None and f.clear for _, f in chosen):
-                continue
-            weak.add(int(i))
-        if fits is not None and int(i) in fits:
-            fit = fits[int(i)]
+        below = predicted[i] < KEY_SHARE * scene  # then only a sun in a clear sky, where no stronger region holds one
+        if below and (regions.centre[i][2] <= 0 or any(f is not None and f.clear for _, f in chosen)):
+            continue
+        if fits is not None and i in fits:
+            fit = fits[i]
         else:
             fit = fit_at(regions.centre[i])
             if fits is not None:
-                fits[int(i)] = fit
-        if int(i) in weak and not (fit is not None and fit.clear):
-            weak.discard(int(i))
-            continue
-        chosen.append((int(i), fit))
+                fits[i] = fit
+        if below:
+            if not (fit is not None and fit.clear):
+                continue
+            weak.add(i)
+        chosen.append((i, fit))
     # one sun in the sky: of the regions whose clear-sky fit passes, the best-fitting one holds it; a region
     # next to it (the same sun's patch split in two) makes no light of its own, one further off is weighed
     # as any other region

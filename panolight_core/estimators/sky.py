@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import sh
+from ..camera import MID_GREY
 from ..camera.color import LUMINANCE_WEIGHTS
 from ..errors import PanoLightError
 
@@ -28,7 +29,6 @@ MIN_SKY_SR = 0.3  # ... nor one resting on less visible sky than this (sr)
 MIN_BLUENESS = 0.85  # ... nor one whose kept sky is redder than this times the model's blue/red: a grey room, a
 # night sky under sodium light (docs/keylight.md: 25 of 26 real suns' skies at 0.96 or bluer, the other a lamp at
 # night; grey studios, a chapel and night skies at 0.41-0.82)
-MID_GREY = 0.18  # the linear value an auto-exposing camera puts its metered mid grey at (EVALUATION.md's k)
 CONTRAST_RANGE = (0.5, 2.5)  # a sky that fails the gate through sRGB is fitted again through a tone curve: log
 # observed = s + g log model, g in this range (a camera's S-curve steepens the sky's falloff, a tone-mapped look
 # flattens it), and passes when that fit's residual does with g inside the range (a grey studio's walls ask

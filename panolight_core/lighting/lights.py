@@ -228,16 +228,13 @@ def key_light_range(doc: dict) -> dict | None:
     doc["lights"]), "source", "elevation_deg", "low", "high"}, low and high the range's ends over its
     ``intensity`` (a clear-sky sun kept below its sky fit, so that a hazy sky does not get a blinding one, has
     low > 1). None where no light carries a range."""
-    best = None
-    for i, light in enumerate(doc.get("lights", [])):
-        rng, energy = light.get("energy_68"), float(light.get("intensity", 0.0))
-        if not light.get("source") or not rng or len(rng) != 2 or not energy > 0:
-            continue
-        if best is None or energy > float(doc["lights"][best]["intensity"]):
-            best = i
-    if best is None:
+    lights = doc.get("lights", [])
+    keys = [i for i, light in enumerate(lights) if light.get("source") and len(light.get("energy_68") or ()) == 2
+            and float(light.get("intensity", 0.0)) > 0]
+    if not keys:
         return None
-    light = doc["lights"][best]
+    best = max(keys, key=lambda i: float(lights[i]["intensity"]))
+    light = lights[best]
     energy = float(light["intensity"])
     d = np.asarray(light["direction"], dtype=np.float64)
     elevation = math.degrees(math.asin(float(np.clip(d[2] / max(float(np.linalg.norm(d)), 1e-300), -1.0, 1.0))))

@@ -33,13 +33,15 @@ def turned_back(direction, shift: int, width: int) -> np.ndarray:
 
 
 def key_light(pixels: np.ndarray, estimator: str = "auto") -> dict | None:
-    """The brightest key light of the default estimate of ``pixels`` (uint8 (H, W, 3)), or None."""
+    """The brightest key light (``lighting.lights.key_light_range``) of the default estimate of ``pixels`` (uint8
+    (H, W, 3)), or None."""
+    from panolight_core.lighting.lights import key_light_range
     from panolight_core.pipeline.estimate import estimate_lighting
     from panolight_core.pipeline.settings import Settings
 
     doc = estimate_lighting(pixels, Settings(estimator=estimator)).document
-    keys = [light for light in doc["lights"] if light.get("source")]
-    return max(keys, key=lambda light: light["intensity"]) if keys else None
+    key = key_light_range(doc)
+    return None if key is None else doc["lights"][key["index"]]
 
 
 def turns_of(pixels: np.ndarray, turns=TURNS, degrees: float = 3.0, factor: float = 1.5) -> list[dict]:
