@@ -41,7 +41,7 @@ def parse(argv, core):
     ap.add_argument("--sun-strength", type=float, default=1.0, metavar="X",
                     help="scale PanoLight's sun lamps alone (the panel's Sun lamp strength; default 1: the "
                          "estimate's strength; lighting.json's energy_68 gives each key light's 68 %% range)")
-    core.pipeline.settings.add_arguments(ap)
+    core.pipeline.settings.add_arguments(ap, sun_strength=False)  # --sun-strength above: the panel's lamps
     args = ap.parse_args(argv)
     if not args.sun_strength >= 0:
         ap.error(f"--sun-strength: must be 0 or more, got {args.sun_strength}")

@@ -92,11 +92,30 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
 
     model = sources.load_source_model(sources.MODEL_PATH if model_path is None else model_path)
     rec = sources.recover(pixels, model, key_lights=key_lights)
+    return _recovery_estimate(rec, lmax, name, {"input": "ldr", "work_height": rec.frac.shape[0],
+                                                "model": model.path.name, "decision": rec.decision})
+
+
+def _recovery_estimate(rec, lmax: int, name: str, info: dict) -> Estimate:
+    """The Estimate of a ``sources.Recovery``: its work map's SH, its diffuse map (what the adaptive model fits)
+    and its key lights; ``info`` plus the regions and the sun search."""
     return Estimate(sh.project(rec.work, lmax), name,
-                    {"input": "ldr", "work_height": rec.frac.shape[0], "model": model.path.name,
-                     "decision": rec.decision, "clipped_regions": rec.region_info(),
+                    {**info, "clipped_regions": rec.region_info(),
                      **({"sun_search": rec.sun_search} if rec.sun_search is not None else {})}, rec.diffuse, rec,
                     rec.lights(), rec.key_exclusions())
+
+
+def with_key_strength(est: Estimate, strength: float) -> Estimate:
+    """``est`` with its key lights (the suns and lamps the per-source estimator weighed, and a sun put back from
+    the sky) times ``strength`` (>= 0), in its lights, its maps and the HDRI made from it alike
+    (``sources.Recovery.with_key_strength``); recorded in its info as ``key_light_strength``. An estimate without
+    key lights is returned as it is (HDR input, other estimators, a photo with no compact source)."""
+    rec = est.recovery
+    if strength == 1.0 or rec is None or not rec.keys:
+        return est
+    info = {k: v for k, v in est.info.items() if k not in ("clipped_regions", "sun_search")}
+    return _recovery_estimate(rec.with_key_strength(strength), est.lmax, est.estimator,
+                              {**info, "key_light_strength": float(strength)})
 
 
 def per_source_key_lights(pixels: np.ndarray, lmax: int) -> Estimate:

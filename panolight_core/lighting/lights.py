@@ -246,7 +246,8 @@ KEPT_BELOW = 1.25  # a key light whose 68 % range starts this far above its stre
 
 
 def key_light_note(doc: dict, light: str = "light",
-                   raise_with: str = "its intensity in lighting.json (Blender: Sun lamp strength)") -> str:
+                   raise_with: str = "--sun-strength (Blender: Sun lamp strength; or its intensity in lighting.json)"
+                   ) -> str:
     """What an artist should know about the key light from lighting.json, in one line: a sun the photo does not
     show that was placed from its clear sky (where, and how sure); where no key light (sun or lamp) was weighed at
     all, why the sky search placed no sun either (``sun_search.refused``), and whether any explicit light is left
@@ -268,7 +269,10 @@ def key_light_note(doc: dict, light: str = "light",
                 f"the photo shows a sun, add a sun {light} by hand")
     key = key_light_range(doc)
     if key is not None and key["low"] >= KEPT_BELOW:
-        return (f"the key light ({key['elevation_deg']:.0f} deg up) has the strength the estimate is sure of; its "
+        scaled = float(doc.get("sun_strength", 1.0))  # an artist's --sun-strength, already applied
+        strength = "the strength" if scaled == 1.0 else f"{scaled:g}x the strength"
+        return (f"the key light ({key['elevation_deg']:.0f} deg up) has {strength} the estimate is sure of; its "
                 f"own evidence ({key['source']}) puts it at {key['low']:.1f}-{key['high']:.1f}x that (68 %). If the "
-                f"photo's shadows are harder than a render's, raise {raise_with} toward that")
+                f"photo's shadows are harder than a render's, raise {raise_with} toward that (a sun strength of "
+                f"{scaled * key['low']:.1f} reaches its low end)")
     return ""

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import sh, threads
 from ..errors import PanoLightError
-from ..estimators import Estimate, estimate
+from ..estimators import Estimate, estimate, with_key_strength
 from ..estimators.highlights import CLIP_LEVEL
 from ..io.lighting import make_lighting
 from ..lighting.adaptive import LightingModel, fit_model
@@ -22,14 +22,16 @@ UNITS_LDR = "relative: 1 = the LDR camera's clip level (white)"
 
 
 def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model: str = "auto",
-               tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None):
+               tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None, sun_strength: float = 1.0):
     """Panorama pixels (uint8 sRGB LDR or float linear HDR) -> (LightingModel, Estimate), unscaled and with
     the model's own deringing. lmax: None (auto for model "auto", 2 for "sh"), "auto" or an int.
-    deringing: None = the model's default ("auto" with lights, "none" for SH only)."""
+    deringing: None = the model's default ("auto" with lights, "none" for SH only). sun_strength: the
+    estimator's key lights times this (``estimators.with_key_strength``)."""
     check_choice("model", model, MODELS)
     lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
     threads.check_cancelled()
     est = estimate(pixels, DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax), estimator)
+    est = with_key_strength(est, sun_strength)
     threads.check_cancelled()
     return fit_estimate(est, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
                         tolerance=tolerance, deringing=deringing), est
@@ -119,7 +121,8 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Re
     requested deringing and exposure. Raises PanoLightError on bad settings or pixels."""
     t1 = time.perf_counter()
     fitted, est = fit_pixels(pixels, lmax=settings.order, estimator=settings.estimator, model=settings.model,
-                             tolerance=settings.tolerance, deringing=None if settings.window == "none" else "none")
+                             tolerance=settings.tolerance, deringing=None if settings.window == "none" else "none",
+                             sun_strength=settings.sun_strength)
     threads.check_cancelled()
     coeffs, window_info = fitted.coeffs, fitted.info["ringing"]["window"]
     if settings.window == "auto":
@@ -145,11 +148,16 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Re
         model.coeffs, lights=lights, units=UNITS_HDR if hdr else UNITS_LDR,
         estimator={k: v for k, v in est.info.items() if k not in ("clipped_regions", "estimate_s")},
         model=model_info, order=model_info["order"], window=window_info, exposure_ev=settings.exposure_ev,
+        sun_strength=settings.sun_strength,
         clipped_regions=est.info.get("clipped_regions", []),
         timings={"estimate_s": round(est.info["estimate_s"], 6),
                  "model_s": round(time.perf_counter() - t1 - est.info["estimate_s"], 6)},
     )
-    return Result(doc, model, est, tuple(input_warnings(pixels)))
+    warnings = input_warnings(pixels)
+    if settings.sun_strength != 1.0 and "key_light_strength" not in est.info:
+        warnings.append(f"sun strength {settings.sun_strength:g} changes nothing: the estimate has no key light "
+                        f"(a sun or lamp weighed in a clipped photo) to scale")
+    return Result(doc, model, est, tuple(warnings))
 
 
 def require_finite(outputs: dict, exposure_ev: float, what: str = "") -> None:

@@ -99,8 +99,9 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
     pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error", **budget)
     t_read = time.perf_counter() - t0
-    logger.info(f"estimating ({settings.estimator}, model {settings.model}, lmax {settings.lmax or 'default'}) on "
-        f"{pixels.shape[1]}x{pixels.shape[0]}")
+    scaled = f", sun strength {settings.sun_strength:g}" if settings.sun_strength != 1.0 else ""
+    logger.info(f"estimating ({settings.estimator}, model {settings.model}, lmax {settings.lmax or 'default'}{scaled}) "
+                f"on {pixels.shape[1]}x{pixels.shape[0]}")
     try:
         result = estimate_lighting(pixels, settings)
     except PanoLightError as exc:

@@ -28,7 +28,9 @@ WINDOWS = {  # deringing: name -> (label, one line); the fixed families are sh.w
 }
 MAX_LMAX = 100  # a fixed order beyond the adaptive range; render-mitsuba caps what it renders lower
 MAX_EXPOSURE_EV = 60.0  # 2^60 keeps any clip-level radiance finite in float32 outputs
-RANGES = {"tolerance": (0.0, 1.0), "window_width": (1e-6, 1e6), "exposure_ev": (-MAX_EXPOSURE_EV, MAX_EXPOSURE_EV)}
+MAX_SUN_STRENGTH = 1000.0
+RANGES = {"tolerance": (0.0, 1.0), "window_width": (1e-6, 1e6), "exposure_ev": (-MAX_EXPOSURE_EV, MAX_EXPOSURE_EV),
+          "sun_strength": (0.0, MAX_SUN_STRENGTH)}
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,9 @@ class Settings:
     """What to estimate. lmax: None (auto with model "auto", 2 with "sh"), "auto", or an order 0..100
     (int or digits). tolerance: allowed diffuse relighting error of the auto order, relative to order 8.
     window: deringing (WINDOWS); window_width: of a fixed window (default 2 (lmax + 1)). exposure_ev:
-    the lighting is scaled by 2^exposure_ev. Invalid values raise PanoLightError naming the setting."""
+    the lighting is scaled by 2^exposure_ev. sun_strength: the key lights (the suns and lamps the estimate
+    weighed) times this, in every output alike; the SH lighting is unchanged. Invalid values raise
+    PanoLightError naming the setting."""
 
     estimator: str = "auto"
     model: str = "auto"
@@ -45,6 +49,7 @@ class Settings:
     window: str = "none"
     window_width: float | None = None
     exposure_ev: float = 0.0
+    sun_strength: float = 1.0
 
     def __post_init__(self):
         from ..estimators import resolve
@@ -116,9 +121,9 @@ def _window(text: str) -> str:
     return text
 
 
-def add_arguments(parser, default_estimator: str = "auto") -> None:
-    """Add --model --lmax --tolerance --estimator --exposure --window --window-width (``from_args`` reads
-    them back)."""
+def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = True) -> None:
+    """Add --model --lmax --tolerance --estimator --exposure --window --window-width and, with ``sun_strength``,
+    --sun-strength (``from_args`` reads them back; Blender's batch scales its sun lamps with its own)."""
     from ..estimators import AUTO, BUILTIN, DESCRIPTIONS
 
     parser.add_argument("--model", choices=tuple(MODELS), default="auto",
@@ -135,6 +140,15 @@ def add_arguments(parser, default_estimator: str = "auto") -> None:
                         + f"; auto{' (default)' if default_estimator == 'auto' else ''}: {AUTO}, the best measured")
     parser.add_argument("--exposure", type=number("--exposure", *RANGES["exposure_ev"]), default=0.0, metavar="EV",
                         help="scale the estimated lighting by 2^EV (default 0)")
+    if sun_strength:
+        parser.add_argument("--sun-strength", type=number("--sun-strength", *RANGES["sun_strength"]), default=1.0,
+                            metavar="X",
+                            help="scale the key lights (the suns and lamps the estimate weighed in a clipped photo, "
+                                 "and a sun put back from its sky) by X in lighting.json, lighting.usda and hdr.exr "
+                                 "alike; the rest of the lighting is unchanged (default 1: the strength the "
+                                 "estimate is sure of). When a key light's own evidence says it is stronger, the "
+                                 "estimate prints a note with its 68 %% range: raise X toward that if the photo's "
+                                 "shadows are harder than a render's")
     parser.add_argument("--window", type=argparse_type(_window), default="none", metavar="KIND",
                         help="deringing: " + "; ".join(f"{n}{' (default)' if n == 'none' else ''}: {text}"
                                                        for n, (_, text) in WINDOWS.items()))
@@ -145,4 +159,5 @@ def add_arguments(parser, default_estimator: str = "auto") -> None:
 def from_args(args) -> Settings:
     """The Settings of parsed ``add_arguments`` options."""
     return Settings(estimator=args.estimator, model=args.model, lmax=args.lmax, tolerance=args.tolerance,
-                    window=args.window, window_width=args.window_width, exposure_ev=args.exposure)
+                    window=args.window, window_width=args.window_width, exposure_ev=args.exposure,
+                    sun_strength=getattr(args, "sun_strength", 1.0))

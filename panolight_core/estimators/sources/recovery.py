@@ -7,7 +7,7 @@ same energy into the full-resolution clipped pixels.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -39,6 +39,18 @@ class Recovery:
     def __post_init__(self):
         if self.diffuse is None:
             self.diffuse = self.work
+
+    def with_key_strength(self, strength: float) -> "Recovery":
+        """This recovery with every key light's energy times ``strength`` (>= 0; an artist's setting: lighting.json
+        gives each light's 68 % range), the maps made again as ``recover`` makes them: a region's fill keeps
+        what its decided energy holds beyond its (scaled) light, so the work map gains max(decided, light) as
+        before. The 68 % ranges (the belief) stay. ``strength`` 1 returns this recovery itself."""
+        if strength == 1.0 or not self.keys:
+            return self
+        keys = [replace(k, energy=k.energy * strength) for k in self.keys]
+        keys = [k for k in keys if k.energy > 0]  # strength 0: no light, its region's fill keeps the decided energy
+        diffuse, work = fill_with_keys(self.base, self.regions, self.log_ratio, keys)
+        return replace(self, work=work, diffuse=diffuse, keys=keys)
 
     def key_points(self) -> list:
         """(unit direction (3,), RGB energy (3,)) of each key light, for the full-resolution HDRI."""

@@ -143,7 +143,8 @@ def test_estimate_never_overwrites_its_input(tmp_path, capsys):
 @pytest.mark.parametrize("args,message", [
     (["--tolerance", "-1"], "--tolerance must be between"), (["--tolerance", "nan"], "--tolerance must be between"),
     (["--window-width", "-3"], "--window-width must be between"), (["--exposure", "2000"], "--exposure must be"),
-    (["--exposure", "inf"], "--exposure must be")])
+    (["--exposure", "inf"], "--exposure must be"), (["--sun-strength", "-1"], "--sun-strength must be between"),
+    (["--sun-strength", "nan"], "--sun-strength must be between")])
 def test_bad_numbers_get_one_line(tmp_path, capsys, args, message):
     src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
     with pytest.raises(SystemExit) as exc:
@@ -487,3 +488,42 @@ def test_estimate_prints_its_steps_unless_quiet(tmp_path, rng, capsys):
     assert capsys.readouterr().err == ""
     core = logging.getLogger("panolight_core")  # the command's handler is gone when it returns
     assert core.propagate and not [h for h in core.handlers if not isinstance(h, logging.NullHandler)]
+
+
+def test_sun_strength_raises_the_key_light_in_every_output(tmp_path, capsys):
+    """--sun-strength X: the key light's intensity in lighting.json and lighting.usda, and its energy in hdr.exr,
+    times X, and the setting recorded. The SH stays as it was here: the lamp's light already carries more than its
+    region's decided fill, so raising it takes nothing from the fill."""
+    pytest.importorskip("pxr")
+    from PIL import Image
+    from pxr import Usd, UsdLux
+
+    from panolight_core.camera import hdr_to_ldr
+
+    h = 128
+    d = sh.pixel_directions(h, 2 * h)
+    img = np.full((h, 2 * h, 3), 0.1)
+    lamp = np.arccos(np.clip(d @ np.array([0.3, -0.2, 0.93]) / np.linalg.norm([0.3, -0.2, 0.93]), -1, 1))
+    core = lamp < np.radians(3.0)
+    img[core] += 3.0 / sh.pixel_solid_angles(h, 2 * h)[core].sum()
+    img += (0.05 * np.minimum(np.radians(3.0) / np.maximum(lamp, 1e-6), 1.0) ** 2)[..., None]
+    src = tmp_path / "lamp.png"
+    Image.fromarray(hdr_to_ldr(img, 0.0)).save(src)
+    outs = {}
+    for x in (1.0, 2.0):
+        out = tmp_path / f"x{x:g}"
+        assert main(["estimate", str(src), "-o", str(out), "-q", "--sun-strength", f"{x:g}"]) == 0
+        coeffs, doc = read_lighting(out / "lighting.json")
+        stage = Usd.Stage.Open(str(out / "lighting.usda"))
+        usd = sorted(float(UsdLux.LightAPI(p).GetIntensityAttr().Get()) for p in stage.Traverse()
+                     if p.HasAPI(UsdLux.LightAPI) and not p.IsA(UsdLux.DomeLight))
+        hdr = read_image(out / "hdr.exr").astype(np.float64)
+        outs[x] = (doc, coeffs, usd, (hdr * sh.pixel_solid_angles(*hdr.shape[:2])[..., None]).sum(axis=(0, 1)))
+    (doc1, c1, usd1, e1), (doc2, c2, usd2, e2) = outs[1.0], outs[2.0]
+    key1, key2 = ([light for light in doc["lights"] if light.get("source")] for doc in (doc1, doc2))
+    assert len(key1) == len(key2) == 1 and doc1["sun_strength"] == 1.0 and doc2["sun_strength"] == 2.0
+    assert key2[0]["intensity"] == pytest.approx(2.0 * key1[0]["intensity"], rel=1e-9)
+    assert usd2 and usd2[-1] == pytest.approx(2.0 * usd1[-1], rel=1e-5)
+    # hdr.exr gains the second half of the light (its colour's RGB), nothing else
+    np.testing.assert_allclose(e2 - e1, key1[0]["intensity"] * np.asarray(key1[0]["color"]), rtol=2e-3)
+    np.testing.assert_allclose(c2, c1, atol=1e-3 * np.abs(c1).max())

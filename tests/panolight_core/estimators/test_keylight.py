@@ -124,10 +124,16 @@ def test_no_hidden_sun_behind_an_occluder_or_next_to_a_clipped_patch(paint, why)
         assert why == "clipped region" and report["why"] == "a clipped region holds a clear-sky sun"
 
 
-@pytest.mark.parametrize("scene", ["lamp", "retouched sun"])
-def test_energy_bookkeeping_between_the_lights_and_the_hdri(scene):
+@pytest.mark.parametrize("scene,strength", [("lamp", 1.0), ("retouched sun", 1.0), ("lamp", 2.5),
+                                            ("retouched sun", 0.4)])
+def test_energy_bookkeeping_between_the_lights_and_the_hdri(scene, strength):
+    """lighting.json's key light, hdr.exr's added energy and the model's projection agree, also with the key
+    lights scaled by an artist's --sun-strength."""
     ldr = hdr_to_ldr(_lamps([(0.3, -0.2, 0.93)]), 0.0) if scene == "lamp" else _retouched_sky(paint=1.0)[0]
-    res = _key_model(ldr)
+    res = estimate_lighting(ldr, Settings(estimator="keylight", sun_strength=strength))
+    plain = _key_model(ldr).estimate.recovery.keys[0]
+    assert res.estimate.recovery.keys[0].energy == pytest.approx(strength * plain.energy, rel=1e-12)
+    assert res.document["sun_strength"] == strength
     rec = res.estimate.recovery
     key = rec.keys[0]
     hdr = res.hdr_panorama(ldr)
@@ -310,3 +316,36 @@ def test_a_weak_region_in_a_grey_room_makes_no_light():
     reg = sources.region_features(rad, fa, fb)
     assert keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.07), np.full(reg.count, 0.3)) == []
     assert keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.2), np.full(reg.count, 0.3))
+
+
+def test_sun_strength_scales_the_key_lights_alone_and_keeps_the_regions_bookkeeping():
+    """Recovery.with_key_strength: each key light's energy times the strength, its 68 % range (the belief) kept,
+    and the work map rebuilt as ``recover`` builds it: a region gains max(its decided energy, its light). At 0
+    the light is gone and its region keeps its decided fill; 1 changes nothing; an estimate with no key light
+    (an HDR input) is left as it is and the pipeline says the setting changed nothing."""
+    ldr = hdr_to_ldr(_lamps([(0.3, -0.2, 0.93)]), 0.0)
+    rec = estimate(ldr, 2, "keylight").recovery
+    key = rec.keys[0]
+    om = sh.pixel_solid_angles(*rec.work.shape[:2])
+
+    def region_gain(r):  # luminance energy the work map adds to the key light's region (and its parts)
+        cells = np.isin(r.regions.labels, [key.region, *key.parts])
+        return float((((r.work - r.base) @ LUMINANCE_WEIGHTS) * om)[cells].sum())
+
+    decided = rec.regions.added_energy(rec.log_ratio, [key.region, *key.parts])
+    assert rec.with_key_strength(1.0) is rec
+    for x in (0.5, 3.0):
+        got = rec.with_key_strength(x)
+        assert got.keys[0].energy == pytest.approx(x * key.energy, rel=1e-12)
+        assert got.keys[0].energy_68 == key.energy_68 and got.log_ratio is rec.log_ratio
+        assert region_gain(got) == pytest.approx(max(decided, x * key.energy), rel=1e-6)
+        # what is not the key light's region is untouched
+        outside = ~np.isin(rec.regions.labels, [key.region, *key.parts])
+        np.testing.assert_allclose(got.diffuse[outside], rec.diffuse[outside])
+    off = rec.with_key_strength(0.0)
+    assert off.keys == [] and off.lights() == []
+    assert region_gain(off) == pytest.approx(decided, rel=1e-6)
+    hdr_in = _lamps([(0.3, -0.2, 0.93)]).astype(np.float32)
+    res = estimate_lighting(hdr_in, Settings(estimator="keylight", sun_strength=2.0))
+    assert any("sun strength 2 changes nothing" in w for w in res.warnings)
+    assert not any("sun strength" in w for w in estimate_lighting(ldr, Settings(sun_strength=2.0)).warnings)
