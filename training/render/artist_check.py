@@ -13,8 +13,8 @@ For each photo (default: every JPEG in ../shared/data/ldr; never trained or tune
 - the key light's direction against the visible sun (``SUNS``, ../shared/data/ldr/README.md), and its
   colour (the tunnel's sodium lamps must come out orange);
 - what the product tells the artist of the key light (``lighting.lights.key_light_note``) and, for a key light
-  kept below its own evidence, the same render with it at the low end of its 68 % range (what raising Blender's
-  Sun lamp strength there gives).
+  kept below its own evidence, the same render estimated again with ``--sun-strength`` at the low end of its 68 %
+  range, as the note advises (Blender: Sun lamp strength).
 Writes OUT/<photo>.png (photo | composite per estimator) and OUT/artist_check.md (the table).
 
     python -m training.render.artist_check [--photos a.jpg ...] [--estimators sources auto] [--spp 64] --out docs/artist_check
@@ -25,7 +25,6 @@ import argparse
 import math
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -107,11 +106,11 @@ def check(photo: Path, estimators, spp: int, size=(320, 240), fov: float = 70.0,
         runs.append((name, res.model, key_light_note(res.document)))
         key = key_light_range(res.document)
         if key is not None and key["low"] >= KEPT_BELOW:
-            # what the artist gets by raising Sun lamp strength to the low end of the key light's 68 % range
-            # (lighting.json's lights are the model's, in the same order)
-            lights = [dict(light) for light in res.model.lights]
-            lights[key["index"]]["intensity"] *= key["low"]
-            runs.append((f"{name}, key x{key['low']:.1f}", replace(res.model, lights=lights), ""))
+            # what the artist gets by raising --sun-strength (Blender: Sun lamp strength) to the low end of the
+            # key light's 68 % range, as the note advises
+            strength = round(key["low"], 1)
+            raised = estimate_lighting(px, Settings(estimator=name, sun_strength=strength))
+            runs.append((f"{name}, --sun-strength {strength:g}", raised.model, ""))
     for name, model, note in runs:
         t = time.perf_counter()
         d, kind = key_direction(model)
@@ -183,7 +182,7 @@ def write(results, out: Path) -> Path:
     if notes:
         lines += ["", "What `panolight estimate` and the Blender status bar tell the artist "
                   "(`lighting.lights.key_light_note`; a key light kept below its evidence is also rendered at the low "
-                  "end of its 68 % range, what raising *Sun lamp strength* there gives):", ""] + notes
+                  "end of its 68 % range with `--sun-strength`, as the note advises):", ""] + notes
     lines += pictures
     report = out / "artist_check.md"
     report.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")
