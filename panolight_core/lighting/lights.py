@@ -243,6 +243,8 @@ def key_light_range(doc: dict) -> dict | None:
 
 
 KEPT_BELOW = 1.25  # a key light whose 68 % range starts this far above its strength was kept below its evidence
+CHECKED_SUN_ELEVATION_DEG = 10.0  # the lowest real sun the clear-sky energy was checked on (quarry_01,
+# docs/keylight.md); the hazy sunset of the public set, lower, came out 50x too strong
 
 
 def key_light_note(doc: dict, light: str = "light",
@@ -271,8 +273,11 @@ def key_light_note(doc: dict, light: str = "light",
     if key is not None and key["low"] >= KEPT_BELOW:
         scaled = float(doc.get("sun_strength", 1.0))  # an artist's --sun-strength, already applied
         strength = "the strength" if scaled == 1.0 else f"{scaled:g}x the strength"
+        low_sun = key["source"].startswith("clear-sky") and key["elevation_deg"] < CHECKED_SUN_ELEVATION_DEG
+        caveat = (f"; a sun under {CHECKED_SUN_ELEVATION_DEG:g} deg is below any the sky fit was checked on, and "
+                  f"haze near the horizon can make it far too strong" if low_sun else "")
         return (f"the key light ({key['elevation_deg']:.0f} deg up) has {strength} the estimate is sure of; its "
-                f"own evidence ({key['source']}) puts it at {key['low']:.1f}-{key['high']:.1f}x that (68 %). If the "
-                f"photo's shadows are harder than a render's, raise {raise_with} toward that (a sun strength of "
-                f"{scaled * key['low']:.1f} reaches its low end)")
+                f"own evidence ({key['source']}) puts it at {key['low']:.1f}-{key['high']:.1f}x that (68 %"
+                f"{caveat}). If the photo's shadows are harder than a render's, raise {raise_with} toward that (a "
+                f"sun strength of {scaled * key['low']:.1f} reaches its low end)")
     return ""

@@ -140,13 +140,15 @@ def test_the_key_light_note_says_what_an_artist_should_know():
                           "source": "clear-sky fit (turbidity 8)", "energy_68": [1.19, 4.76]}]}
     note = key_light_note(capped, raise_with="Sun lamp strength")
     assert note.startswith("the key light (5 deg up) has the strength the estimate is sure of")
-    assert "2.4-9.7x that (68 %)" in note
+    assert "2.4-9.7x that (68 %; a sun under 10 deg is below any the sky fit was checked on" in note
     assert note.endswith("raise Sun lamp strength toward that (a sun strength of 2.4 reaches its low end)")
     assert "raise --sun-strength" in key_light_note(capped)  # the CLI's own setting by default
     # after --sun-strength 1.5 the range is over the raised light, and the advice still names the absolute setting
     raised = {"sun_strength": 1.5, "lights": [dict(capped["lights"][0], intensity=0.49 * 1.5)]}
     note = key_light_note(raised)
     assert note.startswith("the key light (5 deg up) has 1.5x the strength the estimate is sure of")
-    assert "1.6-6.5x that (68 %)" in note and note.endswith("(a sun strength of 2.4 reaches its low end)")
+    assert "1.6-6.5x that (68 %;" in note and note.endswith("(a sun strength of 2.4 reaches its low end)")
+    high = {"lights": [dict(capped["lights"][0], direction=[0.6, 0.0, 0.8])]}  # 53 deg up: checked there
+    assert "2.4-9.7x that (68 %). If" in key_light_note(high)
     assert key_light_note({"lights": [dict(capped["lights"][0], intensity=2.38)]}) == ""  # given its evidence
     assert key_light_note({"lights": [dict(capped["lights"][0], intensity=1.19 / 1.2)]}) == ""  # under KEPT_BELOW
