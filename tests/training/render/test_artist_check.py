@@ -39,7 +39,7 @@ def test_a_photo_with_a_sun_gets_a_sphere_with_a_shadow(tmp_path):
 
 def test_a_key_light_kept_below_its_evidence_is_also_shown_raised(tmp_path, monkeypatch):
     """Where the key light's 68 % range starts above its strength, the check renders it again at the range's low
-    end (what Blender's Sun lamp strength there gives): a harder shadow, and the note that says so."""
+    end, estimated again with --sun-strength as the note advises: a harder shadow, and the note that says so."""
     from PIL import Image
 
     from panolight_core import sh
@@ -59,7 +59,7 @@ def test_a_key_light_kept_below_its_evidence_is_also_shown_raised(tmp_path, monk
     monkeypatch.setattr(A, "key_light_note", lambda doc: "kept below its evidence")
     result = A.check(photo, ["auto"], spp=4, size=(48, 36))
     plain, raised = result["estimates"]
-    assert raised["estimator"] == "auto, key x3.0" and plain["note"] == "kept below its evidence"
+    assert raised["estimator"] == "auto, --sun-strength 3" and plain["note"] == "kept below its evidence"
     assert raised["plane_ratio"] > plain["plane_ratio"] > 1.0
     report = A.write([result], tmp_path / "out").read_text()
-    assert "`auto`: kept below its evidence" in report and "auto, key x3.0" in report
+    assert "`auto`: kept below its evidence" in report and "auto, --sun-strength 3" in report
