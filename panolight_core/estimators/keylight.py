@@ -45,8 +45,8 @@ KEY_SHARE = 0.1  # a region whose predicted energy is at least this share of the
 SUN_SHARE = 0.02  # ... or a fifth of that, if a clear sky's sun is in it: the sky's own evidence admits the sun, the
 # share only keeps glints out. A low sun's share wavers with the pixel grid (dawn.jpg turned by 333 pixels: 0.086
 # against 0.103; sunset_water.jpg's sun 3.5 degrees up, which the trees weigh at 3-6 %), and the sun should not
-# come and go with it. No clear-sky region of the 68 real HDRs at ev -2/0/+2 lies between 0.02 and 0.05; under
-# 0.02, ten false weak "suns" appear (night skies, studios: docs/keylight.md)
+# come and go with it. No scene of the 68 real HDRs at ev -2/0/+2 changes between 0.05 and 0.02; with no floor,
+# ten false weak "suns" appear (night skies, rooms: docs/keylight.md)
 MAX_KEYS = 3
 SKY_CORRECTION = 2.25  # true / physical sun energy: the real suns' median (training/keylight/cv.py: 2.20 over 28, folds 2.05-2.37)
 SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)

@@ -39,8 +39,8 @@ class Settings:
     (int or digits). tolerance: allowed diffuse relighting error of the auto order, relative to order 8.
     window: deringing (WINDOWS); window_width: of a fixed window (default 2 (lmax + 1)). exposure_ev:
     the lighting is scaled by 2^exposure_ev. sun_strength: the key lights (the suns and lamps the estimate
-    weighed) times this, in every output alike; the SH lighting is unchanged. Invalid values raise
-    PanoLightError naming the setting."""
+    weighed) times this, in every output alike; a raised light takes over its own region's fill first, nothing
+    else changes. Invalid values raise PanoLightError naming the setting."""
 
     estimator: str = "auto"
     model: str = "auto"
@@ -145,7 +145,8 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                             metavar="X",
                             help="scale the key lights (the suns and lamps the estimate weighed in a clipped photo, "
                                  "and a sun put back from its sky) by X in lighting.json, lighting.usda and hdr.exr "
-                                 "alike; the rest of the lighting is unchanged (default 1: the strength the "
+                                 "alike; a raised light takes over its own region's fill first, and nothing else "
+                                 "changes (default 1: the strength the "
                                  "estimate is sure of). When a key light's own evidence says it is stronger, the "
                                  "estimate prints a note with its 68 %% range: raise X toward that if the photo's "
                                  "shadows are harder than a render's")
