@@ -28,3 +28,20 @@ def test_a_lamp_keeps_its_key_light_at_every_turn_and_a_quarter_turn_exactly():
     assert abs(quarter["intensity"] / first["intensity"] - 1.0) < 1e-9
     lines = turns.table({"lamp.jpg": rows})
     assert lines[-1] == f"| lamp.jpg | per-source model, {first['intensity']:.3g} | 3 of 3 turns | 4 of 4 |"
+
+
+def test_copies_of_a_photo_are_its_re_encoded_and_downsized_versions_each_judged_against_it():
+    """A lamp in a dim room (256 x 512): the photo as it is, saved again at JPEG q90 and downsized to 256 wide (a
+    width larger than the photo is skipped); the lamp is a key light in each, where the photo shows it, and the
+    table marks a copy whose light is not the photo's."""
+    ldr = hdr_to_ldr(_lamps([(0.2, 0.5, 0.8)], h=256, energy=6.0), 0.0)
+    rows = turns.copies_of(ldr, widths=(1024, 256))
+    assert [r["copy"] for r in rows] == ["as it is", "JPEG q90", "256 wide, q90"]
+    lamp = np.array([0.2, 0.5, 0.8]) / np.linalg.norm([0.2, 0.5, 0.8])
+    for r in rows:
+        assert r["key"] is not None and metrics.angle_deg(r["key"]["direction"], lamp) < 3.0, r
+    assert rows[1]["same"]
+    rows[2]["same"] = False  # as if the small copy had lost it
+    line = turns.copies_table({"lamp.jpg": rows})[-1]
+    assert line.startswith("| lamp.jpg | per-source model, ") and line.endswith(" (another) |")
+    assert line.count("(another)") == 1
