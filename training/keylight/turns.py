@@ -112,7 +112,7 @@ def copies_table(results: dict) -> list[str]:
     lines = ["| photo | " + " | ".join(labels) + " |", "|---|" + "---|" * len(labels)]
     for name, rows in results.items():
         got = {r["copy"]: _what(r["key"]) + ("" if r["same"] or r is rows[0] else " (another)") for r in rows}
-        lines.append(f"| {name} | " + " | ".join(got.get(label, "(larger than the photo)") for label in labels) + " |")
+        lines.append(f"| {name} | " + " | ".join(got.get(label, "(not smaller than the photo)") for label in labels) + " |")
     return lines
 
 
@@ -129,8 +129,8 @@ def main(argv=None) -> int:
     ap.add_argument("--degrees", type=float, default=3.0, help="the same light: this close (default 3)")
     ap.add_argument("--factor", type=float, default=1.5, help="... and within this factor (default 1.5)")
     ap.add_argument("--widths", nargs="*", type=int, default=list(WIDTHS),
-                    help="also downsize each photo to these widths and save it at JPEG quality 90 (default: "
-                         "%(default)s; none: skip the copies)")
+                    help="copies of each photo: saved again at JPEG quality 90, and downsized to these widths "
+                         "(default: %(default)s; give none for the re-encoded copy alone)")
     ap.add_argument("--out", type=Path, default=None, help="write the table (markdown) here")
     args = ap.parse_args(argv)
     from panolight_core.io import read_image
