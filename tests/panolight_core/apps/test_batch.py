@@ -130,6 +130,9 @@ def test_batch_resumes_skips_what_is_done_and_cleans_what_interrupted_runs_left(
     assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "3"]) == 0  # other settings: redone
     report = json.loads((out / "batch_report.json").read_text())
     assert [r["status"] for r in report["results"]] == ["ok", "ok"] and report["settings"]["lmax"] == "3"
+    assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "3", "--sun-strength", "2"]) == 0  # ... this too
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["ok", "ok"] and report["settings"]["sun_strength"] == 2.0
 
 
 def test_an_interrupted_batch_reports_how_far_it_got(tmp_path):
