@@ -71,11 +71,14 @@ def _read_panorama(image):
     return pixels
 
 
-def _make_hdri(world, pixels, result):
-    """The reconstructed HDRI as PanoLight's float image, filled by row blocks and marked with the
-    estimate it belongs to (made only when a world is lit with it: at 16K it is 2 GB in Blender)."""
-    image = images.radiance_image(result.hdr_blocks(pixels), images.HDRI_IMAGE_NAME, shape=pixels.shape[:2])
+def _make_hdri(world, pixels, result, sun_strength: float = 1.0):
+    """The reconstructed HDRI as PanoLight's float image, filled by row blocks, its key lights (sun, lamps)
+    times ``sun_strength``, and marked with the estimate and the strength it belongs to (made only when a world
+    is lit with it: at 16K it is 2 GB in Blender)."""
+    image = images.radiance_image(result.hdr_blocks(pixels, sun_strength), images.HDRI_IMAGE_NAME,
+                                  shape=pixels.shape[:2])
     image[store.ESTIMATE_KEY] = world.get(store.ESTIMATE_KEY, "")
+    image[store.SUN_STRENGTH_KEY] = float(sun_strength)
     return image
 
 
@@ -146,8 +149,9 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     def _store(self, context, world, result):
         doc = result.document
         store.store_lighting(world, doc)
-        if _settings(context).lighting_source == "HDRI":
-            _make_hdri(world, self._pixels, result)
+        s = _settings(context)
+        if s.lighting_source == "HDRI":
+            _make_hdri(world, self._pixels, result, s.sun_strength)
         self._pixels = None
         n = len(doc.get("lights", []))
         for problem in result.warnings:  # an all-black, absurdly bright or clipped-white panorama
@@ -243,9 +247,10 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         s = _settings(context)
         if s.lighting_source == "HDRI":
             image = images.own_image(images.HDRI_IMAGE_NAME)
-            if image is None or image.get(store.ESTIMATE_KEY) != world.get(store.ESTIMATE_KEY):
+            if image is None or image.get(store.ESTIMATE_KEY) != world.get(store.ESTIMATE_KEY) or \
+                    image.get(store.SUN_STRENGTH_KEY, 1.0) != s.sun_strength:
                 image = self._hdri_now(context, world, panorama, doc)
-            lights = []  # the sun and lamps are in the HDRI itself
+            lights = []  # the sun and lamps are in the HDRI itself, at Sun lamp strength
         else:
             coeffs = np.asarray(doc["coefficients"], dtype=np.float64)
             h = max(64, min(1024, s.radiance_height))
@@ -271,7 +276,7 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         if not same_lighting(result.document, doc):
             raise Error("the panel's settings changed since Estimate lighting, so the HDRI would belong to "
                         "another estimate: run Estimate lighting again (or restore the settings)")
-        return _make_hdri(world, pixels, result)
+        return _make_hdri(world, pixels, result, _settings(context).sun_strength)
 
 
 def same_lighting(a: dict, b: dict) -> bool:

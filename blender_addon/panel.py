@@ -40,7 +40,8 @@ class PanoLightSettings(bpy.types.PropertyGroup):
     lighting_strength: FloatProperty(name="Lighting strength", default=1.0, min=0.0, soft_max=10.0)
     sun_strength: FloatProperty(
         name="Sun lamp strength", default=1.0, min=0.0, soft_max=10.0,
-        description="Scales PanoLight's sun lamps alone (on top of Lighting strength), not the SH lighting. The "
+        description="Scales PanoLight's sun lamps alone (on top of Lighting strength), not the SH lighting; with "
+                    "the reconstructed HDRI, the sun and lamps inside it (Build environment remakes it). The "
                     "estimate gives a sun the strength it is sure of: if the photo's shadows are harder than the "
                     "render's, raise it within the range the panel shows")
     background_rotation: FloatProperty(name="Background rotation", subtype="ANGLE", default=0.0)
@@ -84,7 +85,7 @@ def draw_panel(layout, context):
     for prop in ("lighting_source", "background_strength", "lighting_strength", "background_rotation",
                  "lighting_rotation", "glossy_panorama", "create_lights", "radiance_height"):
         box.prop(s, prop)
-    if s.lighting_source == "SH" and s.create_lights:
+    if s.lighting_source == "HDRI" or s.create_lights:
         box.prop(s, "sun_strength")
         key = store.key_light_range(world)
         if key is not None:

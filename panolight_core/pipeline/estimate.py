@@ -107,12 +107,14 @@ class Result:
 
         return assemble(pixels.shape, self.hdr_blocks(pixels))
 
-    def hdr_blocks(self, pixels: np.ndarray):
+    def hdr_blocks(self, pixels: np.ndarray, sun_strength: float = 1.0):
         """``hdr_panorama`` by row blocks: a ``pipeline.hdri.HdrRows`` (iterate for (first row, float32
-        (n, W, 3)); ``peak`` bounds its values), what hdr.exr is streamed from."""
+        (n, W, 3)); ``peak`` bounds its values), what hdr.exr is streamed from. sun_strength: its key lights
+        times this, on top of the estimate's own (``estimators.with_key_strength``; Blender's Sun lamp strength
+        for a world lit by the HDRI)."""
         from .hdri import HdrRows
 
-        return HdrRows(pixels, self.estimate, self.scale)
+        return HdrRows(pixels, with_key_strength(self.estimate, sun_strength), self.scale)
 
 
 def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Result:

@@ -306,6 +306,23 @@ def test_build_from_the_reconstructed_hdri(tmp_path):
     want = hdr_panorama(ldr, fit_pixels(ldr)[1])
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)  # the core's hdr.exr, top row first
     assert want.max() > 1.5  # the clipped sky and sun came back above white
+    # Sun lamp strength scales the key lights inside the HDRI: Build environment remakes it, and it gains the
+    # key lights' energy once more (lighting.json's intensity x colour, solid-angle weighted) at strength 2
+    keys = [light for light in store.stored_lighting(bpy.context.scene.world)["lights"] if light.get("source")]
+    assert keys
+    before = got.astype(np.float64)  # a copy: px is read again below
+    s.lighting_source, s.sun_strength = "HDRI", 2.0
+    try:
+        assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+    finally:
+        s.lighting_source, s.sun_strength = "SH", 1.0
+    image = bpy.data.images["PanoLight HDRI"]
+    assert image[store.SUN_STRENGTH_KEY] == 2.0
+    image.pixels.foreach_get(px)
+    raised = px.reshape(512, 1024, 4)[::-1, :, :3].astype(np.float64)
+    om = sh.pixel_solid_angles(512, 1024)[..., None]
+    gained = ((raised - before) * om).sum(axis=(0, 1))
+    np.testing.assert_allclose(gained, sum(k["intensity"] * np.asarray(k["color"]) for k in keys), rtol=2e-3)
 
 
 def test_name_clashes_never_touch_the_users_data(tmp_path):
@@ -536,11 +553,18 @@ def test_sun_lamp_strength_scales_the_lamps_alone_and_the_panel_shows_the_key_li
     drawn = Layout()
     draw_panel(drawn, bpy.context)
     assert "sun_strength" in drawn.props and "Key light: 68 % range 2-8 x its estimate" in drawn.labels
-    s.lighting_source = "HDRI"  # no lamps to scale: the control is not offered
+    s.create_lights = False  # SH with no lamps: nothing to scale, the control is not offered
+    try:
+        bare = Layout()
+        draw_panel(bare, bpy.context)
+        assert "sun_strength" not in bare.props and not any(t.startswith("Key light") for t in bare.labels)
+    finally:
+        s.create_lights = True
+    s.lighting_source = "HDRI"  # the key lights inside the HDRI: offered, with their range
     try:
         hdri = Layout()
         draw_panel(hdri, bpy.context)
-        assert "sun_strength" not in hdri.props and not any(t.startswith("Key light") for t in hdri.labels)
+        assert "sun_strength" in hdri.props and "Key light: 68 % range 2-8 x its estimate" in hdri.labels
     finally:
         s.lighting_source = "SH"
     world[store.LIGHTING_KEY] = "{not json"
