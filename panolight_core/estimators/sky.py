@@ -109,8 +109,13 @@ class SkyTable:
         return np.moveaxis(out, 2, 1)
 
     def sun_energy(self, elevation_deg: float) -> np.ndarray:
-        """(T, 3) the solar disk's RGB energy at this elevation for every table turbidity."""
-        return self._at_elevation(self.sun, elevation_deg)
+        """(T, 3) the solar disk's RGB energy at this elevation for every table turbidity, in the Rec.709 gamut:
+        Mitsuba's RGB of the deep red sun at 0.5-2 degrees has a slightly negative blue (out of gamut; a light's
+        colour cannot be), so a negative channel is set to 0 and the rest scaled to keep its luminance."""
+        rgb = self._at_elevation(self.sun, elevation_deg)
+        inside = np.maximum(rgb, 0.0)
+        y, y_inside = rgb @ LUMINANCE_WEIGHTS, inside @ LUMINANCE_WEIGHTS
+        return inside * np.where(y_inside > 0, y / np.where(y_inside > 0, y_inside, 1.0), 1.0)[:, None]
 
 
 def _bilinear(rows: np.ndarray, i00: np.ndarray, nph: int, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:

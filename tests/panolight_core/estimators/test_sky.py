@@ -105,6 +105,20 @@ def test_a_tone_curve_slope_held_at_its_bound_is_refused(monkeypatch):
     assert fit is not None and not fit.clear and fit.contrast == 1.0
 
 
+def test_the_model_sun_is_a_colour_a_light_can_have_with_the_tables_luminance():
+    # Mitsuba's RGB of the deep red sun at 0.5-2 degrees has a negative blue; a light with it was refused by
+    # lighting.json's validation (a real night photo, saved again, failed to estimate)
+    t = sky.load_sky_table()
+    assert (t.sun < 0).any()  # the table itself: out of the Rec.709 gamut
+    for elev in (0.5, 1.0, 1.8, 2.0, 3.0, 10.0, 45.0, 90.0):
+        rgb = t.sun_energy(elev)
+        raw = t._at_elevation(t.sun, elev)
+        assert (rgb >= 0).all()
+        assert np.allclose(rgb @ LUMINANCE_WEIGHTS, raw @ LUMINANCE_WEIGHTS, rtol=1e-12)
+        inside = (raw >= 0).all(axis=1)
+        assert np.array_equal(rgb[inside], raw[inside])  # colours in gamut are untouched
+
+
 def test_cloudiness_gate_refuses_a_broken_sky():
     ldr, s, _, _, _ = _clear_sky_ldr()
     rng = np.random.default_rng(1)
