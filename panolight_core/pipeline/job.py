@@ -163,7 +163,9 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
             shown = area_downsample_rows(pixels, min(PREVIEW_HEIGHT, pixels.shape[0]), linear)
             write_srgb8(stage / "preview.png", estimate_preview(shown, maps["radiance.exr"], fitted,
                                                                 sh.lmax_from_count(fitted.coeffs.shape[0]),
-                                                                irradiance_map=maps["irradiance.exr"]))
+                                                                irradiance_map=maps["irradiance.exr"],
+                                                                exposure=1.0 if pixels.dtype == np.uint8 else None,
+                                                                model_gain=result.scale))
             written.append("preview.png")
         if usd_available():
             write_usd(stage / "lighting.usda", doc, hdri="hdr.exr" if "hdr" in outputs else None)

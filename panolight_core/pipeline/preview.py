@@ -1,6 +1,8 @@
 """Tone-mapped preview strips (PNG) so people can look rather than read numbers."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..camera.color import linear_to_srgb, luminance
@@ -8,6 +10,7 @@ from ..camera.resample import area_downsample, sample_equirect
 
 
 PREVIEW_HEIGHT = 256  # rows of each preview tile
+SH_PEAK_PERCENTILE = 99.0  # the SH panel is darkened (and labelled so) until this percentile's luminance is white
 
 
 def exposure_for(image: np.ndarray) -> float:
@@ -21,24 +24,49 @@ def tonemap(image: np.ndarray, scale: float) -> np.ndarray:
     return np.round(linear_to_srgb(np.asarray(image, dtype=np.float64) * scale) * 255).astype(np.uint8)
 
 
-def strip(panels: list[tuple[str, np.ndarray]], height: int = 256) -> np.ndarray:
+def strip(panels: list[tuple[str, np.ndarray]], height: int = 256, scale: float | None = None,
+          lights: list | None = None) -> np.ndarray:
     """Side-by-side uint8 image of labelled (name, linear image) panels resized to a common height.
 
-    Each panel is auto-exposed on its own (median luminance -> 0.18): SH maps spread a sun's energy
-    over the sphere, so one shared exposure would clip them to white.
+    scale: one exposure for every panel (so they compare); None: each panel auto-exposed on its own (median
+    luminance -> 0.18). lights: lighting-file light dicts, marked on every panel (``mark_lights``).
     """
     from PIL import Image
 
     tiles = []
     for name, img in panels:
         img = area_downsample(np.asarray(img), height)  # average in linear light before tone mapping
-        tile = Image.fromarray(tonemap(img, exposure_for(img))).resize((2 * height, height), Image.BILINEAR)
+        tile = Image.fromarray(tonemap(img, exposure_for(img) if scale is None else scale))
+        tile = tile.resize((2 * height, height), Image.BILINEAR)
+        if lights:
+            mark_lights(tile, lights)
         tiles.append(_labelled(tile, name))
     gap = np.full((height, 4, 3), 255, dtype=np.uint8)
     out = [tiles[0]]
     for t in tiles[1:]:
         out += [gap, t]
     return np.concatenate(out, axis=1)
+
+
+def mark_lights(tile, lights: list) -> None:
+    """Draw each light of ``lights`` (lighting-file dicts, brightest first) on a PIL equirect ``tile`` (Blender
+    world frame, CONVENTIONS.md) as a ring, black outside white, numbered from 1: visible on sky and ground."""
+    from PIL import ImageDraw
+
+    from ..sh.grid import pixel_coordinates
+
+    draw = ImageDraw.Draw(tile)
+    h = tile.height
+    r = max(4, h // 40)
+    for n, light in enumerate(lights, 1):
+        y, x = pixel_coordinates(np.asarray(light["direction"], dtype=np.float64), h, tile.width)
+        for dx in (-tile.width, 0, tile.width):  # a ring at the seam shows on both edges
+            cx, cy = float(x) + 0.5 + dx, float(y) + 0.5
+            draw.ellipse((cx - r - 1, cy - r - 1, cx + r + 1, cy + r + 1), outline=(0, 0, 0), width=2)
+            draw.ellipse((cx - r + 1, cy - r + 1, cx + r - 1, cy + r - 1), outline=(255, 255, 255), width=1)
+            tx, ty = cx + r + 2, min(max(cy - r - 6, 0), h - 12)
+            draw.text((tx + 1, ty + 1), str(n), fill=(0, 0, 0))
+            draw.text((tx, ty), str(n), fill=(255, 255, 255))
 
 
 def diffuse_sphere(model, size: int = 256, albedo: float = 0.8, irradiance_map=None) -> np.ndarray:
@@ -73,19 +101,34 @@ def diffuse_sphere(model, size: int = 256, albedo: float = 0.8, irradiance_map=N
 
 
 def estimate_preview(image: np.ndarray, radiance: np.ndarray, model, lmax: int,
-                     height: int = 256, irradiance_map=None) -> np.ndarray:
-    """uint8 strip: input | SH radiance | diffuse sphere under the estimated light (each auto-exposed).
+                     height: int = 256, irradiance_map=None, exposure: float | None = None,
+                     model_gain: float = 1.0) -> np.ndarray:
+    """uint8 strip: input | SH radiance | diffuse sphere under the estimated light, all at one exposure, with
+    the model's explicit lights marked (numbered, brightest first) on the input and the SH radiance.
 
-    model: SH coefficients or an adaptive.LightingModel (its lights then light the sphere too)."""
-    n_lights = len(getattr(model, "lights", []))
-    label = f"SH radiance (lmax {lmax})" + (f" + {n_lights} light(s)" if n_lights else "")
-    panels = strip([("input", image), (label, radiance)], height)
+    image: the input, linear (H, W, 3); exposure: its display scale (an LDR photo's own is 1: it shows as
+    shot; None: its median luminance -> 0.18, for HDR). The sphere shares it, so it looks as a white object
+    composited into the photo would; so does the SH radiance, darkened where the recovered light would clip
+    it (its SH_PEAK_PERCENTILE luminance -> white; the label gives the offset in EV). An SH map that is zero
+    over most of the sphere (its non-negative emitter) no longer sets its own exposure from that zero. model_gain: the
+    factor the model carries over the input (2^exposure_ev). model: SH coefficients or an
+    adaptive.LightingModel (its lights then light the sphere too)."""
+    lights = sorted(getattr(model, "lights", []), key=lambda light: -light["intensity"])
+    label = f"SH radiance (lmax {lmax})" + (f" + {len(lights)} light(s)" if lights else "")
+    scale = exposure_for(image) if exposure is None else float(exposure)
+    panels = strip([("input", image)], height, scale, lights)
+    sh_scale = scale / model_gain
+    peak = float(np.percentile(luminance(np.asarray(radiance, dtype=np.float64)), SH_PEAK_PERCENTILE))
+    if np.isfinite(peak) and peak * sh_scale > 1.0:  # a recovered sun spread over the sphere: darker, not clipped
+        label += f", {math.log2(1.0 / (peak * sh_scale)):+.1f} EV"
+        sh_scale = 1.0 / peak
+    shown = strip([(label, radiance)], height, sh_scale, lights)
     sphere = diffuse_sphere(model, height, irradiance_map=irradiance_map)
     from PIL import Image
 
-    tile = _labelled(Image.fromarray(tonemap(sphere, exposure_for(sphere))), "diffuse sphere (view +X)")
+    tile = _labelled(Image.fromarray(tonemap(sphere, scale / model_gain)), "diffuse sphere (view +X)")
     gap = np.full((height, 4, 3), 255, dtype=np.uint8)
-    return np.concatenate([panels, gap, tile], axis=1)
+    return np.concatenate([panels, gap, shown, gap, tile], axis=1)
 
 
 def _labelled(tile, name: str) -> np.ndarray:

@@ -52,3 +52,51 @@ def test_the_sphere_from_the_irradiance_map_matches_the_model():
     exact = diffuse_sphere(model, 64)
     looked_up = diffuse_sphere(model, 64, irradiance_map=model.irradiance_map(256, 512))
     assert np.abs(looked_up - exact).max() < 0.01 * exact.max()
+
+
+def test_an_ldr_photo_shows_as_shot_and_the_sh_panel_shares_its_exposure():
+    from panolight_core.camera import ldr_to_linear
+
+    rng = np.random.default_rng(1)
+    photo = rng.integers(0, 256, (32, 64, 3), dtype=np.uint8)
+    radiance = np.full((32, 64, 3), 0.002)
+    radiance[17:20] = 0.5  # like a non-negative emitter: a bright band, nearly zero elsewhere (so is the median)
+    out = estimate_preview(ldr_to_linear(photo), radiance, np.zeros((9, 3)), 2, height=32, exposure=1.0)
+    assert (out[20:, :64] == photo[20:]).all()  # below the label (17 rows): the photo itself
+    band = out[21, 68 + 8:68 + 64]
+    assert (band <= 7).all()  # nearly black stays nearly black
+    assert (out[18, 68 + 8:68 + 64] == 188).all()  # 0.5 at the photo's exposure: sRGB 188, not clipped white
+    # an exposure the model carries (2^exposure_ev) is taken out again: the same picture
+    gained = estimate_preview(ldr_to_linear(photo), 4.0 * radiance, np.zeros((9, 3)), 2, height=32, exposure=1.0,
+                              model_gain=4.0)
+    assert (gained == out).all()
+    # HDR input (exposure None): the input's median goes to 0.18, and the SH panel takes the same scale
+    hdr = np.full((32, 64, 3), 0.25)
+    auto = estimate_preview(hdr, radiance, np.zeros((9, 3)), 2, height=32)
+    assert (auto[20, 8:64] == tonemap(np.array([[[0.18] * 3]]), 1.0)[0, 0]).all()
+    assert (auto[18, 68 + 8:68 + 64] == tonemap(np.array([[[0.5] * 3]]), 0.18 / 0.25)[0, 0]).all()
+
+
+def test_the_lights_are_marked_where_they_are():
+    from PIL import Image
+
+    from panolight_core.pipeline.preview import mark_lights
+
+    tile = Image.fromarray(np.full((64, 128, 3), 128, dtype=np.uint8))
+    mark_lights(tile, [{"direction": [1.0, 0.0, 0.0]}])  # +X: the middle of the panorama, on the horizon
+    a = np.asarray(tile).astype(int)
+    changed = np.argwhere((a != 128).any(-1))
+    ring = changed[changed[:, 1] < 70]  # the ring (radius 4 + 1), without its number to the right
+    centre = ring.mean(axis=0)
+    assert abs(centre[0] - 32) <= 1 and abs(centre[1] - 64) <= 1
+    assert (a[32, 64] == 128).all()  # the light's own pixel stays visible inside the ring
+    assert (a == 0).all(-1).any() and (a == 255).all(-1).any()  # black and white: seen on sky and ground
+
+
+def test_a_recovered_sun_spread_over_the_sh_panel_darkens_it_instead_of_clipping():
+    radiance = np.full((32, 64, 3), 1.0)
+    radiance[24:] = 4.0  # the brightest quarter: 4 x the clip level
+    photo = np.full((32, 64, 3), 0.5)
+    out = estimate_preview(photo, radiance, np.zeros((9, 3)), 2, height=32, exposure=1.0)
+    assert (out[28, 68:68 + 64] == 255).all()  # the brightest percentile is white
+    assert (out[20, 68:68 + 64] == 137).all()  # the clip level at -2 EV: sRGB(0.25), not white
