@@ -38,14 +38,13 @@ def parse(argv, core):
     ap.add_argument("--resolution", default=None, help="render size WxH (default: the scene's)")
     ap.add_argument("--light-with", choices=("sh", "hdri"), default="sh",
                     help="sh (default): the SH radiance map plus sun lamps; hdri: the reconstructed HDRI")
-    ap.add_argument("--sun-strength", type=float, default=1.0, metavar="X",
+    settings = core.pipeline.settings
+    ap.add_argument("--sun-strength", type=settings.number("--sun-strength", *settings.RANGES["sun_strength"]),
+                    default=1.0, metavar="X",
                     help="scale PanoLight's sun lamps alone (the panel's Sun lamp strength; default 1: the "
                          "estimate's strength; lighting.json's energy_68 gives each key light's 68 %% range)")
-    core.pipeline.settings.add_arguments(ap, sun_strength=False)  # --sun-strength above: the panel's lamps
-    args = ap.parse_args(argv)
-    if not args.sun_strength >= 0:
-        ap.error(f"--sun-strength: must be 0 or more, got {args.sun_strength}")
-    return args
+    settings.add_arguments(ap, sun_strength=False)  # --sun-strength above: the panel's lamps
+    return ap.parse_args(argv)
 
 
 def configure(scene, args, core) -> None:

@@ -39,7 +39,7 @@ class PanoLightSettings(bpy.types.PropertyGroup):
     background_strength: FloatProperty(name="Background strength", default=1.0, min=0.0, soft_max=10.0)
     lighting_strength: FloatProperty(name="Lighting strength", default=1.0, min=0.0, soft_max=10.0)
     sun_strength: FloatProperty(
-        name="Sun lamp strength", default=1.0, min=0.0, soft_max=10.0,
+        name="Sun lamp strength", default=1.0, min=0.0, soft_max=10.0, max=_settings.MAX_SUN_STRENGTH,
         description="Scales PanoLight's sun lamps alone (on top of Lighting strength), not the SH lighting; with "
                     "the reconstructed HDRI, the sun and lamps inside it (Build environment remakes it). The "
                     "estimate gives a sun the strength it is sure of: if the photo's shadows are harder than the "

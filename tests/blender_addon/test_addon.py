@@ -273,9 +273,10 @@ def test_batch_script_end_to_end_and_clear_failure(tmp_path):
     r = subprocess.run([sys.executable, str(batch), "--", "--input", str(tmp_path / "missing.jpg")],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode != 0 and "missing.jpg: file not found" in r.stderr
-    r = subprocess.run([sys.executable, str(batch), "--", "--input", str(pano), "--sun-strength", "-1"],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode != 0 and "--sun-strength: must be 0 or more" in r.stderr
+    for bad in ("-1", "inf", "nan"):  # the core's range (0..1000), as `panolight estimate` checks it
+        r = subprocess.run([sys.executable, str(batch), "--", "--input", str(pano), "--sun-strength", bad],
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode != 0 and f"--sun-strength must be between 0 and 1000, got '{bad}'" in r.stderr
 
 
 def test_build_from_the_reconstructed_hdri(tmp_path):
