@@ -177,6 +177,15 @@ def fold_models_option(ap: argparse.ArgumentParser) -> None:
                          "not the shipped one, which saw the scenes it was trained on")
 
 
+def fold_estimators(pattern: str, files, estimator: str = "keylight") -> dict:
+    """{scene file: the name of ``estimator`` ("keylight" or "sources") registered with the per-source model of its
+    fold} (``fold_model_paths``; the folds of ``training.source_energy.cv``): each scene scored by trees that never
+    saw it."""
+    label = {k: register_source_model(f"{estimator}-fold{k}", path, key_lights=estimator == "keylight")
+             for k, path in fold_model_paths(pattern).items()}
+    return {p: label[k] for p, k in fold_of(files).items()}
+
+
 def fold_model_paths(pattern: str, folds: int = 5) -> dict:
     """{K: path} of the fold models ``pattern`` names ({k} = 1..folds); SystemExit naming a missing one."""
     if "{k}" not in pattern:
@@ -276,9 +285,7 @@ def main(argv=None) -> int:
     if args.fold_models:
         if args.estimator not in ("keylight", "sources"):
             raise SystemExit("--fold-models scores 'keylight' or 'sources' (the per-source model's estimators)")
-        label = {k: register_source_model(f"{args.estimator}-fold{k}", path, key_lights=args.estimator == "keylight")
-                 for k, path in fold_model_paths(args.fold_models).items()}
-        estimator_of = {p: label[k] for p, k in fold_of(files).items()}
+        estimator_of = fold_estimators(args.fold_models, files, args.estimator)
     rows = []
     for i, p in enumerate(files, 1):
         got = score_scene(p, args.evs, p.name in clipped, estimator_of[p], args.curve)

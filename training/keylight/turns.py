@@ -66,17 +66,24 @@ def copies_of(pixels: np.ndarray, widths=WIDTHS, quality: int = QUALITY, degrees
     """The photo as it is, then saved again as a JPEG of ``quality`` at its own size and downsized (Lanczos) to each
     of ``widths`` narrower than it: per copy the key light found and whether it is the photo's (``turns_of``'s
     test). The directions need no turning back: a copy keeps the photo's frame."""
+    rows = [{"copy": label, "key": _key_row(key_light(px), 0, px.shape[1])}
+            for label, px in copies(pixels, widths, quality)]
+    return _mark_same(rows, degrees, factor)
+
+
+def copies(pixels: np.ndarray, widths=WIDTHS, quality: int = QUALITY) -> list[tuple[str, np.ndarray]]:
+    """(label, uint8 (h, 2h, 3)) of a photo as it is, saved again as a JPEG of ``quality`` at its own size, and
+    downsized (Lanczos) to each of ``widths`` narrower than it, then saved at ``quality``."""
     from PIL import Image
 
     from panolight_core.camera import jpeg_roundtrip
 
-    copies = [("as it is", pixels), (f"JPEG q{quality}", jpeg_roundtrip(pixels, quality))]
+    out = [("as it is", pixels), (f"JPEG q{quality}", jpeg_roundtrip(pixels, quality))]
     for w in widths:
         if w < pixels.shape[1]:
             small = np.asarray(Image.fromarray(pixels).resize((w, w // 2), Image.LANCZOS))
-            copies.append((f"{w} wide, q{quality}", jpeg_roundtrip(small, quality)))
-    rows = [{"copy": label, "key": _key_row(key_light(px), 0, px.shape[1])} for label, px in copies]
-    return _mark_same(rows, degrees, factor)
+            out.append((f"{w} wide, q{quality}", jpeg_roundtrip(small, quality)))
+    return out
 
 
 def _key_row(light: dict | None, shift: int, width: int) -> dict | None:
