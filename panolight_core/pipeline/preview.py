@@ -110,8 +110,8 @@ def estimate_preview(image: np.ndarray, radiance: np.ndarray, model, lmax: int,
     shot; None: its median luminance -> 0.18, for HDR). The sphere shares it, so it looks as a white object
     composited into the photo would; so does the SH radiance, darkened where the recovered light would clip
     it (its SH_PEAK_PERCENTILE luminance -> white; the label gives the offset in EV). An SH map that is zero
-    over most of the sphere (its non-negative emitter) no longer sets its own exposure from that zero. model_gain: the
-    factor the model carries over the input (2^exposure_ev). model: SH coefficients or an
+    over most of the sphere (its non-negative emitter) thus never sets its exposure from that zero.
+    model_gain: the factor the model carries over the input (2^exposure_ev). model: SH coefficients or an
     adaptive.LightingModel (its lights then light the sphere too)."""
     lights = sorted(getattr(model, "lights", []), key=lambda light: -light["intensity"])
     label = f"SH radiance (lmax {lmax})" + (f" + {len(lights)} light(s)" if lights else "")
