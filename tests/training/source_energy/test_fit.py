@@ -94,6 +94,26 @@ def test_an_injected_source_adds_a_compact_disk_of_the_drawn_energy():
     assert c[1].max() > 10 * b[1].max()
 
 
+def test_a_camera_saved_again_is_a_second_generation_and_none_draws_nothing_extra():
+    """resave 0 (the default) is the first-generation stream, draw for draw; resave 1 saves every
+    picture again, and about half of those at least 1024 wide are made half as wide first."""
+    hdr = np.random.default_rng(1).uniform(0.05, 3.0, (256, 512, 3))  # cameras 256, 512 or 1024 wide
+    hdr[40:56, 240:280] = 50.0  # a clipped source, so JPEG's ringing at its rim shows
+    widths = []
+    for seed in range(16):
+        first = se.camera(hdr, np.random.default_rng(seed))
+        np.testing.assert_array_equal(first[0], se.camera(hdr, np.random.default_rng(seed), resave=0.0)[0])
+        again = se.camera(hdr, np.random.default_rng(seed), resave=1.0)
+        np.testing.assert_array_equal(again[1], first[1])  # the same scene and exposure: only the picture differs
+        if again[0].shape == first[0].shape:
+            assert (again[0] != first[0]).any()  # saved again: not the same bytes
+        else:
+            assert again[0].shape == (first[0].shape[0] // 2, first[0].shape[1] // 2, 3)
+            assert first[0].shape[1] >= 1024
+        widths.append((first[0].shape[1], again[0].shape[1]))
+    assert any(a != b for a, b in widths) and any(a == b >= 1024 for a, b in widths)
+
+
 def test_each_scene_is_in_the_fold_whose_hold_out_model_never_saw_it():
     from training.source_energy.cv import fold_files, fold_of
 
@@ -111,8 +131,8 @@ def test_one_cached_table_serves_every_model_and_is_built_again_for_other_camera
 
     calls = []
 
-    def fake_build(files, augment, seed, log=print, inject=0.0):
-        calls.append((tuple(files), augment, seed))
+    def fake_build(files, augment, seed, log=print, inject=0.0, resave=se.RESAVE):
+        calls.append((tuple(files), augment, seed, resave))
         n = 6 * len(files)
         return (rng.normal(size=(n, len(sources.FEATURES))), rng.random(n), rng.random(n),
                 np.repeat(np.arange(len(files)), 6))
@@ -124,6 +144,8 @@ def test_one_cached_table_serves_every_model_and_is_built_again_for_other_camera
     assert len(calls) == 1 and all(np.array_equal(u, v) for u, v in zip(first, again))
     se.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None)  # another seed: other cameras
     assert len(calls) == 2
+    se.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None, resave=0.35)  # pictures saved again
+    assert len(calls) == 3 and calls[-1][-1] == 0.35
     names = sources.FEATURES[3:7]
     X = first[0][:, [sources.FEATURES.index(n) for n in names]]
     ens = se._export(GradientBoostingRegressor(n_estimators=5, max_depth=2).fit(X, first[1]))
