@@ -43,10 +43,10 @@ def score_copies(hdr: np.ndarray, ds: dict, ev: float, estimator: str = "auto") 
         brightest = key_light_range(res.document)
         key = None if brightest is None else res.document["lights"][brightest["index"]]
         truth = hdr if px.shape[:2] == hdr.shape[:2] else area_downsample(hdr, px.shape[0])
-        rows.append({"copy": label, "key": turns._key_row(key, 0, px.shape[1]),
+        rows.append({"copy": label, "key": turns.key_row(key, 0, px.shape[1]),
                      "angle_deg": round(metrics.angle_deg(ds["direction"], key["direction"]), 3) if key else 180.0,
                      "ratio": metrics.source_energy_ratio(truth, res.hdr_panorama(px), ds["direction"])})
-    return turns._mark_same(rows, 3.0, 1.5)
+    return turns.mark_same(rows, 3.0, 1.5)
 
 
 def summary(rows: list[dict]) -> dict:

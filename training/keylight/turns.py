@@ -57,8 +57,8 @@ def turns_of(pixels: np.ndarray, turns=TURNS, degrees: float = 3.0, factor: floa
     rows = []
     for shift in turns:
         light = key_light(np.roll(pixels, int(shift) % width, axis=1))
-        rows.append({"turn": int(shift), "key": _key_row(light, int(shift) % width, width)})
-    return _mark_same(rows, degrees, factor)
+        rows.append({"turn": int(shift), "key": key_row(light, int(shift) % width, width)})
+    return mark_same(rows, degrees, factor)
 
 
 def copies_of(pixels: np.ndarray, widths=WIDTHS, quality: int = QUALITY, degrees: float = 3.0, factor: float = 1.5
@@ -66,9 +66,9 @@ def copies_of(pixels: np.ndarray, widths=WIDTHS, quality: int = QUALITY, degrees
     """The photo as it is, then saved again as a JPEG of ``quality`` at its own size and downsized (Lanczos) to each
     of ``widths`` narrower than it: per copy the key light found and whether it is the photo's (``turns_of``'s
     test). The directions need no turning back: a copy keeps the photo's frame."""
-    rows = [{"copy": label, "key": _key_row(key_light(px), 0, px.shape[1])}
+    rows = [{"copy": label, "key": key_row(key_light(px), 0, px.shape[1])}
             for label, px in copies(pixels, widths, quality)]
-    return _mark_same(rows, degrees, factor)
+    return mark_same(rows, degrees, factor)
 
 
 def copies(pixels: np.ndarray, widths=WIDTHS, quality: int = QUALITY) -> list[tuple[str, np.ndarray]]:
@@ -86,14 +86,16 @@ def copies(pixels: np.ndarray, widths=WIDTHS, quality: int = QUALITY) -> list[tu
     return out
 
 
-def _key_row(light: dict | None, shift: int, width: int) -> dict | None:
+def key_row(light: dict | None, shift: int, width: int) -> dict | None:
+    """A study's record of a lighting-file key light found in a panorama rolled by ``shift`` of ``width`` pixels:
+    its direction turned back into the unrolled frame, intensity and source; None for no light."""
     if light is None:
         return None
     return {"direction": turned_back(light["direction"], shift, width).round(4).tolist(),
             "intensity": float(light["intensity"]), "source": light["source"]}
 
 
-def _mark_same(rows: list[dict], degrees: float, factor: float) -> list[dict]:
+def mark_same(rows: list[dict], degrees: float, factor: float) -> list[dict]:
     """Each row's "same": its key light within ``degrees`` and ``factor`` of the first row's, or none in both."""
     first = rows[0]["key"]
     for row in rows:
