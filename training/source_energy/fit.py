@@ -39,6 +39,7 @@ import numpy as np
 
 from panolight_core import sh, threads
 from panolight_core.estimators import sources
+from panolight_core.pipeline.settings import number
 from panolight_core.camera import auto_exposure, jpeg_roundtrip, tone_curve
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.errors import PanoLightError
@@ -294,11 +295,11 @@ def main(argv=None) -> int:
                     help="the fallback rule stored with the model, log r = mu - SHRINK sigma^2, used when the "
                          "expected-error decision is off (default 0.5; the estimator decides per scene)")
     ap.add_argument("--folds", type=int, default=5)
-    ap.add_argument("--inject", type=float, default=0.0, metavar="P",
+    ap.add_argument("--inject", type=number("--inject", 0.0, 1.0), default=0.0, metavar="P",
                     help="an experiment: add a synthetic compact source (inject_source) to a fraction P of the "
                          "training cameras; cv scores the real scenes only (default 0; 0.35 was tried: "
                          "docs/accuracy.md)")
-    ap.add_argument("--resave", type=float, default=RESAVE, metavar="P",
+    ap.add_argument("--resave", type=number("--resave", 0.0, 1.0), default=RESAVE, metavar="P",
                     help=f"an experiment: the share of training cameras whose JPEG is saved again, half of them made "
                          f"half as wide first (default {RESAVE:g}: first-generation pictures alone, as the shipped model "
                          f"was trained; 0.35 was tried and not kept: docs/keylight.md)")
