@@ -8,6 +8,7 @@ the true one being the luminance-weighted centroid of pixels above 50 % of the p
 from __future__ import annotations
 
 import math
+import statistics
 
 import numpy as np
 
@@ -105,6 +106,13 @@ def source_energy_ratio(truth: np.ndarray, estimate: np.ndarray, direction) -> f
     s = float(np.median(luminance(t))) / med_q if med_q > 0 else 1.0
     e_true = cone_energy(t, direction)
     return s * cone_energy(q, direction) / e_true if e_true > 0 else math.inf
+
+
+def energy_within(ratios) -> float | None:
+    """EVALUATION.md's summary of energy ratios ``r`` (``source_energy_ratio``): "within 2^x", x the median of
+    |log2 r| over them (r floored at 1e-12: a vanished source counts as about 40 stops off, not infinitely); None for none."""
+    lr = [abs(math.log2(max(float(r), 1e-12))) for r in ratios]
+    return 2 ** statistics.median(lr) if lr else None
 
 
 # The public set's scores beyond the two RMSEs (``apps.evaluation``): the sun's share of the irradiance facing

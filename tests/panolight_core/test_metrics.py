@@ -114,3 +114,11 @@ def test_estimated_direction_is_the_sh_maximum_and_none_when_constant():
     assert metrics.estimated_direction(c) is None
     c[2] = 0.5  # Y_1,0 ~ z: brightest straight up
     assert metrics.estimated_direction(c)[2] > 0.999
+
+
+def test_energy_within_is_two_to_the_median_distance_in_stops():
+    # |log2 r|: 1, 1, 0, 3 -> median 1 -> within 2x; a source that vanished (r 0) counts as r 1e-12, about 40 stops off
+    assert metrics.energy_within([2.0, 0.5, 1.0, 8.0]) == pytest.approx(2.0)
+    assert metrics.energy_within([0.0, 0.0, 1.0]) == pytest.approx(1e12)
+    assert metrics.energy_within(iter([4.0])) == pytest.approx(4.0)
+    assert metrics.energy_within([]) is None

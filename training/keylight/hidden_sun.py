@@ -177,15 +177,13 @@ def summary(rows: list[dict], evs) -> dict:
         loc = [r for r in rows if r["kind"] == "located" and r["ev"] == ev and not r["clipped_truth"]]
         suns = [r for r in loc if r.get("found")]
         errs = sorted(r["angle_deg"] for r in suns)
-        lr = [abs(math.log2(r["energy_ratio"])) for r in suns if r["energy_ratio"] > 0]
         inv = [r for r in rows if r["kind"] == "invented" and r["ev"] == ev]
         hidden = [h for r in inv for h in r["hidden"]]
         ret = [r for r in rows if r["kind"] == "retouched" and r["ev"] == ev and not r["clipped_truth"]]
         made = [r for r in ret if r["keylight"]["hidden_sun"]]
 
         def within(name, sel):
-            lr = [abs(math.log2(max(r[name]["ratio"], 1e-12))) for r in sel]
-            return 2 ** statistics.median(lr) if lr else None
+            return metrics.energy_within(r[name]["ratio"] for r in sel)
 
         retouched_summary = {
             "scenes": len(ret), "hidden_suns": len(made),
@@ -201,7 +199,7 @@ def summary(rows: list[dict], evs) -> dict:
             "dominant_above_horizon": len(loc), "found": len(suns),
             "median_angle_deg": statistics.median(errs) if errs else None,
             "angle_68_deg": float(np.percentile(errs, 68)) if errs else None,
-            "energy_within": 2 ** statistics.median(lr) if lr else None,
+            "energy_within": metrics.energy_within(r["energy_ratio"] for r in suns if r["energy_ratio"] > 0),
             # how often the error is within the 68 % radius the search reports (calibrated: 0.68)
             "direction_68_covers": statistics.mean(r["angle_deg"] <= r["direction_68_deg"] for r in suns) if suns else None,
             "median_direction_68_deg": statistics.median(r["direction_68_deg"] for r in suns) if suns else None,

@@ -153,10 +153,9 @@ def summary(rows: list[dict], get) -> dict:
     m = [get(r)[0] / r["naive"][0] for r in rows]
     i = [get(r)[1] / r["naive"][1] for r in rows]
     dom = [get(r)[2] for r in rows if r["dominant"]]
-    lr = [abs(math.log2(max(v, 1e-12))) for v in dom]
     return {"scenes": len(rows), "m_rmse_median": statistics.median(m), "m_rmse_mean": statistics.mean(m),
             "irr_rmse_mean": statistics.mean(i), "dominant": len(dom),
-            "within": 2 ** statistics.median(lr) if lr else None,
+            "within": metrics.energy_within(dom),
             "worst_low": min(dom) if dom else None, "worst_high": max(dom) if dom else None}
 
 
