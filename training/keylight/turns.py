@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from panolight_core import metrics
+
 ROOT = Path(__file__).resolve().parents[2]
 LDR = ROOT.parent / "shared" / "data" / "ldr"
 TURNS = (0, 37, 111, 333, 517, 701, 913, 1229, 1500)
@@ -103,8 +105,7 @@ def mark_same(rows: list[dict], degrees: float, factor: float) -> list[dict]:
         if first is None or k is None:
             row["same"] = first is None and k is None
         else:
-            apart = math.degrees(math.acos(float(np.clip(np.dot(first["direction"], k["direction"]), -1.0, 1.0))))
-            row["same"] = apart <= degrees and abs(math.log(k["intensity"] / first["intensity"])) <= math.log(factor)
+            row["same"] = metrics.angle_deg(first["direction"], k["direction"]) <= degrees and abs(math.log(k["intensity"] / first["intensity"])) <= math.log(factor)
     return rows
 
 
