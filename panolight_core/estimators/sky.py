@@ -67,7 +67,7 @@ class SkyTable:
         unit ``sun`` (3,): linear in elevation, bilinear in (view zenith, azimuth from the sun); 0 below the
         horizon. ``turbidity``: one table index only (T = 1)."""
         sun = np.asarray(sun, dtype=np.float64)
-        elev = math.degrees(math.asin(float(np.clip(sun[2], -1.0, 1.0))))
+        elev = sh.elevation_deg(sun)
         if turbidity is not None:
             table = table[:, turbidity:turbidity + 1]
         tab = self._at_elevation(table, elev)  # (T, NTHETA, NPHI, ...)
@@ -236,7 +236,7 @@ def fit_clear_sky(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, sun,
     if fit is None:
         return None
     j, s, g, rms, sky_sr, keep = fit
-    elev = math.degrees(math.asin(float(sun[2])))
+    elev = sh.elevation_deg(sun)
     # the sky before the tone curve, in the camera's linear units: a camera's curve keeps mid grey (what its
     # exposure aims at) and steepens about it, observed = MID_GREY (c model / MID_GREY)^g, so log observed =
     # s + g log model gives c = exp((s + (g - 1) log MID_GREY) / g); through sRGB (g = 1) c = exp(s)

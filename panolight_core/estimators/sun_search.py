@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
 from .sky import (CLEAR_RMS, MIN_BLUENESS, MIN_SKY_SR, OCCLUDER_LOG, SkyFit, SkyTable, fit_clear_sky, fit_rows,
                   load_sky_table, sky_cells)
@@ -55,7 +56,7 @@ class SunSearch:
 
     @property
     def elevation_deg(self) -> float:
-        return math.degrees(math.asin(float(np.clip(self.direction[2], -1.0, 1.0))))
+        return sh.elevation_deg(self.direction)
 
     @property
     def found(self) -> bool:
@@ -111,7 +112,7 @@ def sun_candidates(step_deg: float, centre=None, reach_deg: float | None = None)
         azimuth0 = 0.0
     else:
         c = np.asarray(centre, dtype=np.float64)
-        e0 = math.degrees(math.asin(float(np.clip(c[2], -1.0, 1.0))))
+        e0 = sh.elevation_deg(c)
         k = math.ceil(reach_deg / step_deg)
         elevations = e0 + step_deg * np.arange(-k, k + 1)
         elevations = elevations[(elevations > 0.0) & (elevations < 90.0)]

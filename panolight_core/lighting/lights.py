@@ -237,7 +237,7 @@ def key_light_range(doc: dict) -> dict | None:
     light = lights[best]
     energy = float(light["intensity"])
     d = np.asarray(light["direction"], dtype=np.float64)
-    elevation = math.degrees(math.asin(float(np.clip(d[2] / max(float(np.linalg.norm(d)), 1e-300), -1.0, 1.0))))
+    elevation = sh.elevation_deg(d)
     return {"index": best, "source": str(light["source"]), "elevation_deg": elevation,
             "low": float(light["energy_68"][0]) / energy, "high": float(light["energy_68"][1]) / energy}
 

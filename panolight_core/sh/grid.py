@@ -28,6 +28,13 @@ def check_grid(height: int, width: int) -> tuple[int, int]:
     return int(height), int(width)
 
 
+def elevation_deg(direction) -> float:
+    """Degrees above the horizon (the XY plane) of a direction (3,) in the Blender world frame (Z up); the
+    direction need not be unit length (a zero vector is at 0)."""
+    d = np.asarray(direction, dtype=np.float64)
+    return math.degrees(math.asin(float(np.clip(d[2] / max(float(np.linalg.norm(d)), 1e-300), -1.0, 1.0))))
+
+
 @lru_cache(maxsize=8)
 def pixel_directions(height: int, width: int) -> np.ndarray:
     """(H, W, 3) float64 unit view directions of the pixel centres (cached, read-only)."""

@@ -30,3 +30,16 @@ def test_pixel_coordinates_invert_directions_at():
     np.testing.assert_allclose(y, rows, atol=1e-9)
     np.testing.assert_allclose(x, cols, atol=1e-9)
     assert grid.pixel_at(grid.directions_at(5, 70, h, w), h, w) == (5, 70)
+
+
+def test_elevation_deg_against_the_pixel_rows():
+    # every pixel centre's elevation is 90 - its row's polar angle (CONVENTIONS.md), whatever the length
+    h, w = 16, 32
+    d = sh.pixel_directions(h, w)
+    theta = np.degrees(np.pi * (np.arange(h) + 0.5) / h)
+    for y in (0, 5, 8, 15):
+        for x in (0, 7, 31):
+            assert sh.elevation_deg(d[y, x]) == pytest.approx(90.0 - theta[y], abs=1e-9)
+            assert sh.elevation_deg(3.5 * d[y, x]) == pytest.approx(90.0 - theta[y], abs=1e-9)
+    assert sh.elevation_deg((0.0, 0.0, 2.0)) == 90.0 and sh.elevation_deg((0.0, 0.0, -1e-300)) == -90.0
+    assert sh.elevation_deg((1.0, 0.0, 0.0)) == 0.0 and sh.elevation_deg((0.0, 0.0, 0.0)) == 0.0
