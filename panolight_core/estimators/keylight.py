@@ -11,7 +11,8 @@ makes it one explicit light:
 - how much: for a sun in a clear sky, the Hosek-Wilkie fit of the visible sky (``sky``) weighs the solar
   disk in camera units, times SKY_CORRECTION, the median of true / physical over the real HDRs'
   un-clipped suns (``training/keylight/cv.py``, by scene), capped at the per-source model's mean for the
-  region; otherwise (a lamp, a window, a veiled sun, a cloudy sky) the energy the decision rule reports
+  region, but on a compact patch and a sun at least FLOOR_MIN_ELEVATION_DEG up never below the fit's 68 %
+  low end (``physics_trusted``: the cap must not make a well-located sun vanish); otherwise (a lamp, a window, a veiled sun, a cloudy sky) the energy the decision rule reports
   for the region (ENERGY_RULE "hybrid": over the real HDRs it halves the mean m-RMSE of "capped", which
   gave lamps the model's unshrunk mean; ``training/keylight/rules.py``).
 - which: a region wider than PLATEAU_EXTENT_DEG makes a key light only when a clear-sky sun is in it (the
@@ -60,6 +61,10 @@ DIRECTION_68_PER_EXTENT = 0.25  # a light's direction error: within this share o
 # least one work cell) for 68 % of the dominant sources of the real HDRs at ev -2/0/+2 (training/keylight/cv.py)
 ENERGY_RULES = ("decided", "capped", "physical", "hybrid", "sky")
 ENERGY_RULE = "hybrid"  # one of ENERGY_RULES (``rule_energy``): docs/keylight.md (training/keylight/rules.py)
+FLOOR_MAX_EXTENT_DEG = PLATEAU_EXTENT_DEG  # a clear-sky sun whose region is no plateau (angular radius) ...
+FLOOR_MIN_ELEVATION_DEG = 15.0  # ... and that stands this high keeps at least its fit's 68 % low end ("hybrid"):
+# there the centroid is on the sun and the fit was checked; a wider patch's centroid is degrees off, and a low
+# sun's haze makes the model's sun too strong (docs/keylight.md, "A well-located sun keeps its physics")
 
 
 @dataclass
@@ -119,16 +124,26 @@ def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
     return rgb / y if y > 0 else np.ones(3)
 
 
-def rule_energy(rule: str, physical: float | None, learned: float, decided: float) -> float:
+def rule_energy(rule: str, physical: float | None, learned: float, decided: float, trusted: bool = False) -> float:
     """A key light's energy under an ENERGY_RULE from its candidates (luminance x sr, camera units): the
     clear-sky fit's (x SKY_CORRECTION; None where there is none), the per-source model's mean and the
     decided fill's. "decided": the decided fill's; "capped": the fit's (else the mean), capped at the larger
     of mean and decided; "physical": the fit's, else the mean; "hybrid" (shipped): "capped" for a clear-sky
-    sun, "decided" otherwise; "sky": the fit's whole energy for a clear-sky sun, "decided" otherwise."""
+    sun, but never below the low end of the fit's 68 % range (fit / SKY_SPREAD) where the fit is ``trusted``
+    (``physics_trusted``), "decided" otherwise; "sky": the fit's whole energy for a clear-sky sun, "decided"
+    otherwise."""
     _check_rule(rule)
     capped = min(learned if physical is None else physical, max(decided, learned))
+    hybrid = decided if physical is None else max(capped, physical / SKY_SPREAD) if trusted else capped
     return {"decided": decided, "capped": capped, "physical": learned if physical is None else physical,
-            "hybrid": decided if physical is None else capped, "sky": decided if physical is None else physical}[rule]
+            "hybrid": hybrid, "sky": decided if physical is None else physical}[rule]
+
+
+def physics_trusted(extent_deg: float, elevation_deg: float, floor=(FLOOR_MAX_EXTENT_DEG, FLOOR_MIN_ELEVATION_DEG)) -> bool:
+    """Whether a clear-sky sun's fit is trusted enough that "hybrid" keeps it at least at its 68 % low end: its
+    region at most floor[0] degrees wide (angular radius; the centroid, where the fit puts the sun, is then on it)
+    and the sun at least floor[1] degrees up (lower, haze makes the model's sun too strong)."""
+    return extent_deg <= floor[0] and elevation_deg >= floor[1]
 
 
 def _check_rule(rule: str) -> None:
@@ -137,17 +152,19 @@ def _check_rule(rule: str) -> None:
 
 
 def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, rule: str | None = None,
-                    plateau_deg: float = PLATEAU_EXTENT_DEG, fits: dict | None = None) -> list[KeyLight]:
+                    plateau_deg: float = PLATEAU_EXTENT_DEG, fits: dict | None = None,
+                    floor=(FLOOR_MAX_EXTENT_DEG, FLOOR_MIN_ELEVATION_DEG)) -> list[KeyLight]:
     """Key lights of a work map's clipped regions (``sources.Regions``) given the per-source model's
     (mu, sigma) per region (natural log of the energy ratio): the regions holding at least KEY_SHARE of the
     scene's predicted energy, largest first, at most MAX_KEYS, each located and weighed (module doc); a
     region wider than ``plateau_deg`` (angular radius, degrees) only where a clear-sky sun is in it. fits: a
     dict that keeps each region's clear-sky fit (by region index; the sun search under -1) across calls on the
-    same work maps, for a study that finds the lights again with other settings.
+    same work maps, for a study that finds the lights again with other settings. floor: (extent, elevation),
+    degrees, of ``physics_trusted``.
 
     Where no region holds a clear-sky sun, ``hidden_sun`` may add one the photo does not show (retouched out,
     veiled, or not clipped), located and weighed from the visible sky alone (``sun_search``)."""
-    keys = _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits)
+    keys = _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits, floor)
     if not _holds_clear_sky_sun(keys) and len(keys) < MAX_KEYS:
         if fits is not None and -1 in fits:
             search = fits[-1]
@@ -216,7 +233,7 @@ def hidden_sun(search: sun_search.SunSearch | sun_search.NoSun, regions) -> KeyL
                     math.radians(search.direction_68_deg))
 
 
-def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits) -> list[KeyLight]:
+def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits, floor) -> list[KeyLight]:
     """The key lights of the clipped regions (``find_key_lights`` without the hidden sun)."""
     if regions.count == 0:
         return []
@@ -295,7 +312,8 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
             method = "per-source model"
             # a lamp (or a veiled sun) as wide as a third of its clipped core
             angle = max(math.radians(LAMP_MIN_DIAMETER_DEG), 2.0 * radius[i] / 3.0)
-        energy = rule_energy(rule, physical, learned, decided)
+        trusted = physical is not None and physics_trusted(float(extent[i]), sh.elevation_deg(direction), floor)
+        energy = rule_energy(rule, physical, learned, decided, trusted)
         if not energy > 0:
             continue
         keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),

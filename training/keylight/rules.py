@@ -24,11 +24,13 @@ make a light without a clear-sky sun in it). The summary also lists the clear-sk
 sky's blue/red over the model's; ``sky.MIN_BLUENESS``) for real suns (a dominant source within 10 degrees)
 and for every other region it was tried on.
 
-    python -m training.keylight.rules [--evs -2 0 2] [--gate] [--plateaus 15 30 60] [--fold-models 'f_{k}.safetensors']
+    python -m training.keylight.rules [--evs -2 0 2] [--gate] [--plateaus 15 30 60] [--floors none 30:15]
+                                      [--fold-models 'f_{k}.safetensors']
                                       [--curve NAME[:PARAM]] [--out docs/keylight_rules.json]
 """
 from __future__ import annotations
 
+import argparse
 from dataclasses import replace
 import math
 import statistics
@@ -52,16 +54,38 @@ CONE_DEG = metrics.SOURCE_CONE_DEG
 
 
 def _energies(rule: str, keys: list[dict]) -> list[float]:
-    """Each key light's energy under ``rule`` from its candidates (physical, learned, decided); none for
-    the baseline ``sources``."""
+    """Each key light's energy under ``rule`` from its candidates (physical, learned, decided; the shipped
+    ``physics_trusted`` floor from its extent and elevation); none for the baseline ``sources``."""
     if rule == "sources":
         return [0.0] * len(keys)
-    return [keylight.rule_energy(rule, k["physical"], k["learned"], k["decided"]) for k in keys]
+    return [keylight.rule_energy(rule, k["physical"], k["learned"], k["decided"],
+                                 k["physical"] is not None and keylight.physics_trusted(k["extent_deg"], k["elevation_deg"]))
+            for k in keys]
 
 
-def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB) -> dict:
+NO_FLOOR = (-1.0, 91.0)  # a ``find_key_lights`` floor no sun meets: "hybrid" as it was before the floor
+
+
+def floor_label(floor) -> str:
+    """A (extent, elevation) floor's label in the rows: "none" for NO_FLOOR."""
+    return "none" if tuple(floor) == NO_FLOOR else f"{floor[0]:g}/{floor[1]:g}"
+
+
+def parse_floor(text: str) -> tuple[float, float]:
+    """--floors item "EXTENT:ELEVATION" (degrees) or "none" -> a ``find_key_lights`` floor."""
+    if text == "none":
+        return NO_FLOOR
+    try:
+        ext, elev = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a floor is EXTENT:ELEVATION in degrees (or none), got {text!r}") from None
+    return ext, elev
+
+
+def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB, floors=()) -> dict:
     """One scene at one ev: the key lights' candidates and every rule's scores; for each of ``plateaus``
-    (degrees) the shipped rule's scores with that ``find_key_lights`` plateau_deg (the sensitivity check).
+    (degrees) the shipped rule's scores with that ``find_key_lights`` plateau_deg (the sensitivity check), and
+    for each of ``floors`` ((extent, elevation), degrees) with that ``physics_trusted`` floor.
     curve: the camera's tone curve ((name, parameter) of ``camera.TONE_CURVES``; EVALUATION.md's sRGB)."""
     ds = metrics.dominant_source(hdr)
     gt = sh.project(hdr, 2)
@@ -82,6 +106,7 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB) -> d
                             "learned": k.physical if hidden else reg.added_energy(mu, parts),
                             "decided": k.physical if hidden else reg.added_energy(reported, parts),
                             "extent_deg": 0.0 if hidden else float(reg.extent_deg()[j]),
+                            "elevation_deg": sh.elevation_deg(k.direction),
                             "blueness": k.sky.blueness if k.sky is not None else None,
                             "sky_fits": k.sky is not None and k.sky.luminance_clear,
                             "features": None if hidden else {n: float(v) for n, v in zip(reg.names, reg.features[j])},
@@ -108,6 +133,9 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB) -> d
     row["plateau"] = {f"{t:g}": scores(keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported,
                                                                plateau_deg=t, fits=fits))
                       for t in plateaus}
+    row["floor"] = {floor_label(f): scores(keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported,
+                                                                    fits=fits, floor=f))
+                    for f in floors}
     return row
 
 
@@ -148,6 +176,21 @@ def gated(rows: list[dict], names: list[str], rule: str = "hybrid") -> dict:
     return {"scores": out, "gates": chosen}
 
 
+def floor_cv(rows: list[dict], labels: list[str]) -> dict:
+    """Per (scene, ev): the shipped rule's scores with the floor (one of ``labels`` of the rows' "floor") that
+    scores best on the other folds' scenes (5 folds by scene; the least sum of log m-RMSE, every ev), and the
+    floors chosen."""
+    scenes = sorted({r["scene"] for r in rows})
+    out, chosen = {}, []
+    for fold in scene_folds(len(scenes)):
+        test = {scenes[i] for i in fold}
+        train = [r for r in rows if r["scene"] not in test]
+        best = min(labels, key=lambda f: (sum(math.log(r["floor"][f][0]) for r in train), f != "none"))
+        chosen.append(best)
+        out.update({(r["scene"], r["ev"]): r["floor"][best] for r in rows if r["scene"] in test})
+    return {"scores": out, "floors": chosen}
+
+
 def summary(rows: list[dict], get) -> dict:
     """m-RMSE and irr-RMSE over naive (median, mean) and the dominant sources' energy (within, worst)."""
     m = [get(r)[0] / r["naive"][0] for r in rows]
@@ -186,6 +229,9 @@ def main(argv=None) -> int:
     ap.add_argument("--gate", action="store_true", help="also score a cross-validated one-threshold gate")
     ap.add_argument("--plateaus", type=float, nargs="*", default=[],
                     help="also score the shipped rule with these plateau extents (degrees; keylight.PLATEAU_EXTENT_DEG)")
+    ap.add_argument("--floors", type=parse_floor, nargs="*", default=[], metavar="EXTENT:ELEVATION",
+                    help="also score the shipped rule with these physics_trusted floors (degrees; 'none': no floor), "
+                         "and the floor chosen on the other folds' scenes")
     fold_models_option(ap)
     curve_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
@@ -202,12 +248,16 @@ def main(argv=None) -> int:
             continue
         hdr = load_hdr(p)
         for ev in args.evs:
-            row = dict(score_scene(hdr, ev, model_of[p], args.plateaus, args.curve), scene=p.stem)
+            row = dict(score_scene(hdr, ev, model_of[p], args.plateaus, args.curve, args.floors), scene=p.stem)
             rows.append(row)
             print(f"[{i}/{len(files)}] {p.stem:28s} ev {ev:+g}: " + "  ".join(
                 f"{rule} {row['rules'][rule][0]:.3f}" for rule in RULES), flush=True)
     result = {"fold_models": args.fold_models, "curve": list(args.curve), "summary": {}, "gates": None,
-              "blueness": blueness(rows)}
+              "floors": None, "blueness": blueness(rows)}
+    labels = [floor_label(f) for f in args.floors]
+    floors = floor_cv(rows, labels) if labels else None
+    if floors:
+        result["floors"] = floors["floors"]
     gate = None
     if args.gate:
         names = sorted(next((_region_keys(r)[0]["features"] for r in rows if _region_keys(r)), {}))
@@ -218,6 +268,10 @@ def main(argv=None) -> int:
         per = {rule: summary(sel, lambda r, rule=rule: r["rules"][rule]) for rule in RULES}
         if gate:
             per["hybrid, gated (CV)"] = summary(sel, lambda r: gate["scores"][(r["scene"], r["ev"])])
+        for f in labels:
+            per[f"{keylight.ENERGY_RULE}, floor {f}"] = summary(sel, lambda r, f=f: r["floor"][f])
+        if floors:
+            per[f"{keylight.ENERGY_RULE}, floor chosen by CV"] = summary(sel, lambda r: floors["scores"][(r["scene"], r["ev"])])
         for t in args.plateaus:
             per[f"{keylight.ENERGY_RULE}, plateau {t:g} deg"] = summary(sel, lambda r, t=t: r["plateau"][f"{t:g}"])
         result["summary"][f"{ev:+g}"] = per

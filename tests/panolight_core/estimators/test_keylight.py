@@ -224,14 +224,14 @@ def test_a_key_light_says_how_far_its_source_may_be():
     assert metrics.angle_deg(light["direction"], v) <= light["direction_68_deg"]
 
 
-def _clear_sky_with_pole(pole_deg=6.0):
-    """An 8-bit picture of the tabulated clear sky (sun 35 degrees up, turbidity 3) whose aureole clips out to
-    8 degrees in a darker sky, with a dark pole ``pole_deg`` wide standing through the sun (0: none).
+def _clear_sky_with_pole(pole_deg=6.0, elev=35.0):
+    """An 8-bit picture of the tabulated clear sky (sun ``elev`` degrees up, turbidity 3) whose aureole clips out
+    to 8 degrees in a darker sky, with a dark pole ``pole_deg`` wide standing through the sun (0: none).
     Returns (ldr, sun direction)."""
     from panolight_core.camera.color import linear_to_srgb
 
     az = 1.0
-    rad, s, d, _ = _model_sky(35.0, 256, az=az)
+    rad, s, d, _ = _model_sky(elev, 256, az=az)
     rad[d[..., 2] <= 0] = 0.02
     ang = np.degrees(np.arccos(np.clip(d @ s, -1, 1)))
     rad *= 0.15 / float((rad @ LUMINANCE_WEIGHTS)[(ang > 8.0) & (d[..., 2] > 0)].max())
@@ -273,6 +273,31 @@ def test_the_sky_rule_gives_a_clear_sky_sun_its_whole_fitted_energy():
     (b,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="sky")
     assert a.method.startswith("clear-sky fit") and metrics.angle_deg(b.direction, s) < 1.5
     assert b.energy == pytest.approx(b.physical) and b.energy > a.energy  # the cap bites here
+
+
+@pytest.mark.parametrize("elev, floored", [(35.0, True), (12.0, False)])
+def test_a_compact_high_sun_keeps_its_fit_s_low_end_when_the_trees_say_less(elev, floored):
+    """"hybrid" caps a clear-sky sun at the trees' mean, but where the fit is trusted (a compact patch, the sun
+    high enough that haze does not make the model's sun too strong) never below the fit's 68 % low end; a low
+    sun keeps the cap (docs/keylight.md)."""
+    from panolight_core.estimators import keylight
+    from panolight_core.estimators import sky as clear_sky
+
+    ldr, s = _clear_sky_with_pole(pole_deg=0.0, elev=elev)
+    rad, fa, fb = sources.work_maps(ldr)
+    reg = sources.region_features(rad, fa, fb)
+    assert reg.count == 1 and reg.extent_deg()[0] <= keylight.FLOOR_MAX_EXTENT_DEG
+    fit = clear_sky.fit_clear_sky(rad, fa == 0, fb > 0.5, reg.centre[0])
+    assert fit.clear
+    weak = keylight.SKY_CORRECTION * fit.sun_energy / (2.0 * keylight.SKY_SPREAD)  # the trees: half the low end
+    mu, sigma = np.log1p(np.array([weak]) / reg.held), np.full(1, 0.3)
+    (k,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma)
+    assert k.method.startswith("clear-sky") and k.physical == pytest.approx(keylight.SKY_CORRECTION * fit.sun_energy)
+    # the compact high sun keeps its fit's low end; the low one keeps the trees' mean (the cap)
+    assert k.energy == pytest.approx(k.physical / keylight.SKY_SPREAD if floored else weak)
+    (none,) = [k for k in keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, floor=(-1.0, 91.0))
+               if k.method.startswith("clear-sky")]
+    assert none.energy == pytest.approx(weak)
 
 
 def _share_mu(reg, rad, share, which=0):

@@ -5,19 +5,61 @@ import numpy as np
 import pytest
 
 from panolight_core import sh
-from panolight_core.estimators import sources
+from panolight_core.estimators import keylight, sources
 from training.keylight import rules as keylight_rules
 
 
 def test_rules_choose_among_the_candidates():
-    sun = {"physical": 8.0, "learned": 3.0, "decided": 1.0}
-    lamp = {"physical": None, "learned": 3.0, "decided": 1.0}
-    got = {rule: keylight_rules._energies(rule, [sun, lamp]) for rule in keylight_rules.RULES}
-    assert got["sources"] == [0.0, 0.0]
-    assert got["decided"] == [1.0, 1.0]
-    assert got["capped"] == [3.0, 3.0]  # the sun's fit capped at the model's mean; the lamp at its mean
-    assert got["physical"] == [8.0, 3.0]
-    assert got["hybrid"] == [3.0, 1.0]  # capped for the sun, decided for the lamp
+    # a sun on a wide patch (its centroid is degrees off the sun: no floor), a lamp, and a compact high sun
+    sun = {"physical": 8.0, "learned": 3.0, "decided": 1.0, "extent_deg": 40.0, "elevation_deg": 40.0}
+    lamp = {"physical": None, "learned": 3.0, "decided": 1.0, "extent_deg": 5.0, "elevation_deg": 40.0}
+    high = {"physical": 8.0, "learned": 2.0, "decided": 1.0, "extent_deg": 10.0, "elevation_deg": 40.0}
+    got = {rule: keylight_rules._energies(rule, [sun, lamp, high]) for rule in keylight_rules.RULES}
+    assert got["sources"] == [0.0, 0.0, 0.0]
+    assert got["decided"] == [1.0, 1.0, 1.0]
+    assert got["capped"] == [3.0, 3.0, 2.0]  # the sun's fit capped at the model's mean; the lamp at its mean
+    assert got["physical"] == [8.0, 3.0, 8.0]
+    # capped for the sun, decided for the lamp; the compact high sun not below its fit's 68 % low end
+    assert got["hybrid"] == [3.0, 1.0, 8.0 / keylight.SKY_SPREAD]
+    low = dict(high, elevation_deg=keylight.FLOOR_MIN_ELEVATION_DEG - 1.0)  # a low sun's haze: no floor
+    assert keylight_rules._energies("hybrid", [low]) == [2.0]
+    strong = dict(high, learned=7.0)  # the floor only lifts: above it the capped energy stays
+    assert keylight_rules._energies("hybrid", [strong]) == [7.0]
+
+
+def test_physics_is_trusted_on_a_compact_high_sun_only():
+    trusted = keylight.physics_trusted
+    assert trusted(keylight.FLOOR_MAX_EXTENT_DEG, keylight.FLOOR_MIN_ELEVATION_DEG)
+    assert not trusted(keylight.FLOOR_MAX_EXTENT_DEG + 0.1, 45.0)
+    assert not trusted(5.0, keylight.FLOOR_MIN_ELEVATION_DEG - 0.1)
+    assert not trusted(5.0, 45.0, keylight_rules.NO_FLOOR) and trusted(100.0, 0.0, (180.0, 0.0))
+
+
+def test_floor_option_parses_or_fails_clearly():
+    import argparse
+
+    assert keylight_rules.parse_floor("30:15") == (30.0, 15.0)
+    assert keylight_rules.parse_floor("none") == keylight_rules.NO_FLOOR
+    assert keylight_rules.floor_label((30.0, 15.0)) == "30/15" and keylight_rules.floor_label(keylight_rules.NO_FLOOR) == "none"
+    for bad in ("30", "a:b", "1:2:3"):
+        with pytest.raises(argparse.ArgumentTypeError, match="EXTENT:ELEVATION"):
+            keylight_rules.parse_floor(bad)
+
+
+def test_the_floor_chosen_by_cv_scores_each_scene_with_the_other_folds_choice():
+    # 10 scenes; the floor "a" is better on every scene but one, so every fold that trains on it picks "a"
+    rows = []
+    for i in range(10):
+        better = i != 3
+        rows.append({"scene": f"s{i}", "ev": 0.0, "floor": {"none": [1.0, 1.0], "a": [0.5 if better else 4.0, 1.0]}})
+    got = keylight_rules.floor_cv(rows, ["none", "a"])
+    assert len(got["floors"]) == 5 and set(got["floors"]) <= {"none", "a"}
+    assert all(got["scores"][(r["scene"], 0.0)] in (r["floor"]["none"], r["floor"]["a"]) for r in rows)
+    # s3's loss (log 4) never outweighs the other training scenes' gains (at least 7 x log 2)
+    assert got["floors"] == ["a"] * 5
+    # a tie goes to no floor
+    tie = [{"scene": f"s{i}", "ev": 0.0, "floor": {"none": [1.0, 1.0], "a": [1.0, 1.0]}} for i in range(10)]
+    assert keylight_rules.floor_cv(tie, ["a", "none"])["floors"] == ["none"] * 5
 
 
 def test_a_scored_sunny_scene():
