@@ -29,6 +29,7 @@ MIN_SKY_SR = 0.3  # ... nor one resting on less visible sky than this (sr)
 MIN_BLUENESS = 0.85  # ... nor one whose kept sky is redder than this times the model's blue/red: a grey room, a
 # night sky under sodium light (docs/keylight.md: 25 of 26 real suns' skies at 0.96 or bluer, the other a lamp at
 # night; grey studios, a chapel and night skies at 0.41-0.82)
+MIN_CHROMA = 0.01  # a sky whose mean chroma is under this shows no colour (a grey picture): its blueness is 0
 CONTRAST_RANGE = (0.5, 2.5)  # a sky that fails the gate through sRGB is fitted again through a tone curve: log
 # observed = s + g log model, g in this range (a camera's S-curve steepens the sky's falloff, a tone-mapped look
 # flattens it), and passes when that fit's residual does with g inside the range (a grey studio's walls ask
@@ -297,9 +298,16 @@ def fit_rows(log_obs, lm_obs, lm_cen, w_obs, w_cen, contrast: bool):
 
 
 def _blueness(observed: np.ndarray, model: np.ndarray, weights: np.ndarray) -> float:
-    """(B/R of the observed cells (n, 3)) over (B/R of the model's (n, 3)), both weighted by solid angle (n,)."""
+    """(B/R of the observed cells (n, 3)) over (B/R of the model's (n, 3)), both weighted by solid angle (n,);
+    0 where the observed sky shows no colour (its mean chroma, (max - min) / max of a cell's channels, under
+    MIN_CHROMA: a black-and-white photo), which no clear sky is: a grey picture cannot tell a sky from a grey
+    wall, and the gate refuses it."""
     o = (observed * weights[:, None]).sum(0)
     m = (model * weights[:, None]).sum(0)
     if o[0] <= 0 or m[0] <= 0 or m[2] <= 0:
+        return 0.0
+    top = observed.max(axis=1)
+    chroma = np.where(top > 0, (top - observed.min(axis=1)) / np.where(top > 0, top, 1.0), 0.0)
+    if float((chroma * weights).sum()) < MIN_CHROMA * float(weights.sum()):
         return 0.0
     return float((o[2] / o[0]) / (m[2] / m[0]))

@@ -71,7 +71,8 @@ class SunSearch:
         if f.rms > CLEAR_RMS:
             out.append(f"the sky is not clear (residual {f.rms:.2f} > {CLEAR_RMS})")
         if f.blueness < MIN_BLUENESS:
-            out.append(f"the sky is not blue (blue/red {f.blueness:.2f} of a clear sky's < {MIN_BLUENESS})")
+            out.append(f"the sky is not blue (blue/red {f.blueness:.2f} of a clear sky's < {MIN_BLUENESS})" if f.blueness > 0
+                       else "the sky shows no colour (a grey picture cannot tell a sky from a grey wall)")
         if f.sky_sr < max(HIDDEN_MIN_SKY_SR, MIN_SKY_SR):
             out.append(_too_little_sky(f.sky_sr))
         if self.contrast > HIDDEN_MAX_CONTRAST:

@@ -142,6 +142,24 @@ def test_a_grey_room_with_a_skys_falloff_is_no_clear_sky():
     assert fit.blueness < sky.MIN_BLUENESS and not fit.clear
 
 
+@pytest.mark.parametrize("elev, turbidity", [(6.0, 4.0), (6.0, 6.5), (20.0, 10.0)])
+def test_a_black_and_white_photo_of_a_hazy_or_low_sky_is_no_clear_sky(elev, turbidity):
+    """A hazy or low sun's model sky is nearly grey (blue/red near 1), so a black-and-white photo of it passed
+    the blueness test (0.88-1.07 of the model's) and got a warm model sun. A sky with no colour cannot show a
+    clear sky's: its blueness is 0, and the gate refuses it; the same sky in colour passes."""
+    from panolight_core.estimators import sun_search
+
+    ldr, s, _, _, _ = _clear_sky_ldr(elev=elev, turbidity=turbidity, clip_deg=12.0)
+    rad, frac_any, frac_all = sources.work_maps(ldr)
+    grey = np.repeat((rad @ LUMINANCE_WEIGHTS)[..., None], 3, axis=-1)
+    colour = sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, s)
+    fit = sky.fit_clear_sky(grey, frac_any == 0, frac_all > 0.5, s)
+    assert colour.clear and fit.luminance_clear  # its luminance alone is a clear sky's
+    assert fit.blueness == 0.0 and not fit.clear
+    why = sun_search.SunSearch(s, fit, 0.5, True, 1.0).refusals()
+    assert any("no colour" in w for w in why)
+
+
 def test_no_fit_for_a_sun_below_the_horizon_and_a_bad_table_is_named(tmp_path):
     ldr, s, _, _, _ = _clear_sky_ldr()
     rad, frac_any, frac_all = sources.work_maps(ldr)
