@@ -12,9 +12,10 @@ makes it one explicit light:
   disk in camera units, times SKY_CORRECTION, the median of true / physical over the real HDRs'
   un-clipped suns (``training/keylight/cv.py``, by scene), capped at the per-source model's mean for the
   region, but on a compact patch and a sun at least FLOOR_MIN_ELEVATION_DEG up never below the fit's 68 %
-  low end (``physics_trusted``: the cap must not make a well-located sun vanish); otherwise (a lamp, a window, a veiled sun, a cloudy sky) the energy the decision rule reports
-  for the region (ENERGY_RULE "hybrid": over the real HDRs it halves the mean m-RMSE of "capped", which
-  gave lamps the model's unshrunk mean; ``training/keylight/rules.py``).
+  low end (``physics_trusted``: the cap must not make a well-located sun vanish); otherwise (a lamp, a
+  window, a veiled sun, a cloudy sky) the energy the decision rule reports for the region (ENERGY_RULE
+  "hybrid": over the real HDRs it halves the mean m-RMSE of "capped", which gave lamps the model's unshrunk
+  mean; ``training/keylight/rules.py``).
 - which: a region wider than PLATEAU_EXTENT_DEG makes a key light only when a clear-sky sun is in it (the
   fit passes the cloudiness gate: its residual, the sky it rests on and its colour, ``sky.MIN_BLUENESS``); a
   wide patch of overcast sky or a white wall is lit evenly, and a point light there would cast a shadow
@@ -64,7 +65,7 @@ ENERGY_RULE = "hybrid"  # one of ENERGY_RULES (``rule_energy``): docs/keylight.m
 FLOOR_MAX_EXTENT_DEG = PLATEAU_EXTENT_DEG  # a clear-sky sun whose region is no plateau (angular radius) ...
 FLOOR_MIN_ELEVATION_DEG = 15.0  # ... and that stands this high keeps at least its fit's 68 % low end ("hybrid"):
 # there the centroid is on the sun and the fit was checked; a wider patch's centroid is degrees off, and a low
-# sun's haze makes the model's sun too strong (docs/keylight.md, "A well-located sun keeps its physics")
+# sun's haze makes the model's sun too strong (docs/keylight.md, "A well-located sun keeps its fit's low end")
 
 
 @dataclass
