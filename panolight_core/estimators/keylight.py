@@ -12,7 +12,8 @@ makes it one explicit light:
   disk in camera units, times SKY_CORRECTION, the median of true / physical over the real HDRs'
   un-clipped suns (``training/keylight/cv.py``, by scene), capped at the per-source model's mean for the
   region, but on a compact patch and a sun at least FLOOR_MIN_ELEVATION_DEG up never below the fit's 68 %
-  low end (``physics_trusted``: the cap must not make a well-located sun vanish); otherwise (a lamp, a
+  low end (``physics_trusted``: the cap must not make a well-located sun vanish), its patch never holding more
+  than the high end (``cap_log_ratios``); otherwise (a lamp, a
   window, a veiled sun, a cloudy sky) the energy the decision rule reports for the region (ENERGY_RULE
   "hybrid": over the real HDRs it halves the mean m-RMSE of "capped", which gave lamps the model's unshrunk
   mean; ``training/keylight/rules.py``).
@@ -72,8 +73,9 @@ FLOOR_MIN_ELEVATION_DEG = 15.0  # ... and that stands this high keeps at least i
 class KeyLight:
     """A key light: unit direction (3,), luminance energy (clip units x sr), colour (luminance 1), angular
     diameter (radians), the 68 % range of the source's true energy (the belief; ``energy`` is what the energy
-    rule reports, which may lie below it), the region it came from and how it was weighed, and the
-    direction's 68 % error radius (radians: DIRECTION_68_PER_EXTENT of the region's radius, at least a cell)."""
+    rule reports, which may lie below it), the region it came from and how it was weighed, the direction's 68 %
+    error radius (radians: DIRECTION_68_PER_EXTENT of the region's radius, at least a cell) and the cap on its
+    regions' energy."""
 
     direction: np.ndarray
     energy: float
@@ -86,6 +88,8 @@ class KeyLight:
     sky: clear_sky.SkyFit | None = None  # the clear-sky fit tried at its direction (clear or not); None below the horizon
     direction_68: float = 0.0
     parts: tuple = ()  # other regions of the same source (a sun's patch split in two): its energy comes from them too
+    cap: float | None = None  # the most its regions may hold beyond their clip level, light and fill together: a
+    # trusted sun's fit x SKY_SPREAD (the high end of its 68 % range; ``cap_log_ratios``); None: no cap
 
     def as_light(self) -> dict:
         """A lighting-file light dict (energy as intensity)."""
@@ -141,10 +145,28 @@ def rule_energy(rule: str, physical: float | None, learned: float, decided: floa
 
 
 def physics_trusted(extent_deg: float, elevation_deg: float, floor=(FLOOR_MAX_EXTENT_DEG, FLOOR_MIN_ELEVATION_DEG)) -> bool:
-    """Whether a clear-sky sun's fit is trusted enough that "hybrid" keeps it at least at its 68 % low end: its
-    region at most floor[0] degrees wide (angular radius; the centroid, where the fit puts the sun, is then on it)
-    and the sun at least floor[1] degrees up (lower, haze makes the model's sun too strong)."""
+    """Whether a clear-sky sun's fit is trusted enough that its 68 % range bounds it: "hybrid" keeps the light at
+    least at the low end, and its regions hold at most the high end (``KeyLight.cap``). Its region at most
+    floor[0] degrees wide (angular radius; the centroid, where the fit puts the sun, is then on it) and the sun at
+    least floor[1] degrees up (lower, haze makes the model's sun too strong)."""
     return extent_deg <= floor[0] and elevation_deg >= floor[1]
+
+
+def cap_log_ratios(regions, log_ratio: np.ndarray, keys) -> np.ndarray:
+    """(n,) the reported log ratios of ``regions`` with each capped key light's regions (``KeyLight.cap``: a
+    trusted sun) lowered, by one factor on their excess, so that together they add at most its cap: the decided
+    fill of a sun's patch can otherwise hold more than the light and its fit's whole 68 % range (the trees' mean
+    over a sun the sky weighs lower). The others unchanged; a new array."""
+    out = np.array(log_ratio, dtype=np.float64, copy=True)
+    for k in keys:
+        if k.cap is None or k.region < 0:
+            continue
+        parts = [k.region, *k.parts]
+        excess = np.expm1(out[parts]) * regions.held[parts]
+        total = float(excess.sum())
+        if total > k.cap:
+            out[parts] = np.log1p(excess * (k.cap / total) / regions.held[parts])
+    return out
 
 
 def _check_rule(rule: str) -> None:
@@ -320,6 +342,6 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
         keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),
                              float(angle), (float(lo), float(hi)), i, method, physical, fit,
                              max(DIRECTION_68_PER_EXTENT * math.radians(float(extent[i])), math.pi / h),
-                             tuple(parts[1:])))
+                             tuple(parts[1:]), physical * SKY_SPREAD if trusted else None))
     return keys
 

@@ -121,7 +121,7 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB, floo
                 np.median(hdr @ LUMINANCE_WEIGHTS))
 
     def scores(keys):
-        work = fill_with_keys(rad, reg, reported, keys)[1]
+        work = fill_with_keys(rad, reg, keylight.cap_log_ratios(reg, reported, keys), keys)[1]
         q = fit_radiance(work, hdr_input=False).project(2)
         got = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
         if cone is not None:

@@ -98,7 +98,8 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
     False: the model's fixed rule, log r = mu - shrink sigma^2. maps: ``work_maps(ldr, height)`` when the
     caller already has them (the learned estimator's input at this height), so they are made once.
     key_lights: make the regions that hold a compact key source explicit lights (``keylight``); each such
-    region's fill keeps only what its decided energy holds beyond its light's. wide_concentration: the
+    region's fill keeps only what its decided energy holds beyond its light's, and a trusted sun's regions at
+    most the high end of its fit's 68 % range (``keylight.cap_log_ratios``: the reported log ratios say so). wide_concentration: the
     profile exponent of wide regions' excess (``Regions.shape_exponents``; the cross-validation's knob)."""
     rad, frac, frac_all = work_maps(ldr, height) if maps is None else maps
     regions = region_features(rad, frac, frac_all, wide_concentration=wide_concentration)
@@ -114,11 +115,12 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
             decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
     keys, report = [], None
     if key_lights and log_ratio_fn is None:  # also without regions: a sun the photo does not show
-        from ..keylight import find_key_lights, sun_search_report
+        from ..keylight import cap_log_ratios, find_key_lights, sun_search_report
 
         fits = {}
         keys = find_key_lights(rad, frac, frac_all, regions, mu, sigma, reported, fits=fits)
         report = sun_search_report(fits, keys, regions)
+        reported = cap_log_ratios(regions, reported, keys)  # a trusted sun's patch holds at most its fit's 68 % high end
     diffuse, work = fill_with_keys(rad, regions, reported, keys)
     return Recovery(work, rad, frac_all, regions, mu, sigma, reported, decision, keys, diffuse, report)
 

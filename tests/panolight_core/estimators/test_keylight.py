@@ -300,6 +300,54 @@ def test_a_compact_high_sun_keeps_its_fit_s_low_end_when_the_trees_say_less(elev
     assert none.energy == pytest.approx(weak)
 
 
+@pytest.mark.parametrize("elev, capped", [(35.0, True), (12.0, False)])
+def test_a_compact_high_sun_s_patch_holds_at_most_its_fit_s_high_end(elev, capped):
+    """The decided fill of a sun's patch can hold more than its light: a trusted sun's regions hold at most the
+    high end of its fit's 68 % range, light and fill together (``cap_log_ratios``); a low sun's patch keeps its
+    decided fill, and the work map and the reported ratios agree (the bookkeeping of lighting.json and hdr.exr)."""
+    from panolight_core.estimators import keylight
+    from panolight_core.estimators import sky as clear_sky
+    from panolight_core.estimators.sources.fill import fill_with_keys
+
+    ldr, s = _clear_sky_with_pole(pole_deg=0.0, elev=elev)
+    rad, fa, fb = sources.work_maps(ldr)
+    reg = sources.region_features(rad, fa, fb)
+    fit = clear_sky.fit_clear_sky(rad, fa == 0, fb > 0.5, reg.centre[0])
+    physical = keylight.SKY_CORRECTION * fit.sun_energy
+    strong = 3.0 * keylight.SKY_SPREAD * physical  # the trees: 3x the fit's high end
+    mu, sigma = np.log1p(np.array([strong]) / reg.held), np.full(1, 0.3)
+    (k,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma)
+    assert k.energy == pytest.approx(physical)  # the light: capped at the fit, as before
+    assert (k.cap is not None) == capped
+    lr = keylight.cap_log_ratios(reg, mu, [k])
+    added = reg.added_energy(lr, [0])
+    assert added == pytest.approx(keylight.SKY_SPREAD * physical if capped else strong)
+    # the work map holds exactly what the reported ratios say: the clip level, plus the light and what the fill
+    # keeps beyond it
+    work = fill_with_keys(rad, reg, lr, [k])[1]
+    om = sh.pixel_solid_angles(*work.shape[:2])
+    gained = float((((work - rad) @ LUMINANCE_WEIGHTS) * om).sum())
+    assert gained == pytest.approx(max(added, k.energy), rel=1e-6)
+    assert keylight.cap_log_ratios(reg, mu, [])[0] == mu[0]  # no key light: nothing capped
+
+
+def test_cap_log_ratios_scales_a_split_patch_by_one_factor():
+    from types import SimpleNamespace
+
+    from panolight_core.estimators import keylight
+
+    regions = SimpleNamespace(held=np.array([1.0, 2.0, 0.5]))
+    lr = np.log1p(np.array([6.0, 6.0, 4.5]) / regions.held)  # excess 6 + 6 in the sun's two parts, 4.5 elsewhere
+    sun = SimpleNamespace(cap=4.0, region=0, parts=(1,))
+    out = keylight.cap_log_ratios(regions, lr, [sun])
+    excess = np.expm1(out) * regions.held
+    assert excess[:2] == pytest.approx([2.0, 2.0]) and excess[2] == pytest.approx(4.5)  # one factor: 4 / 12
+    assert keylight.cap_log_ratios(regions, lr, [SimpleNamespace(cap=20.0, region=0, parts=(1,))]) == pytest.approx(lr)
+    hidden = SimpleNamespace(cap=1.0, region=-1, parts=())  # a hidden sun holds no region
+    assert keylight.cap_log_ratios(regions, lr, [hidden]) == pytest.approx(lr)
+    assert np.expm1(lr) * regions.held == pytest.approx([6.0, 6.0, 4.5])  # the input is not changed
+
+
 def _share_mu(reg, rad, share, which=0):
     """mu (n,) that gives region ``which`` ``share`` of the scene's predicted energy (``find_key_lights``'s
     test), every other region its held energy (mu 0)."""
