@@ -148,7 +148,8 @@ def physics_trusted(extent_deg: float, elevation_deg: float, floor=(FLOOR_MAX_EX
     """Whether a clear-sky sun's fit is trusted enough that its 68 % range bounds it: "hybrid" keeps the light at
     least at the low end, and its regions hold at most the high end (``KeyLight.cap``). Its region at most
     floor[0] degrees wide (angular radius; the centroid, where the fit puts the sun, is then on it) and the sun at
-    least floor[1] degrees up (lower, haze makes the model's sun too strong)."""
+    least floor[1] degrees up (lower, haze makes the model's sun too strong). ``find_key_lights`` also asks that the
+    trees weigh it as a key light (KEY_SHARE), not the sky alone (SUN_SHARE)."""
     return extent_deg <= floor[0] and elevation_deg >= floor[1]
 
 
@@ -335,7 +336,10 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
             method = "per-source model"
             # a lamp (or a veiled sun) as wide as a third of its clipped core
             angle = max(math.radians(LAMP_MIN_DIAMETER_DEG), 2.0 * radius[i] / 3.0)
-        trusted = physical is not None and physics_trusted(float(extent[i]), sh.elevation_deg(direction), floor)
+        # a sun the trees weigh as a key light: one only the sky admits (under KEY_SHARE) keeps their weight, as a
+        # cloud edge whose fit passes is no sun to give half its fit (dawn.jpg saved again: 67x the trees')
+        trusted = (physical is not None and i not in weak
+                   and physics_trusted(float(extent[i]), sh.elevation_deg(direction), floor))
         energy = rule_energy(rule, physical, learned, decided, trusted)
         if not energy > 0:
             continue

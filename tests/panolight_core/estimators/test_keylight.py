@@ -331,6 +331,25 @@ def test_a_compact_high_sun_s_patch_holds_at_most_its_fit_s_high_end(elev, cappe
     assert keylight.cap_log_ratios(reg, mu, [])[0] == mu[0]  # no key light: nothing capped
 
 
+def test_a_sun_only_the_sky_admits_is_not_trusted():
+    """A compact high region the trees weigh under KEY_SHARE is a light only because its clear-sky fit passes (from
+    SUN_SHARE; a cloud edge can pass too): it keeps the trees' energy, no floor and no cap."""
+    from panolight_core.estimators import keylight
+
+    ldr, s = _clear_sky_with_pole(pole_deg=0.0, elev=35.0)
+    rad, fa, fb = sources.work_maps(ldr)
+    rad[sh.pixel_directions(*fa.shape)[..., 2] < 0] = 0.9  # a bright ground (the fit sees the sky alone): the
+    # patch's clip level is then a small share of the scene, and the trees can weigh it at 5 %
+    reg = sources.region_features(rad, fa, fb)
+    mu, sigma = _share_mu(reg, rad, 0.05), np.full(reg.count, 0.3)
+    assert keylight.SUN_SHARE < 0.05 < keylight.KEY_SHARE and mu[0] > 0
+    (k,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma)
+    assert k.method.startswith("clear-sky") and k.cap is None
+    assert k.energy == pytest.approx(reg.added_energy(mu, [0])) and k.energy < k.physical / keylight.SKY_SPREAD
+    (strong,) = keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.2), sigma)  # the same sun, key share
+    assert strong.cap is not None and strong.energy >= strong.physical / keylight.SKY_SPREAD
+
+
 def test_cap_log_ratios_scales_a_split_patch_by_one_factor():
     from types import SimpleNamespace
 
