@@ -12,11 +12,10 @@ makes it one explicit light:
   disk in camera units, times SKY_CORRECTION, the median of true / physical over the real HDRs'
   un-clipped suns (``training/keylight/cv.py``, by scene), capped at the per-source model's mean for the
   region, but on a compact patch and a sun at least FLOOR_MIN_ELEVATION_DEG up never below the fit's 68 %
-  low end (``physics_trusted``: the cap must not make a well-located sun vanish), its patch never holding more
-  than the high end (``cap_log_ratios``); otherwise (a lamp, a
-  window, a veiled sun, a cloudy sky) the energy the decision rule reports for the region (ENERGY_RULE
-  "hybrid": over the real HDRs it halves the mean m-RMSE of "capped", which gave lamps the model's unshrunk
-  mean; ``training/keylight/rules.py``).
+  low end (``physics_trusted``: the cap must not make a well-located sun vanish), its patch never holding
+  more than the high end (``cap_log_ratios``); otherwise (a lamp, a window, a veiled sun, a cloudy sky) the
+  energy the decision rule reports for the region (ENERGY_RULE "hybrid": over the real HDRs it halves the
+  mean m-RMSE of "capped", which gave lamps the model's unshrunk mean; ``training/keylight/rules.py``).
 - which: a region wider than PLATEAU_EXTENT_DEG makes a key light only when a clear-sky sun is in it (the
   fit passes the cloudiness gate: its residual, the sky it rests on and its colour, ``sky.MIN_BLUENESS``); a
   wide patch of overcast sky or a white wall is lit evenly, and a point light there would cast a shadow
@@ -64,9 +63,10 @@ DIRECTION_68_PER_EXTENT = 0.25  # a light's direction error: within this share o
 ENERGY_RULES = ("decided", "capped", "physical", "hybrid", "sky")
 ENERGY_RULE = "hybrid"  # one of ENERGY_RULES (``rule_energy``): docs/keylight.md (training/keylight/rules.py)
 FLOOR_MAX_EXTENT_DEG = PLATEAU_EXTENT_DEG  # a clear-sky sun whose region is no plateau (angular radius) ...
-FLOOR_MIN_ELEVATION_DEG = 15.0  # ... and that stands this high keeps at least its fit's 68 % low end ("hybrid"):
-# there the centroid is on the sun and the fit was checked; a wider patch's centroid is degrees off, and a low
-# sun's haze makes the model's sun too strong (docs/keylight.md, "A well-located sun keeps its fit's low end")
+FLOOR_MIN_ELEVATION_DEG = 15.0  # ... and that stands this high keeps at least its fit's 68 % low end ("hybrid"),
+# its patch at most the high end: there the centroid is on the sun and the fit was checked; a wider patch's centroid
+# is degrees off, and a low sun's haze makes the model's sun too strong (docs/keylight.md, "A well-located sun keeps
+# its fit's low end")
 
 
 @dataclass
