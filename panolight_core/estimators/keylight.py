@@ -90,6 +90,7 @@ class KeyLight:
     parts: tuple = ()  # other regions of the same source (a sun's patch split in two): its energy comes from them too
     cap: float | None = None  # the most its regions may hold beyond their clip level, light and fill together: a
     # trusted sun's fit x SKY_SPREAD (the high end of its 68 % range; ``cap_log_ratios``); None: no cap
+    weak: bool = False  # a clear-sky sun admitted under KEY_SHARE only because its fit passes (from SUN_SHARE)
 
     def as_light(self) -> dict:
         """A lighting-file light dict (energy as intensity)."""
@@ -186,10 +187,14 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
     same work maps, for a study that finds the lights again with other settings. floor: (extent, elevation),
     degrees, of ``physics_trusted``.
 
-    Where no region holds a clear-sky sun, ``hidden_sun`` may add one the photo does not show (retouched out,
-    veiled, or not clipped), located and weighed from the visible sky alone (``sun_search``)."""
+    Where no region holds a clear-sky sun the trees weigh as a key light, ``hidden_sun`` may add one the photo
+    does not show (retouched out, veiled, or not clipped), located and weighed from the visible sky alone
+    (``sun_search``). A sun the sky search places replaces a weakly admitted region sun (``KeyLight.weak``: a
+    glint on the sea whose clear-sky fit passes would otherwise keep a retouched photo from its sun): one sun in
+    the sky."""
     keys = _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, plateau_deg, fits, floor)
-    if not _holds_clear_sky_sun(keys) and len(keys) < MAX_KEYS:
+    strong = [k for k in keys if not k.weak]
+    if not _holds_clear_sky_sun(keys) and len(strong) < MAX_KEYS:
         if fits is not None and -1 in fits:
             search = fits[-1]
         else:
@@ -198,13 +203,14 @@ def find_key_lights(rad, frac_any, frac_all, regions, mu, sigma, reported=None, 
                 fits[-1] = search
         hidden = hidden_sun(search, regions)
         if hidden is not None:
-            keys.append(hidden)
+            keys = strong + [hidden]
     return keys
 
 
 def _holds_clear_sky_sun(keys) -> bool:
-    """Whether a clipped region's key light is a clear-sky sun (then no hidden sun is searched for)."""
-    return any(k.method.startswith("clear-sky") for k in keys)
+    """Whether a clipped region's key light is a clear-sky sun the trees weigh as a key light (then no hidden sun
+    is searched for; a weakly admitted one may give way to the sky search's)."""
+    return any(k.method.startswith("clear-sky") and not k.weak for k in keys)
 
 
 def hidden_refusals(search: sun_search.SunSearch | sun_search.NoSun, regions) -> list[str]:
@@ -346,6 +352,6 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
         keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),
                              float(angle), (float(lo), float(hi)), i, method, physical, fit,
                              max(DIRECTION_68_PER_EXTENT * math.radians(float(extent[i])), math.pi / h),
-                             tuple(parts[1:]), physical * SKY_SPREAD if trusted else None))
+                             tuple(parts[1:]), physical * SKY_SPREAD if trusted else None, i in weak))
     return keys
 

@@ -110,6 +110,34 @@ def test_a_sun_retouched_out_of_a_clear_sky_is_put_back_from_the_sky():
     assert sun.color[0] > sun.color[2]  # a sun's colour, not the blue sky's
 
 
+def test_a_weakly_admitted_glint_gives_way_to_the_sun_the_sky_search_places():
+    """A retouched clear sky with a small clipped glint 60 degrees from the hidden sun whose clear-sky fit passes (as
+    a sea glint did in spiaggia_di_mondello retouched): admitted under KEY_SHARE it is a weak sun, and the sky
+    search still runs and its sun replaces it (one sun in the sky); weighed as a key light by the trees it is the
+    sun, and no search runs."""
+    from panolight_core.estimators import keylight
+    from panolight_core.estimators import sky as clear_sky
+
+    ldr, s, _ = _retouched_sky(paint=1.0)
+    h = ldr.shape[0]
+    d = sh.pixel_directions(h, 2 * h)
+    az = math.atan2(s[1], s[0]) + math.radians(60.0)
+    e = math.radians(12.0)
+    glint = np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
+    ldr = ldr.copy()
+    ldr[d @ glint > math.cos(math.radians(2.0))] = 255
+    rad, fa, fb = sources.work_maps(ldr)
+    reg = sources.region_features(rad, fa, fb)
+    (g,) = [i for i in range(reg.count) if metrics.angle_deg(reg.centre[i], glint) < 2.0]
+    passing = clear_sky.fit_clear_sky(rad, fa == 0, fb > 0.5, s)  # a fit that passes the gate, given to the glint
+    assert passing.clear
+    sigma = np.full(reg.count, 0.3)
+    weak = keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.05, g), sigma, fits={g: passing})
+    assert [k.region for k in weak] == [-1] and metrics.angle_deg(weak[0].direction, s) < 10.0
+    strong = keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.3, g), sigma, fits={g: passing})
+    assert [k.region for k in strong] == [g] and not strong[0].weak
+
+
 @pytest.mark.parametrize("paint, why", [(0.02, "occluder"), (4.0, "clipped region")])
 def test_no_hidden_sun_behind_an_occluder_or_next_to_a_clipped_patch(paint, why):
     """A building in front of the sun puts the camera in its shade; a clipped patch at the sun is the sun the
