@@ -22,7 +22,6 @@ table then shows how far that lands from the shipped all-scene value.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import statistics
@@ -35,7 +34,7 @@ from panolight_core.camera import TONE_CURVES, auto_exposure, hdr_to_ldr
 from panolight_core.estimators import keylight, register_source_model
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
-from training.source_energy.fit import DEFAULT_HDRI, load_hdr, scene_files
+from training.source_energy.fit import DEFAULT_HDRI, load_hdr, manifest, scene_files
 from training.source_energy.cv import fold_of, scene_folds
 
 
@@ -44,12 +43,8 @@ SRGB = ("srgb", None)  # EVALUATION.md's camera curve (``--curve``)
 
 def clipped_truth(folder: Path) -> set:
     """Scene files whose own source is clipped (MANIFEST ``sun`` column): their energy is a lower bound."""
-    out = set()
-    with open(Path(folder) / "MANIFEST.csv", newline="", encoding="utf-8") as f:
-        for row in csv.DictReader(f):
-            if row["sun"].startswith("clipped") or "lower bound" in row["sun"]:
-                out.add(row["file"])
-    return out
+    return {row["file"] for row in manifest(folder)
+            if row["sun"].startswith("clipped") or "lower bound" in row["sun"]}
 
 
 def estimate_scene(hdr, ds: dict, ev: float, estimator: str, curve=SRGB):

@@ -54,13 +54,11 @@ CONE_DEG = metrics.SOURCE_CONE_DEG
 
 
 def _energies(rule: str, keys: list[dict]) -> list[float]:
-    """Each key light's energy under ``rule`` from its candidates (physical, learned, decided; the shipped
-    ``physics_trusted`` floor from its extent and elevation); none for the baseline ``sources``."""
+    """Each key light's energy under ``rule`` from its candidates (physical, learned, decided, and whether
+    ``find_key_lights`` trusted its fit: the shipped floor); none for the baseline ``sources``."""
     if rule == "sources":
         return [0.0] * len(keys)
-    return [keylight.rule_energy(rule, k["physical"], k["learned"], k["decided"],
-                                 k["physical"] is not None and keylight.physics_trusted(k["extent_deg"], k["elevation_deg"]))
-            for k in keys]
+    return [keylight.rule_energy(rule, k["physical"], k["learned"], k["decided"], k["trusted"]) for k in keys]
 
 
 NO_FLOOR = (-1.0, 91.0)  # a ``find_key_lights`` floor no sun meets: "hybrid" as it was before the floor
@@ -107,6 +105,7 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB, floo
                             "decided": k.physical if hidden else reg.added_energy(reported, parts),
                             "extent_deg": 0.0 if hidden else float(reg.extent_deg()[j]),
                             "elevation_deg": sh.elevation_deg(k.direction),
+                            "trusted": k.cap is not None,  # a trusted fit bounds the sun: it carries a cap
                             "blueness": k.sky.blueness if k.sky is not None else None,
                             "sky_fits": k.sky is not None and k.sky.luminance_clear,
                             "features": None if hidden else {n: float(v) for n, v in zip(reg.names, reg.features[j])},

@@ -15,7 +15,6 @@ makes 10x too strong.
 """
 from __future__ import annotations
 
-import csv
 import statistics
 from pathlib import Path
 
@@ -24,7 +23,7 @@ from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators import sky as clear_sky
 from training.keylight.cv import real_hdri_parser, save_study
-from training.source_energy.fit import load_hdr
+from training.source_energy.fit import load_hdr, manifest
 
 BANDS_DEG = (0.0, 10.0, 20.0, 45.0, 90.0)  # the summary's elevation bands
 
@@ -32,9 +31,8 @@ BANDS_DEG = (0.0, 10.0, 20.0, 45.0, 90.0)  # the summary's elevation bands
 def manifest_suns(folder: Path) -> list[Path]:
     """The scene files whose MANIFEST ``sun`` column says they hold an un-clipped sun ("yes ..." without "lower
     bound"), in the manifest's order."""
-    with open(Path(folder) / "MANIFEST.csv", newline="", encoding="utf-8") as f:
-        return [Path(folder) / row["file"] for row in csv.DictReader(f)
-                if row["sun"].startswith("yes") and "lower bound" not in row["sun"]]
+    return [Path(folder) / row["file"] for row in manifest(folder)
+            if row["sun"].startswith("yes") and "lower bound" not in row["sun"]]
 
 
 def score_scene(hdr, evs) -> list[dict]:

@@ -105,7 +105,8 @@ def mark_same(rows: list[dict], degrees: float, factor: float) -> list[dict]:
         if first is None or k is None:
             row["same"] = first is None and k is None
         else:
-            row["same"] = metrics.angle_deg(first["direction"], k["direction"]) <= degrees and abs(math.log(k["intensity"] / first["intensity"])) <= math.log(factor)
+            row["same"] = (metrics.angle_deg(first["direction"], k["direction"]) <= degrees
+                           and abs(math.log(k["intensity"] / first["intensity"])) <= math.log(factor))
     return rows
 
 

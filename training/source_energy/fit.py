@@ -54,6 +54,12 @@ GBT = dict(n_estimators=250, max_depth=3, learning_rate=0.05, subsample=0.8, min
 SPREAD_GBT = dict(n_estimators=120, max_depth=2, learning_rate=0.05, subsample=0.8, min_samples_leaf=30)
 
 
+def manifest(folder) -> list[dict]:
+    """The rows of a real-HDR folder's MANIFEST.csv (file, size, kind, sun, ...), in its order."""
+    with open(Path(folder) / "MANIFEST.csv", newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
 def scene_files(folder=DEFAULT_HDRI) -> list[Path]:
     """The HDR panoramas of a training folder (its MANIFEST.csv order when it has one)."""
     from training.neural.relight_data import hdr_files
@@ -62,10 +68,8 @@ def scene_files(folder=DEFAULT_HDRI) -> list[Path]:
     if not folder.is_dir():
         raise PanoLightError(f"{folder}: no such folder of HDR panoramas")
     files = hdr_files(folder)  # refuses Blender's studio HDRIs (the public set)
-    manifest = folder / "MANIFEST.csv"
-    if manifest.is_file():
-        with open(manifest, newline="", encoding="utf-8") as f:
-            listed = [folder.resolve() / row["file"] for row in csv.DictReader(f)]
+    if (folder / "MANIFEST.csv").is_file():
+        listed = [folder.resolve() / row["file"] for row in manifest(folder)]
         files = [p for p in listed if p.is_file()] or files
     return files
 

@@ -11,9 +11,11 @@ from training.keylight import rules as keylight_rules
 
 def test_rules_choose_among_the_candidates():
     # a sun on a wide patch (its centroid is degrees off the sun: no floor), a lamp, and a compact high sun
-    sun = {"physical": 8.0, "learned": 3.0, "decided": 1.0, "extent_deg": 40.0, "elevation_deg": 40.0}
-    lamp = {"physical": None, "learned": 3.0, "decided": 1.0, "extent_deg": 5.0, "elevation_deg": 40.0}
-    high = {"physical": 8.0, "learned": 2.0, "decided": 1.0, "extent_deg": 10.0, "elevation_deg": 40.0}
+    def key(physical, learned, extent_deg, elevation_deg=40.0):
+        return {"physical": physical, "learned": learned, "decided": 1.0,
+                "trusted": physical is not None and keylight.physics_trusted(extent_deg, elevation_deg)}
+
+    sun, lamp, high = key(8.0, 3.0, 40.0), key(None, 3.0, 5.0), key(8.0, 2.0, 10.0)
     got = {rule: keylight_rules._energies(rule, [sun, lamp, high]) for rule in keylight_rules.RULES}
     assert got["sources"] == [0.0, 0.0, 0.0]
     assert got["decided"] == [1.0, 1.0, 1.0]
@@ -21,7 +23,7 @@ def test_rules_choose_among_the_candidates():
     assert got["physical"] == [8.0, 3.0, 8.0]
     # capped for the sun, decided for the lamp; the compact high sun not below its fit's 68 % low end
     assert got["hybrid"] == [3.0, 1.0, 8.0 / keylight.SKY_SPREAD]
-    low = dict(high, elevation_deg=keylight.FLOOR_MIN_ELEVATION_DEG - 1.0)  # a low sun's haze: no floor
+    low = key(8.0, 2.0, 10.0, keylight.FLOOR_MIN_ELEVATION_DEG - 1.0)  # a low sun's haze: no floor
     assert keylight_rules._energies("hybrid", [low]) == [2.0]
     strong = dict(high, learned=7.0)  # the floor only lifts: above it the capped energy stays
     assert keylight_rules._energies("hybrid", [strong]) == [7.0]
