@@ -24,7 +24,8 @@ makes it one explicit light:
 - a sun the photo does not show: where no region holds a clear-sky sun, the clear-sky position that best fits
   the visible sky (``sun_search.search_sun``) becomes a sun when the sky is clear, singles the position out,
   varies in colour as a sky does, and no occluder or clipped region stands there (``hidden_sun``).
-- shape and colour: a sun is a 0.53 degree disk in the fitted sun's colour (a sunset stays warm); a lamp
+- shape and colour: a sun is a 0.53 degree disk in the fitted sun's colour as a camera shows it
+  (``camera_colour``: the model's D65 colour over CAMERA_WHITE, so a noon sun is about white and a sunset warm); a lamp
   takes the size of its clipped core and the colour of its glare (the unclipped ring's excess over the
   background just beyond it), unless that is blue sky.
 Work maps: (h, 2h, 3) linear, clip units (1 = white), Blender world frame (CONVENTIONS.md).
@@ -51,6 +52,10 @@ SUN_SHARE = 0.02  # ... or a fifth of that, if a clear sky's sun is in it: the s
 # ten false weak "suns" appear (night skies, rooms: docs/keylight.md)
 MAX_KEYS = 3
 SKY_CORRECTION = 2.25  # true / physical sun energy: the real suns' median (training/keylight/cv.py: 2.20 over 28, folds 2.05-2.37)
+CAMERA_WHITE = np.array([1.1622, 0.9712, 0.8077])  # the camera's white point in the model's linear sRGB (D65),
+# luminance 1: a camera balances sunlit daylight to about neutral, so the model's sun colour over this is what it
+# shows (the median over 35 clear fits of 16 real suns; by fold 1.14-1.18 / 0.97 / 0.76-0.81;
+# training/keylight/sun_colour.py, docs/keylight.md)
 SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)
 LAMP_MIN_DIAMETER_DEG = 1.0
 SHOULDER = 0.75  # linear (clip level 1; sRGB 225): above it a channel sits on the camera's highlight shoulder
@@ -128,6 +133,14 @@ def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
         rgb = a - b
     y = float(rgb @ LUMINANCE_WEIGHTS)
     return rgb / y if y > 0 else np.ones(3)
+
+
+def camera_colour(rgb, white=CAMERA_WHITE) -> np.ndarray:
+    """(3,) a clear-sky model's sun colour (linear sRGB referred to D65, any scale) as a camera of white point
+    ``white`` shows it: divided by it, luminance 1. The model's noon sun, (1.15, 0.98, 0.77), comes out about white,
+    as real photos show it; a sun 5 degrees up stays orange."""
+    c = np.asarray(rgb, dtype=np.float64) / np.asarray(white, dtype=np.float64)
+    return c / float(c @ LUMINANCE_WEIGHTS)
 
 
 def rule_energy(rule: str, physical: float | None, learned: float, decided: float, trusted: bool = False) -> float:
@@ -257,7 +270,7 @@ def hidden_sun(search: sun_search.SunSearch | sun_search.NoSun, regions) -> KeyL
     physical = SKY_CORRECTION * fit.sun_energy
     if not physical > 0:
         return None
-    return KeyLight(np.asarray(search.direction, dtype=np.float64), float(physical), fit.sun_rgb / fit.sun_energy,
+    return KeyLight(np.asarray(search.direction, dtype=np.float64), float(physical), camera_colour(fit.sun_rgb),
                     math.radians(SUN_DIAMETER_DEG), (physical / SKY_SPREAD, physical * SKY_SPREAD), -1,
                     f"hidden sun: clear-sky fit of the visible sky (turbidity {fit.turbidity:g})", physical, fit,
                     math.radians(search.direction_68_deg))
@@ -330,7 +343,7 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
         physical = None
         if i == sun:
             physical = SKY_CORRECTION * fit.sun_energy
-            color = fit.sun_rgb / max(fit.sun_energy, 1e-30)
+            color = camera_colour(fit.sun_rgb)
             lo, hi = physical / SKY_SPREAD, physical * SKY_SPREAD
             method, angle = f"clear-sky fit (turbidity {fit.turbidity:g})", math.radians(SUN_DIAMETER_DEG)
         else:

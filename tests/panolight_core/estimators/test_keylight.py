@@ -469,3 +469,34 @@ def test_sun_strength_scales_the_key_lights_alone_and_keeps_the_regions_bookkeep
     res = estimate_lighting(hdr_in, Settings(estimator="keylight", sun_strength=2.0))
     assert any("sun strength 2 changes nothing" in w for w in res.warnings)
     assert not any("sun strength" in w for w in estimate_lighting(ldr, Settings(sun_strength=2.0)).warnings)
+
+
+def test_a_noon_sun_comes_out_as_a_camera_shows_it_and_a_low_sun_stays_orange():
+    """The model's sun is referred to D65; a camera balances daylight to about neutral (CAMERA_WHITE, measured on
+    the real suns): the noon sun's colour comes out near white, a sun 5 degrees up stays orange, luminance 1."""
+    from panolight_core.estimators import keylight, sky
+
+    t = sky.load_sky_table()
+    j = int(np.argmin(abs(t.turbidities - 3.0)))
+    noon, low = t.sun_energy(85.0)[j], t.sun_energy(5.0)[j]
+    assert noon[2] / noon[0] < 0.7  # the model's own noon sun is visibly orange
+    c = keylight.camera_colour(noon)
+    assert float(c @ LUMINANCE_WEIGHTS) == pytest.approx(1.0)
+    assert np.abs(np.log2(c)).max() < 0.1  # within 7 % of white in every channel
+    o = keylight.camera_colour(7.0 * low)  # any scale
+    assert float(o @ LUMINANCE_WEIGHTS) == pytest.approx(1.0)
+    assert o[0] > 1.4 and o[2] < 0.3
+    assert np.allclose(keylight.camera_colour(noon, white=np.ones(3)), noon / float(noon @ LUMINANCE_WEIGHTS))
+
+
+def test_a_clear_sky_sun_light_takes_the_camera_s_colour_of_its_fit():
+    from panolight_core.estimators import keylight
+
+    ldr, s = _clear_sky_with_pole(pole_deg=0.0)
+    rad, fa, fb = sources.work_maps(ldr)
+    reg = sources.region_features(rad, fa, fb)
+    mu, sigma, reported = sources.load_source_model().predict(reg.features)
+    (k,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported)
+    assert k.method.startswith("clear-sky fit")
+    np.testing.assert_allclose(k.color, keylight.camera_colour(k.sky.sun_rgb))
+    assert not np.allclose(k.color, k.sky.sun_rgb / k.sky.sun_energy)
