@@ -217,8 +217,18 @@ def cached_table(path, files, augment: int, seed: int, inject: float, log=print,
     return X, y, s, g
 
 
-def sample_weight(share: np.ndarray) -> np.ndarray:
-    """Rows weighted by how much of their scene's energy they hold (speckles count a little)."""
+WEIGHTS = ("true-share", "held-share")
+
+
+def sample_weight(share: np.ndarray, X: np.ndarray | None = None, kind: str = "true-share") -> np.ndarray:
+    """Rows weighted by how much of their scene's energy they hold (speckles count a little): "true-share", the
+    share the truth gives them (the shipped model), or "held-share", the share the picture gives them before any
+    recovery (``log_scene_over_held`` of X), which does not depend on the target (a weight that grows with the target
+    biases the fitted mean up for every row that looks like a bright one)."""
+    if kind == "held-share":
+        share = 10.0 ** -X[:, sources.FEATURES.index("log_scene_over_held")]
+    elif kind != "true-share":
+        raise ValueError(f"unknown weight {kind!r}: one of {', '.join(WEIGHTS)}")
     return 0.02 + np.sqrt(np.clip(share, 0.0, 1.0))
 
 
@@ -307,6 +317,9 @@ def main(argv=None) -> int:
                     help=f"an experiment: the share of training cameras whose JPEG is saved again, half of them made "
                          f"half as wide first (default {RESAVE:g}: first-generation pictures alone, as the shipped model "
                          f"was trained; 0.35 was tried and not kept: docs/keylight.md)")
+    ap.add_argument("--weight", choices=WEIGHTS, default="true-share",
+                    help="an experiment: how the training rows are weighted (sample_weight; default true-share, as the "
+                         "shipped model was trained; held-share was tried and not kept: docs/keylight.md)")
     ap.add_argument("--quick", action="store_true",
                     help="cv: score naive and the shipped rule only (about half the time)")
     ap.add_argument("--out", default=None)
@@ -331,7 +344,7 @@ def main(argv=None) -> int:
         files = [f for f in files if f not in test]
         print(f"source energy: {len(files)} scenes x {args.augment} cameras")
         X, y, s, g = build_table(files, args.augment, args.seed, inject=args.inject, resave=args.resave)
-    w = sample_weight(s)
+    w = sample_weight(s, X, args.weight)
     if args.command == "ship":
         names = tuple(n for n in sources.FEATURES if n not in args.drop_features)
         X = X[:, [sources.FEATURES.index(n) for n in names]]
@@ -339,7 +352,7 @@ def main(argv=None) -> int:
         out = save(args.out or sources.MODEL_PATH, mean, spread, args.shrink, {
             "trained_on": f"{len(files)} scenes of {Path(args.hdri).name} x {args.augment} cameras, {y.size} regions",
             "scenes": [f.name for f in files], "gbt": GBT, "spread_gbt": SPREAD_GBT, "seed": args.seed,
-            "resave": args.resave, "environment": environment()}, names)
+            "resave": args.resave, "weight": args.weight, "environment": environment()}, names)
         print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} kB)")
         return 0
     from training.source_energy.cv import cross_validate

@@ -152,3 +152,17 @@ def test_one_cached_table_serves_every_model_and_is_built_again_for_other_camera
     model = sources.load_source_model(se.save(tmp_path / "ablation.safetensors", ens, ens, 0.5, {}, names))
     assert model.features == names
     np.testing.assert_allclose(model.predict(first[0])[0], ens.predict(X), atol=1e-12)
+
+
+def test_the_held_share_weight_does_not_look_at_the_target():
+    """--weight held-share weighs a row by the share of the scene the picture gives it (log_scene_over_held), so
+    two rows with the same features get the same weight whatever their truth; the shipped weight follows the truth."""
+    X = np.zeros((3, len(sources.FEATURES)))
+    X[:, sources.FEATURES.index("log_scene_over_held")] = [2.0, 2.0, 0.0]  # 1 %, 1 %, the whole scene
+    share = np.array([0.01, 0.6, 0.5])
+    held = se.sample_weight(share, X, "held-share")
+    assert held[0] == held[1] == pytest.approx(0.02 + 0.1) and held[2] == pytest.approx(1.02)
+    true = se.sample_weight(share)
+    assert true[1] > true[0]
+    with pytest.raises(ValueError, match="unknown weight"):
+        se.sample_weight(share, X, "energy")
