@@ -25,7 +25,8 @@ makes it one explicit light:
   the visible sky (``sun_search.search_sun``) becomes a sun when the sky is clear, singles the position out,
   varies in colour as a sky does, and no occluder or clipped region stands there (``hidden_sun``).
 - shape and colour: a sun is a 0.53 degree disk in the fitted sun's colour as a camera shows it
-  (``camera_colour``: the model's D65 colour over CAMERA_WHITE, so a noon sun is about white and a sunset warm); a lamp
+  (``camera_colour``: the model's D65 colour over CAMERA_WHITE from 20 degrees up, so a noon sun is about white
+  and a sunset warm); a lamp
   takes the size of its clipped core and the colour of its glare (the unclipped ring's excess over the
   background just beyond it), unless that is blue sky.
 Work maps: (h, 2h, 3) linear, clip units (1 = white), Blender world frame (CONVENTIONS.md).
@@ -52,10 +53,13 @@ SUN_SHARE = 0.02  # ... or a fifth of that, if a clear sky's sun is in it: the s
 # ten false weak "suns" appear (night skies, rooms: docs/keylight.md)
 MAX_KEYS = 3
 SKY_CORRECTION = 2.25  # true / physical sun energy: the real suns' median (training/keylight/cv.py: 2.20 over 28, folds 2.05-2.37)
-CAMERA_WHITE = np.array([1.1622, 0.9712, 0.8077])  # the camera's white point in the model's linear sRGB (D65),
+CAMERA_WHITE = np.array([1.1542, 0.9772, 0.7713])  # the camera's white point in the model's linear sRGB (D65),
 # luminance 1: a camera balances sunlit daylight to about neutral, so the model's sun colour over this is what it
-# shows (the median over 35 clear fits of 16 real suns; by fold 1.14-1.18 / 0.97 / 0.76-0.81;
-# training/keylight/sun_colour.py, docs/keylight.md)
+# shows (the median over the 27 clear fits of 12 real suns 20 degrees up or more; by fold 1.13-1.17 / 0.97-0.98 /
+# 0.75-0.81; training/keylight/sun_colour.py, docs/keylight.md) ...
+WHITE_RAMP_DEG = (10.0, 20.0)  # ... for a sun at least this high (WHITE_RAMP_DEG[1]; none of it below [0], a share
+# linear in between): the real suns 20 degrees up or more came closer to their truth 11 times of 12, those lower
+# (warm, and left warm by their photographers) as often farther as closer
 SKY_SPREAD = 2.0  # the clear-sky energy's 68 % range, a factor (the cross-validated spread, docs/keylight.md)
 LAMP_MIN_DIAMETER_DEG = 1.0
 SHOULDER = 0.75  # linear (clip level 1; sRGB 225): above it a channel sits on the camera's highlight shoulder
@@ -135,11 +139,14 @@ def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
     return rgb / y if y > 0 else np.ones(3)
 
 
-def camera_colour(rgb, white=CAMERA_WHITE) -> np.ndarray:
-    """(3,) a clear-sky model's sun colour (linear sRGB referred to D65, any scale) as a camera of white point
-    ``white`` shows it: divided by it, luminance 1. The model's noon sun, (1.15, 0.98, 0.77), comes out about white,
-    as real photos show it; a sun 5 degrees up stays orange."""
-    c = np.asarray(rgb, dtype=np.float64) / np.asarray(white, dtype=np.float64)
+def camera_colour(rgb, elevation_deg: float, white=CAMERA_WHITE) -> np.ndarray:
+    """(3,) a clear-sky model's sun colour (linear sRGB referred to D65, any scale) for a sun ``elevation_deg`` up as a
+    camera of white point ``white`` shows it: divided by white^t, luminance 1, t the share of WHITE_RAMP_DEG the
+    elevation has reached (0 below it, 1 above). The model's noon sun, (1.15, 0.98, 0.77), comes out about white, as
+    real photos show it; a sun 10 degrees up or lower keeps the model's colour (orange)."""
+    lo, hi = WHITE_RAMP_DEG
+    t = min(max((float(elevation_deg) - lo) / (hi - lo), 0.0), 1.0)
+    c = np.asarray(rgb, dtype=np.float64) / np.asarray(white, dtype=np.float64) ** t
     return c / float(c @ LUMINANCE_WEIGHTS)
 
 
@@ -270,7 +277,8 @@ def hidden_sun(search: sun_search.SunSearch | sun_search.NoSun, regions) -> KeyL
     physical = SKY_CORRECTION * fit.sun_energy
     if not physical > 0:
         return None
-    return KeyLight(np.asarray(search.direction, dtype=np.float64), float(physical), camera_colour(fit.sun_rgb),
+    return KeyLight(np.asarray(search.direction, dtype=np.float64), float(physical),
+                    camera_colour(fit.sun_rgb, search.elevation_deg),
                     math.radians(SUN_DIAMETER_DEG), (physical / SKY_SPREAD, physical * SKY_SPREAD), -1,
                     f"hidden sun: clear-sky fit of the visible sky (turbidity {fit.turbidity:g})", physical, fit,
                     math.radians(search.direction_68_deg))
@@ -343,7 +351,7 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
         physical = None
         if i == sun:
             physical = SKY_CORRECTION * fit.sun_energy
-            color = camera_colour(fit.sun_rgb)
+            color = camera_colour(fit.sun_rgb, sh.elevation_deg(direction))
             lo, hi = physical / SKY_SPREAD, physical * SKY_SPREAD
             method, angle = f"clear-sky fit (turbidity {fit.turbidity:g})", math.radians(SUN_DIAMETER_DEG)
         else:

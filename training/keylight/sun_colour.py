@@ -9,8 +9,10 @@ the truth's sun colour (the HDR's energy within CORE_DEG of its brightest source
 luminance 1), and at each ev the clear-sky fit of its camera JPEG (EVALUATION.md, q90) with the sun at the true
 direction, as ``sun_elevation`` does; over the fits that pass the cloudiness gate:
 
-- the camera's white point: per channel, the median of log(model / true), as a colour of luminance 1 (the model's
-  colour divided by it, made luminance 1 again, is what the camera shows): ``keylight.CAMERA_WHITE``;
+- the camera's white point: per channel, the median of log(model / true) over the suns at least
+  ``keylight.WHITE_RAMP_DEG[1]`` up, as a colour of luminance 1 (the model's colour divided by it, made luminance 1
+  again, is what the camera shows; lower suns take a share of it, ``keylight.camera_colour``):
+  ``keylight.CAMERA_WHITE``;
 - cross-validated by scene: each fold's suns corrected by the median of the OTHER folds' (the folds of
   ``training.source_energy.cv``); the colour error of a sun is the largest |log2| of its channels' ratios to the truth
   (0.32: a channel 25 % off), summarised by its median and by elevation band.
@@ -85,8 +87,10 @@ def score_scene(hdr, evs) -> list[dict]:
 
 
 def white_point(rows: list[dict]) -> np.ndarray:
-    """(3,) the camera's white point (luminance 1): per channel exp(median log(model / true)) over ``rows``."""
-    logs = np.array([np.log(np.array(r["model"]) / np.array(r["true"])) for r in rows])
+    """(3,) the camera's white point (luminance 1): per channel exp(median log(model / true)) over the ``rows`` of
+    suns at least WHITE_RAMP_DEG[1] up (all of them where none is)."""
+    high = [r for r in rows if r["elevation_deg"] >= keylight.WHITE_RAMP_DEG[1]] or rows
+    logs = np.array([np.log(np.array(r["model"]) / np.array(r["true"])) for r in high])
     return unit_colour(np.exp(np.median(logs, axis=0)))
 
 
@@ -106,10 +110,10 @@ def cross_validate(rows: list[dict], files) -> dict:
         out["folds"][k] = [round(float(v), 4) for v in white]
         for r in clear:
             if folds[r["scene"]] == k:
-                r["error_cv"] = colour_error(keylight.camera_colour(r["model"], white), r["true"])
+                r["error_cv"] = colour_error(keylight.camera_colour(r["model"], r["elevation_deg"], white), r["true"])
     for r in clear:
         r["error_model"] = colour_error(r["model"], r["true"])
-        r["error_shipped"] = colour_error(keylight.camera_colour(r["model"]), r["true"])
+        r["error_shipped"] = colour_error(keylight.camera_colour(r["model"], r["elevation_deg"]), r["true"])
     return out
 
 

@@ -473,20 +473,24 @@ def test_sun_strength_scales_the_key_lights_alone_and_keeps_the_regions_bookkeep
 
 def test_a_noon_sun_comes_out_as_a_camera_shows_it_and_a_low_sun_stays_orange():
     """The model's sun is referred to D65; a camera balances daylight to about neutral (CAMERA_WHITE, measured on
-    the real suns): the noon sun's colour comes out near white, a sun 5 degrees up stays orange, luminance 1."""
+    the real suns): the noon sun's colour comes out near white, a sun 5 degrees up keeps the model's orange, one
+    in WHITE_RAMP_DEG takes part of the white point; luminance 1 at any scale."""
     from panolight_core.estimators import keylight, sky
 
     t = sky.load_sky_table()
     j = int(np.argmin(abs(t.turbidities - 3.0)))
     noon, low = t.sun_energy(85.0)[j], t.sun_energy(5.0)[j]
     assert noon[2] / noon[0] < 0.7  # the model's own noon sun is visibly orange
-    c = keylight.camera_colour(noon)
+    c = keylight.camera_colour(noon, 85.0)
     assert float(c @ LUMINANCE_WEIGHTS) == pytest.approx(1.0)
     assert np.abs(np.log2(c)).max() < 0.1  # within 7 % of white in every channel
-    o = keylight.camera_colour(7.0 * low)  # any scale
-    assert float(o @ LUMINANCE_WEIGHTS) == pytest.approx(1.0)
+    o = keylight.camera_colour(7.0 * low, 5.0)  # any scale
+    np.testing.assert_allclose(o, low / float(low @ LUMINANCE_WEIGHTS))
     assert o[0] > 1.4 and o[2] < 0.3
-    assert np.allclose(keylight.camera_colour(noon, white=np.ones(3)), noon / float(noon @ LUMINANCE_WEIGHTS))
+    lo, hi = keylight.WHITE_RAMP_DEG
+    blue = [keylight.camera_colour(noon, e)[2] for e in (lo, (lo + hi) / 2, hi, 60.0)]
+    assert blue[0] < blue[1] < blue[2] == pytest.approx(blue[3])
+    assert np.allclose(keylight.camera_colour(noon, 85.0, white=np.ones(3)), noon / float(noon @ LUMINANCE_WEIGHTS))
 
 
 def test_a_clear_sky_sun_light_takes_the_camera_s_colour_of_its_fit():
@@ -498,5 +502,5 @@ def test_a_clear_sky_sun_light_takes_the_camera_s_colour_of_its_fit():
     mu, sigma, reported = sources.load_source_model().predict(reg.features)
     (k,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported)
     assert k.method.startswith("clear-sky fit")
-    np.testing.assert_allclose(k.color, keylight.camera_colour(k.sky.sun_rgb))
+    np.testing.assert_allclose(k.color, keylight.camera_colour(k.sky.sun_rgb, sh.elevation_deg(k.direction)))
     assert not np.allclose(k.color, k.sky.sun_rgb / k.sky.sun_energy)
