@@ -32,9 +32,9 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators import sky as clear_sky
 from training.keylight.cv import real_hdri_parser, save_study
-from training.keylight.sun_elevation import BANDS_DEG, manifest_suns
+from training.keylight.sun_elevation import BANDS_DEG, score_manifest_suns
 from training.source_energy.cv import fold_of
-from training.source_energy.fit import load_hdr, scene_files
+from training.source_energy.fit import scene_files
 
 CORE_DEG = 1.5  # the sun's disk and the aureole's core, where the sun's own energy is
 RING_DEG = (3.0, 6.0)  # the sky it sits on, whose mean is taken off the core
@@ -80,7 +80,8 @@ def score_scene(hdr, evs) -> list[dict]:
         fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, ds["direction"])
         if fit is None or not fit.sun_energy > 0:
             continue
-        rows.append({"ev": ev, "elevation_deg": round(elevation, 2), "turbidity": fit.turbidity, "clear": bool(fit.clear),
+        rows.append({"ev": ev, "elevation_deg": round(elevation, 2), "turbidity": fit.turbidity,
+                     "clear": bool(fit.clear),
                      "true": [round(float(v), 4) for v in truth],
                      "model": [round(float(v), 4) for v in unit_colour(fit.sun_rgb)]})
     return rows
@@ -100,7 +101,8 @@ def cross_validate(rows: list[dict], files) -> dict:
     per row the colour error before (the model's colour), with the shipped CAMERA_WHITE, and cross-validated."""
     clear = [r for r in rows if r["clear"]]
     folds = {p.stem: k for p, k in fold_of(files).items()}
-    out = {"suns": len({r["scene"] for r in clear}), "fits": len(clear), "white_point": [round(float(v), 4) for v in white_point(clear)],
+    out = {"suns": len({r["scene"] for r in clear}), "fits": len(clear),
+           "white_point": [round(float(v), 4) for v in white_point(clear)],
            "folds": {}}
     for k in sorted(set(folds.values())):
         train = [r for r in clear if folds[r["scene"]] != k]
@@ -133,14 +135,13 @@ def main(argv=None) -> int:
     ap = real_hdri_parser("python -m training.keylight.sun_colour", __doc__)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
     args = ap.parse_args(argv)
-    rows = []
-    files = manifest_suns(args.hdri)
-    for i, path in enumerate(files, 1):
-        got = [dict(r, scene=path.stem) for r in score_scene(load_hdr(path), args.evs)]
-        rows += got
-        print(f"[{i}/{len(files)}] {path.stem}: " + (f"true {got[0]['true']}, model " + ", ".join(
-            f"ev {r['ev']:+g} {r['model']}" + ("" if r["clear"] else " (not clear)") for r in got) if got else "no colour"),
-            flush=True)
+    def describe(got):
+        if not got:
+            return "no colour"
+        return f"true {got[0]['true']}, model " + ", ".join(
+            f"ev {r['ev']:+g} {r['model']}" + ("" if r["clear"] else " (not clear)") for r in got)
+
+    rows = score_manifest_suns(args.hdri, args.evs, score_scene, describe)
     cv = cross_validate(rows, scene_files(args.hdri))
     print(f"white point over {cv['fits']} clear fits of {cv['suns']} suns: {cv['white_point']} "
           f"(shipped {[round(float(v), 4) for v in keylight.CAMERA_WHITE]}); by fold: {cv['folds']}")
@@ -151,7 +152,8 @@ def main(argv=None) -> int:
             print(f"{lo:g}-{hi:g} deg: {b['fits']} clear fits, median colour error (max |log2| channel ratio) "
                   f"model {b['median_error_model']:.3f}, cross-validated {b['median_error_cv']:.3f}, "
                   f"shipped {b['median_error_shipped']:.3f}")
-    save_study({"camera_white": [float(v) for v in keylight.CAMERA_WHITE], "cv": cv, "summary": bands, "rows": rows}, args.out)
+    save_study({"camera_white": [float(v) for v in keylight.CAMERA_WHITE], "cv": cv, "summary": bands, "rows": rows},
+               args.out)
     return 0
 
 

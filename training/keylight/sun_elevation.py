@@ -35,6 +35,18 @@ def manifest_suns(folder: Path) -> list[Path]:
             if row["sun"].startswith("yes") and "lower bound" not in row["sun"]]
 
 
+def score_manifest_suns(folder: Path, evs, score, describe) -> list[dict]:
+    """The rows ``score(hdr, evs)`` gives for each of ``manifest_suns(folder)``, each with its scene's name, printing
+    one line per scene: ``describe(its rows)``."""
+    rows = []
+    files = manifest_suns(folder)
+    for i, path in enumerate(files, 1):
+        got = [dict(r, scene=path.stem) for r in score(load_hdr(path), evs)]
+        rows += got
+        print(f"[{i}/{len(files)}] {path.stem}: {describe(got)}", flush=True)
+    return rows
+
+
 def score_scene(hdr, evs) -> list[dict]:
     """One scene's rows (none where its brightest source is below the horizon): at each ev the clear-sky fit of
     the camera JPEG with the sun at the truth's direction, and the truth's cone energy over the fit's corrected."""
@@ -83,13 +95,8 @@ def main(argv=None) -> int:
     ap = real_hdri_parser("python -m training.keylight.sun_elevation", __doc__)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
     args = ap.parse_args(argv)
-    rows = []
-    files = manifest_suns(args.hdri)
-    for i, path in enumerate(files, 1):
-        got = [dict(r, scene=path.stem) for r in score_scene(load_hdr(path), args.evs)]
-        rows += got
-        print(f"[{i}/{len(files)}] {path.stem}: " + ", ".join(
-            f"ev {r['ev']:+g} {r['true_over_physical']:.2f}" for r in got if r.get("true_over_physical")), flush=True)
+    rows = score_manifest_suns(args.hdri, args.evs, score_scene, lambda got: ", ".join(
+        f"ev {r['ev']:+g} {r['true_over_physical']:.2f}" for r in got if r.get("true_over_physical")))
     print("\n".join(table(rows)))
     bands = summary(rows)
     for b in bands:

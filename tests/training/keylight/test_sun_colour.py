@@ -11,7 +11,7 @@ from panolight_core.estimators import sky as clear_sky
 from training.keylight import sun_colour
 
 
-def _model_sky_with_sun(elev=35.0, sun_colour=None, h=256):
+def model_sky_with_sun(elev=35.0, sun_colour=None, h=256):
     """The tabulated clear sky over a dark ground with its solar disk painted in, in the model's colour or in
     ``sun_colour`` (luminance 1, the model's energy): (hdr, sun direction, the model's sun RGB energy)."""
     t = clear_sky.load_sky_table()
@@ -29,7 +29,7 @@ def _model_sky_with_sun(elev=35.0, sun_colour=None, h=256):
 
 
 def test_the_true_colour_is_the_disk_s_over_its_sky_and_none_without_a_source():
-    hdr, s, rgb = _model_sky_with_sun()
+    hdr, s, rgb = model_sky_with_sun()
     got = sun_colour.true_sun_colour(hdr, s)
     assert float(got @ LUMINANCE_WEIGHTS) == pytest.approx(1.0)
     assert sun_colour.colour_error(got, rgb) < 0.05  # the disk's own colour, not the blue sky's
@@ -40,14 +40,15 @@ def test_the_true_colour_is_the_disk_s_over_its_sky_and_none_without_a_source():
 def test_a_sun_painted_white_gives_the_model_s_colour_as_the_white_point():
     """A scene whose sun is white where the model's is orange: the fit at the true direction reports the model's
     colour, the white point is that colour, and balancing by it brings the sun back to white."""
-    hdr, s, rgb = _model_sky_with_sun(sun_colour=(1.0, 1.0, 1.0))
+    hdr, s, rgb = model_sky_with_sun(sun_colour=(1.0, 1.0, 1.0))
     rows = [dict(r, scene="x") for r in sun_colour.score_scene(hdr, [0.0])]
     (row,) = rows
     assert row["clear"] and sun_colour.colour_error(row["true"], (1.0, 1.0, 1.0)) < 0.05
     assert sun_colour.colour_error(row["model"], rgb) < 0.02
     white = sun_colour.white_point(rows)
     assert sun_colour.colour_error(white, rgb) < 0.05
-    assert sun_colour.colour_error(keylight.camera_colour(row["model"], row["elevation_deg"], white), (1.0, 1.0, 1.0)) < 0.05
+    back = keylight.camera_colour(row["model"], row["elevation_deg"], white)
+    assert sun_colour.colour_error(back, (1.0, 1.0, 1.0)) < 0.05
 
 
 def test_colour_error_is_the_worst_channel_in_octaves():

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from panolight_core import sh
-from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight
-from panolight_core.estimators import sky as clear_sky
 from training.keylight import sun_elevation
+
+from .test_sun_colour import model_sky_with_sun
 
 
 def test_manifest_suns_are_the_unclipped_ones(tmp_path):
@@ -25,16 +25,8 @@ def test_manifest_suns_are_the_unclipped_ones(tmp_path):
 def test_the_model_sky_s_own_sun_is_weighed_at_one_over_the_correction():
     """The tabulated clear sky with its solar disk painted in: the fit at the true sun weighs that disk, so the
     truth (the disk and the aureole within 5 degrees) over the corrected fit is close to 1 / SKY_CORRECTION."""
-    t = clear_sky.load_sky_table()
-    j = int(np.argmin(abs(t.turbidities - 3.0)))
-    h, elev = 256, 35.0
-    e = math.radians(elev)
-    s = np.array([math.cos(e) * math.cos(1.0), math.cos(e) * math.sin(1.0), math.sin(e)])
-    d = sh.pixel_directions(h, 2 * h)
-    hdr = t.sky_radiance(d.reshape(-1, 3), s)[j].reshape(h, 2 * h, 3)
-    hdr[d[..., 2] <= 0] = 0.02 * float(np.median(hdr[d[..., 2] > 0] @ LUMINANCE_WEIGHTS))
-    disk = d @ s > math.cos(math.radians(0.6))
-    hdr[disk] += t.sun_energy(elev)[j] / sh.pixel_solid_angles(h, 2 * h)[disk].sum()
+    elev = 35.0
+    hdr, _, _ = model_sky_with_sun(elev)
     rows = sun_elevation.score_scene(hdr, [0.0])
     (row,) = rows
     assert row["fit"] and row["clear"] and row["elevation_deg"] == pytest.approx(elev, abs=0.5)
