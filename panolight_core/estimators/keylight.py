@@ -116,7 +116,9 @@ def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
     background the glare sits on: a grey wall under a sodium lamp would wash its colour out), both without
     cells on the camera's shoulder (a channel above SHOULDER, where channels compress toward white). The
     plain inner ring's colour where that difference is not a positive colour (no glare falloff); white
-    where no ring is seen. A synthetic sodium lamp keeps its chromaticity to 0.03 (tests)."""
+    where no ring is seen, or where the background is bluer than red (a blue sky: the difference of two rings of
+    sky is the sky's own gradient toward the sun, warm whatever the source; pmndrs_sky at ev 0 got (1.23, 1.00,
+    0.36) for a sun of (1.00, 1.01, 0.92)). A synthetic sodium lamp keeps its chromaticity to 0.03 (tests)."""
     h, w = labels.shape
     cell = math.pi / h
     cos_t = sh.pixel_directions(h, w) @ direction
@@ -133,6 +135,8 @@ def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
         return np.ones(3)
     below = rad.max(axis=-1) < SHOULDER
     a, b = mean(inner & below), mean(outer & below)
+    if b is not None and b[2] > b[0]:
+        return np.ones(3)
     if a is not None and b is not None and (a - b).min() > 0:
         rgb = a - b
     y = float(rgb @ LUMINANCE_WEIGHTS)

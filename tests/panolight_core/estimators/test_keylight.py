@@ -504,3 +504,30 @@ def test_a_clear_sky_sun_light_takes_the_camera_s_colour_of_its_fit():
     assert k.method.startswith("clear-sky fit")
     np.testing.assert_allclose(k.color, keylight.camera_colour(k.sky.sun_rgb, sh.elevation_deg(k.direction)))
     assert not np.allclose(k.color, k.sky.sun_rgb / k.sky.sun_energy)
+
+
+def test_a_region_in_a_blue_sky_takes_white_not_the_sky_s_gradient():
+    """Two rings of blue sky around a source, the inner brighter and less blue (the sky whitens toward the sun):
+    their difference is warm whatever the source is, so the region's glare colour is the camera's white. The same
+    falloff on a grey background keeps the glare's own colour (the sodium lamp above)."""
+    from panolight_core.estimators import keylight
+
+    h = 128
+    d = sh.pixel_directions(h, 2 * h)
+    s = np.array([0.3, 0.5, 0.8]) / np.linalg.norm([0.3, 0.5, 0.8])
+    ang = np.degrees(np.arccos(np.clip(d @ s, -1, 1)))
+    near = np.clip(1.0 - ang / 30.0, 0.0, 1.0)  # 1 at the source, 0 from 30 degrees out
+    sky, white = np.array([0.55, 0.7, 1.0]), np.array([1.1, 1.0, 0.9])
+    rad = (0.3 + 0.05 * near)[..., None] * (sky + near[..., None] * (white - sky))  # whiter toward the source
+    region = ang < 3.0
+    labels = np.where(region, 0, -1)
+    frac_any = region.astype(float)
+    radius = math.radians(3.0)
+    inner = (~region) & (ang < 3.0 + 3 * 180.0 / h)
+    outer = (~region) & ~inner & (ang < 3.0 + 6 * 180.0 / h)
+    diff = rad[inner].mean(0) - rad[outer].mean(0)
+    assert diff[0] > diff[2] > 0  # the rings' difference is warm: the old rule's colour
+    np.testing.assert_allclose(keylight._ring_color(rad, frac_any, labels, 0, s, radius), np.ones(3))
+    grey = (0.3 + 0.3 * near)[..., None] * np.array([1.0, 1.0, 1.0]) + (0.3 * near)[..., None] * np.array([1.0, 0.55, 0.12])
+    col = keylight._ring_color(grey, frac_any, labels, 0, s, radius)
+    assert col[0] > col[1] > col[2]
