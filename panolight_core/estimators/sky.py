@@ -163,9 +163,8 @@ class SkyFit:
     before any tone curve ``contrast`` reveals, over the model's; see ``fit_clear_sky``), turbidity, the sky
     residual's RMS (natural log, over the sky pixels kept), the solid angle of sky it rests on (sr), the sun's
     RGB energy in camera units (radiance x sr, in the model's colour: re-balancing it by the sky's observed
-    colour made five real suns' colours worse, docs/keylight.md; a key light takes ``keylight.camera_colour`` of it, the
-    camera's fixed white point) and the kept sky's blue/red over the model's
-    (blueness)."""
+    colour made five real suns' colours worse, docs/keylight.md; a key light takes ``keylight.camera_colour`` of
+    it, the camera's fixed white point) and the kept sky's blue/red over the model's (blueness)."""
 
     scale: float
     turbidity: float
