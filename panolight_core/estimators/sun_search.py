@@ -24,6 +24,7 @@ HIDDEN_MIN_SKY_SR = 1.5  # a sun found from the sky alone rests on at least this
 HIDDEN_MAX_CONTRAST = 0.65  # ... and on a sky that singles its position out: the best position's score at most this
 # share of the median position's (an overcast, grey or night sky fits every position nearly alike)
 HIDDEN_MIN_ELEVATION_DEG = 5.0  # ... above this elevation (a sky at the horizon is mostly occluded or hazy)
+AT_THE_HORIZON = "at the horizon"  # how that refusal begins: the one that leaves the position itself trusted
 HIDDEN_MIN_COLOUR_MATCH = 0.0  # ... and whose colour varies as a clear sky's does: the correlation of log(blue/red)
 # observed and modelled over the sky is positive (bluer away from the sun and the horizon). A white ceiling with
 # a window passed every other test at ev -2 with -0.27; the real suns' skies found with their sun hidden: 0.31-0.94
@@ -78,7 +79,7 @@ class SunSearch:
         if self.contrast > HIDDEN_MAX_CONTRAST:
             out.append(_no_position_stands_out(self.contrast))
         if self.elevation_deg < HIDDEN_MIN_ELEVATION_DEG:
-            out.append(f"at the horizon ({self.elevation_deg:.1f} deg < {HIDDEN_MIN_ELEVATION_DEG})")
+            out.append(f"{AT_THE_HORIZON} ({self.elevation_deg:.1f} deg < {HIDDEN_MIN_ELEVATION_DEG})")
         if not self.colour_match > HIDDEN_MIN_COLOUR_MATCH:
             out.append(f"the sky's colour does not vary as a clear sky's (correlation {self.colour_match:.2f})")
         return out

@@ -30,6 +30,7 @@ import numpy as np
 from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
 from ..estimators.highlights import component_at
+from ..estimators.sun_search import AT_THE_HORIZON
 from ..camera.resample import area_downsample
 
 PEAK_RATIO = 50.0
@@ -269,8 +270,14 @@ def key_light_note(doc: dict, light: str = "light",
         why = "; ".join(search["refused"])
         cast = (f"the {len(lights)} explicit light(s) are the brightest spots of the recovered map" if lights else
                 "nothing will cast a hard shadow")
+        where = ""
+        if search.get("direction") and all(r.startswith(AT_THE_HORIZON) for r in search["refused"]):
+            # the sky passed every other test: its sun's position holds, only a sun that low is not weighed
+            x, y, z = search["direction"]
+            where = (f" toward ({x:.2f}, {y:.2f}, {z:.2f}), where the sky puts it ({search['elevation_deg']:.0f} deg "
+                     f"up, within {search['direction_68_deg']:.0f} deg for 68 %)")
         return (f"no sun or lamp was weighed as a key light, and no sun was placed from the sky ({why}): {cast}. If "
-                f"the photo shows a sun, add a sun {light} by hand")
+                f"the photo shows a sun, add a sun {light} by hand{where}")
     key = key_light_range(doc)
     if key is not None and key["low"] >= KEPT_BELOW:
         scaled = float(doc.get("sun_strength", 1.0))  # an artist's --sun-strength, already applied

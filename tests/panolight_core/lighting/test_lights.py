@@ -131,6 +131,16 @@ def test_the_key_light_note_says_what_an_artist_should_know():
     assert why in note
     assert "the 1 explicit light(s) are the brightest spots" in note
     assert "nothing will cast a hard shadow" in key_light_note(dict(overcast, lights=[]))
+    # a sun the sky places well but too near the horizon to weigh: the note says where to put it by hand
+    low = {"estimator": {"sun_search": {"searched": True, "hidden_sun": False,
+                                        "refused": ["at the horizon (3.8 deg < 5.0)"],
+                                        "direction": [0.997859, 0.0, 0.065403], "elevation_deg": 3.75,
+                                        "direction_68_deg": 13.73}}, "lights": []}
+    assert key_light_note(low).endswith("add a sun light by hand toward (1.00, 0.00, 0.07), where the sky puts it "
+                                        "(4 deg up, within 14 deg for 68 %)")
+    hazy = {"estimator": {"sun_search": dict(low["estimator"]["sun_search"], refused=[
+        "at the horizon (3.8 deg < 5.0)", "the sky is not clear (residual 0.44 > 0.35)"])}, "lights": []}
+    assert key_light_note(hazy).endswith("add a sun light by hand")  # a position the sky does not vouch for
     lamp = {"type": "area", "direction": [0.0, 0.0, 1.0], "intensity": 2.0, "source": "per-source model"}
     assert key_light_note(dict(overcast, lights=[lamp])) == ""  # a lamp from the photo's clipped region
     assert key_light_note({"estimator": {"sun_search": {"searched": False, "why": "a clipped region holds a "
