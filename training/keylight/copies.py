@@ -25,7 +25,8 @@ from panolight_core.lighting.lights import key_light_range
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.keylight import turns
-from training.keylight.cv import clipped_truth, fold_estimators, fold_models_option, real_hdri_parser, save_study
+from training.keylight.cv import (clipped_truth, fold_estimators, fold_models_option, nested_table, real_hdri_parser,
+                                  save_study)
 from training.source_energy.fit import load_hdr, scene_files
 
 QUALITY = 90
@@ -64,13 +65,10 @@ def summary(rows: list[dict]) -> dict:
 
 
 def table(summ: dict) -> list[str]:
-    lines = ["| ev | copy | direction, median | energy within | no key light | the JPEG's key light |",
-             "|---:|---|---:|---:|---:|---:|"]
-    for ev, copies in summ.items():
-        for label, s in copies.items():
-            lines.append(f"| {ev} | {label} | {s['median_angle_deg']:.1f} deg | {s['within']:.2f}x | "
-                         f"{s['no_key_light']} | {s['same_as_the_jpeg']} of {s['scenes']} |")
-    return lines
+    return nested_table(["| ev | copy | direction, median | energy within | no key light | the JPEG's key light |",
+                         "|---:|---|---:|---:|---:|---:|"], summ, lambda ev, label, s: (
+        f"{ev} | {label} | {s['median_angle_deg']:.1f} deg | {s['within']:.2f}x | {s['no_key_light']} | "
+        f"{s['same_as_the_jpeg']} of {s['scenes']}"))
 
 
 def main(argv=None) -> int:

@@ -132,6 +132,12 @@ def save_study(result: dict, out: Path | None) -> None:
         print(f"wrote {out}")
 
 
+def nested_table(head: list[str], summ: dict, cells) -> list[str]:
+    """A markdown table of a study's summary {ev: {label: stats}}: the ``head`` lines (header and alignment), then
+    one row per (ev, label), "| " + ``cells(ev, label, stats)`` + " |"."""
+    return head + [f"| {cells(ev, label, s)} |" for ev, per in summ.items() for label, s in per.items()]
+
+
 def real_hdri_parser(prog: str, doc: str) -> argparse.ArgumentParser:
     """The options every key-light study over the real HDRs takes: --hdri and --evs."""
     ap = argparse.ArgumentParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -45,7 +45,7 @@ from panolight_core.estimators import keylight, sources
 from panolight_core.estimators.sources.fill import fill_with_keys
 from panolight_core.pipeline import fit_radiance
 from training.keylight.cv import (SRGB, clipped_truth, curve_option, fold_model_paths, fold_models_option,
-                                  real_hdri_parser, save_study)
+                                  nested_table, real_hdri_parser, save_study)
 from training.source_energy.fit import load_hdr, scene_files
 from training.source_energy.cv import fold_of, scene_folds
 
@@ -214,13 +214,11 @@ def blueness(rows: list[dict]) -> dict:
 
 
 def table(result: dict) -> list[str]:
-    lines = ["| ev | rule | scenes | m-RMSE / naive, median | mean | irr-RMSE / naive, mean | dominant energy within | worst r |",
-             "|---|---|---:|---:|---:|---:|---:|---|"]
-    for ev, per in result["summary"].items():
-        for rule, s in per.items():
-            lines.append(f"| {ev} | `{rule}` | {s['scenes']} | {s['m_rmse_median']:.3f} | {s['m_rmse_mean']:.3f} | "
-                         f"{s['irr_rmse_mean']:.3f} | {s['within']:.2f}x | {s['worst_low']:.3g} / {s['worst_high']:.3g} |")
-    return lines
+    return nested_table(
+        ["| ev | rule | scenes | m-RMSE / naive, median | mean | irr-RMSE / naive, mean | dominant energy within | worst r |",
+         "|---|---|---:|---:|---:|---:|---:|---|"], result["summary"], lambda ev, rule, s: (
+            f"{ev} | `{rule}` | {s['scenes']} | {s['m_rmse_median']:.3f} | {s['m_rmse_mean']:.3f} | "
+            f"{s['irr_rmse_mean']:.3f} | {s['within']:.2f}x | {s['worst_low']:.3g} / {s['worst_high']:.3g}"))
 
 
 def main(argv=None) -> int:
