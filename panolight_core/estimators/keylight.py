@@ -115,10 +115,11 @@ def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
     its angular ``radius`` (radians) around ``direction``, less the mean of the next 3 cells out (the
     background the glare sits on: a grey wall under a sodium lamp would wash its colour out), both without
     cells on the camera's shoulder (a channel above SHOULDER, where channels compress toward white). The
-    plain inner ring's colour where that difference is not a positive colour (no glare falloff); white
-    where no ring is seen, or where the background is bluer than red (a blue sky: the difference of two rings of
-    sky is the sky's own gradient toward the sun, warm whatever the source; pmndrs_sky at ev 0 got (1.23, 1.00,
-    0.36) for a sun of (1.00, 1.01, 0.92)). A synthetic sodium lamp keeps its chromaticity to 0.03 (tests)."""
+    plain inner ring's colour where that difference is not a positive colour (no glare falloff). White where no
+    ring is seen, where the background is bluer than red (a blue sky: the difference of two rings of sky is the
+    sky's own gradient toward the sun, warm whatever the source; pmndrs_sky at ev 0 got (1.23, 1.00, 0.36) for a
+    sun of (1.00, 1.01, 0.92)), or where the colour found is bluer than red (blue sky around a sun, not the
+    source's own glare): the camera's white then. A synthetic sodium lamp keeps its chromaticity to 0.03 (tests)."""
     h, w = labels.shape
     cell = math.pi / h
     cos_t = sh.pixel_directions(h, w) @ direction
@@ -140,7 +141,7 @@ def _ring_color(rad, frac_any, labels, region, direction, radius) -> np.ndarray:
     if a is not None and b is not None and (a - b).min() > 0:
         rgb = a - b
     y = float(rgb @ LUMINANCE_WEIGHTS)
-    return rgb / y if y > 0 else np.ones(3)
+    return rgb / y if y > 0 and rgb[2] <= rgb[0] else np.ones(3)
 
 
 def camera_colour(rgb, elevation_deg: float, white=CAMERA_WHITE) -> np.ndarray:
@@ -355,22 +356,20 @@ def _region_keys(rad, frac_any, frac_all, regions, mu, sigma, reported, rule, pl
         physical = None
         if i == sun:
             physical = SKY_CORRECTION * fit.sun_energy
-            color = camera_colour(fit.sun_rgb, sh.elevation_deg(direction))
+            elevation = sh.elevation_deg(direction)
+            color = camera_colour(fit.sun_rgb, elevation)
             lo, hi = physical / SKY_SPREAD, physical * SKY_SPREAD
             method, angle = f"clear-sky fit (turbidity {fit.turbidity:g})", math.radians(SUN_DIAMETER_DEG)
         else:
             if extent[i] > plateau_deg:
                 continue
-            ring = _ring_color(rad, frac_any, regions.labels, i, direction, radius[i])
-            # a blue ring is sky around a sun, not the source's own glare: keep the camera's white then
-            color = ring if ring[2] <= ring[0] else np.ones(3)
+            color = _ring_color(rad, frac_any, regions.labels, i, direction, radius[i])
             method = "per-source model"
             # a lamp (or a veiled sun) as wide as a third of its clipped core
             angle = max(math.radians(LAMP_MIN_DIAMETER_DEG), 2.0 * radius[i] / 3.0)
         # a sun the trees weigh as a key light: one only the sky admits (under KEY_SHARE) keeps their weight, as a
         # cloud edge whose fit passes is no sun to give half its fit (dawn.jpg saved again: 67x the trees')
-        trusted = (physical is not None and i not in weak
-                   and physics_trusted(float(extent[i]), sh.elevation_deg(direction), floor))
+        trusted = physical is not None and i not in weak and physics_trusted(float(extent[i]), elevation, floor)
         energy = rule_energy(rule, physical, learned, decided, trusted)
         if not energy > 0:
             continue

@@ -99,8 +99,9 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None
     caller already has them (the learned estimator's input at this height), so they are made once.
     key_lights: make the regions that hold a compact key source explicit lights (``keylight``); each such
     region's fill keeps only what its decided energy holds beyond its light's, and a trusted sun's regions at
-    most the high end of its fit's 68 % range (``keylight.cap_log_ratios``: the reported log ratios say so). wide_concentration: the
-    profile exponent of wide regions' excess (``Regions.shape_exponents``; the cross-validation's knob)."""
+    most the high end of its fit's 68 % range (``keylight.cap_log_ratios``: the reported log ratios say so).
+    wide_concentration: the profile exponent of wide regions' excess (``Regions.shape_exponents``; the
+    cross-validation's knob)."""
     rad, frac, frac_all = work_maps(ldr, height) if maps is None else maps
     regions = region_features(rad, frac, frac_all, wide_concentration=wide_concentration)
     decision = None
