@@ -82,6 +82,14 @@ def jpeg_roundtrip(ldr: np.ndarray, quality: int) -> np.ndarray:
         return np.asarray(im.convert("RGB"))
 
 
+def lanczos_resize(ldr: np.ndarray, width: int, height: int) -> np.ndarray:
+    """(H, W, 3) uint8 -> the same picture resampled to (height, width, 3) with a Lanczos filter, as an image editor
+    or a web page makes a photo smaller."""
+    from PIL import Image
+
+    return np.asarray(Image.fromarray(ldr).resize((int(width), int(height)), Image.LANCZOS))
+
+
 def ldr_to_linear(ldr: np.ndarray) -> np.ndarray:
     """uint8 sRGB (or float sRGB in [0, 1]) -> float32 linear in [0, 1]."""
     a = np.asarray(ldr)

@@ -76,15 +76,12 @@ def copies_of(pixels: np.ndarray, widths=WIDTHS, quality: int = QUALITY, degrees
 def copies(pixels: np.ndarray, widths=WIDTHS, quality: int = QUALITY) -> list[tuple[str, np.ndarray]]:
     """(label, uint8 (h, 2h, 3)) of a photo as it is, saved again as a JPEG of ``quality`` at its own size, and
     downsized (Lanczos) to each of ``widths`` narrower than it, then saved at ``quality``."""
-    from PIL import Image
-
-    from panolight_core.camera import jpeg_roundtrip
+    from panolight_core.camera import jpeg_roundtrip, lanczos_resize
 
     out = [("as it is", pixels), (f"JPEG q{quality}", jpeg_roundtrip(pixels, quality))]
     for w in widths:
         if w < pixels.shape[1]:
-            small = np.asarray(Image.fromarray(pixels).resize((w, w // 2), Image.LANCZOS))
-            out.append((f"{w} wide, q{quality}", jpeg_roundtrip(small, quality)))
+            out.append((f"{w} wide, q{quality}", jpeg_roundtrip(lanczos_resize(pixels, w, w // 2), quality)))
     return out
 
 

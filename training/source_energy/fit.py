@@ -40,7 +40,7 @@ import numpy as np
 from panolight_core import sh, threads
 from panolight_core.estimators import sources
 from panolight_core.pipeline.settings import number
-from panolight_core.camera import auto_exposure, jpeg_roundtrip, tone_curve
+from panolight_core.camera import auto_exposure, jpeg_roundtrip, lanczos_resize, tone_curve
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.errors import PanoLightError
 from panolight_core.io import read_image
@@ -115,9 +115,7 @@ def camera(hdr: np.ndarray, rng: np.random.Generator, inject: float = 0.0, resav
         ldr = jpeg_roundtrip(ldr, int(q))
     if resave and rng.random() < resave:
         if rng.random() < 0.5 and ldr.shape[1] >= 1024:
-            from PIL import Image
-
-            ldr = np.asarray(Image.fromarray(ldr).resize((ldr.shape[1] // 2, ldr.shape[0] // 2), Image.LANCZOS))
+            ldr = lanczos_resize(ldr, ldr.shape[1] // 2, ldr.shape[0] // 2)
         ldr = jpeg_roundtrip(ldr, int(rng.choice([75, 85, 90, 95])))
     return ldr, k * p
 

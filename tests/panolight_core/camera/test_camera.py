@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from panolight_core.camera import auto_exposure, clipped_mask, hdr_to_ldr, ldr_to_linear
+from panolight_core.camera import auto_exposure, clipped_mask, hdr_to_ldr, lanczos_resize, ldr_to_linear
 from panolight_core.camera.color import linear_to_srgb, srgb_to_linear
 
 
@@ -59,3 +59,14 @@ def test_tone_curves_the_cameras_draw():
         tone_curve(x, "log")
     ldr = hdr_to_ldr(np.full((4, 8, 3), 0.5), 0.0, curve="contrast", curve_param=g)
     assert ldr.dtype == np.uint8 and int(ldr[0, 0, 0]) == round(255 * float(linear_to_srgb(np.array(0.18))))
+
+
+def test_lanczos_resize_makes_a_photo_smaller_and_keeps_a_flat_one_flat():
+    flat = np.full((25, 50, 3), (200, 120, 40), dtype=np.uint8)
+    small = lanczos_resize(flat, 20, 9)
+    assert small.shape == (9, 20, 3) and small.dtype == np.uint8
+    assert (small == flat[0, 0]).all()
+    edge = np.zeros((8, 16, 3), dtype=np.uint8)
+    edge[:, 8:] = 255
+    half = lanczos_resize(edge, 8, 4)
+    assert half[:, 0].max() < 30 and half[:, -1].min() > 225  # the two sides keep their levels
