@@ -116,11 +116,59 @@ def area_mean_lut(img: np.ndarray, height: int, lut: np.ndarray) -> np.ndarray:
     return out
 
 
+CLIP_REFERENCE_HEIGHT = 512
+"""Rows at which clipping is judged: the training panoramas' (1024 x 512). In a panorama with more rows a
+pixel of that grid counts as clipped when at least REFERENCE_MIN_FRACTION of it is (``reference_clipped``),
+as a camera of that resolution would have clipped it had that part been 4x the clip level or more. So a lone
+clipped pixel of an 8K photo (a white wall's edge, a sunlit speck of rock) makes no region: the per-source
+trees never saw one, and a region's excess poured into one pixel of a 1000-pixel work cell is a 1000x
+firefly in ``hdr.exr``."""
+REFERENCE_MIN_FRACTION = 0.25
+
+
+def _reference_blocks(H: int, height: int) -> np.ndarray:
+    """(height + 1,) the first row of each of ``height`` area-average blocks of H rows (``_area_blocks``'s)."""
+    return np.linspace(0, H, height + 1).astype(int)
+
+
+def reference_clipped(ldr: np.ndarray, height: int = CLIP_REFERENCE_HEIGHT) -> np.ndarray | None:
+    """(height, 2 height, 2) bool: the pixels of a ``height``-row grid at least REFERENCE_MIN_FRACTION of whose
+    area is clipped in any / every channel (``clipped_mask``) in ``ldr`` (uint8 (H, W, 3)); None when ``ldr``
+    has no more rows (its own pixels are the reference)."""
+    if ldr.shape[0] <= height:
+        return None
+    return _pixel_fractions(ldr, height) >= REFERENCE_MIN_FRACTION
+
+
+def clipped_pixels(block: np.ndarray, r0: int, H: int, reference: np.ndarray | None,
+                   all_channels: bool = False) -> np.ndarray:
+    """(n, W) bool: the pixels of rows r0 .. r0 + n (``block`` uint8 (n, W, 3)) of an H-row panorama that
+    ``clipped_mask`` marks and whose pixel of ``reference`` (``reference_clipped``; None: each pixel is its
+    own) is clipped too: the pixels ``hdr.exr`` fills."""
+    mask = clipped_mask(block, all_channels)
+    if reference is None:
+        return mask
+    h, w = reference.shape[:2]
+    n, W = mask.shape
+    rows = np.searchsorted(_reference_blocks(H, h), np.arange(r0, r0 + n), side="right") - 1
+    cols = np.searchsorted(_reference_blocks(W, w), np.arange(W), side="right") - 1
+    return mask & reference[rows][:, cols, int(all_channels)]
+
+
 def clipped_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
     """(height, 2 height, 2) float64: the fraction of each cell's pixels with any channel / every channel
-    at 254 or more (``clipped_mask``), ``ldr`` uint8 (H, W, 3). Whole-number factors count pixels by row
-    blocks on every thread; other sizes average the masks as ``area_downsample`` does (the same numbers:
-    the counts are exact either way)."""
+    at 254 or more (``clipped_mask``), ``ldr`` uint8 (H, W, 3); in a panorama taller than
+    CLIP_REFERENCE_HEIGHT (and than ``height``), of the pixels of that grid that ``reference_clipped`` marks."""
+    reference = reference_clipped(ldr, max(height, CLIP_REFERENCE_HEIGHT))
+    if reference is not None:
+        return area_downsample(reference.astype(np.float64), height)
+    return _pixel_fractions(ldr, height)
+
+
+def _pixel_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
+    """``clipped_fractions`` of every pixel. Whole-number factors count pixels by row blocks on every thread;
+    other sizes average the masks as ``area_downsample`` does (the same numbers: the counts are exact either
+    way)."""
     H, W = ldr.shape[:2]
     width = 2 * height
     if H <= height or H % height or W % width:

@@ -13,9 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from .. import threads
-from ..camera import clipped_mask, ldr_to_linear
+from ..camera import ldr_to_linear
 from ..camera.color import SRGB8_TO_LINEAR
-from ..camera.resample import area_downsample, row_blocks
+from ..camera.resample import (CLIP_REFERENCE_HEIGHT, area_downsample, clipped_pixels, reference_clipped,
+                               row_blocks)
 from ..estimators.sources import FullResolutionFill, fill_full_resolution
 
 
@@ -35,7 +36,9 @@ def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
     if work.shape[0] >= pixels.shape[0]:  # upsampled for a network: no cell of it maps to whole pixels
         return linear
     base = area_downsample(linear, work.shape[0], work.shape[1])
-    return fill_full_resolution(linear, clipped_mask(pixels), np.maximum(work - base, 0.0))
+    reference = reference_clipped(pixels, max(work.shape[0], CLIP_REFERENCE_HEIGHT))
+    return fill_full_resolution(linear, clipped_pixels(pixels, 0, pixels.shape[0], reference),
+                                np.maximum(work - base, 0.0))
 
 
 def assemble(shape, blocks) -> np.ndarray:
@@ -61,9 +64,10 @@ class HdrRows:
             H, W = pixels.shape[:2]
             h = rec.work.shape[0]
             self.blocks = row_blocks(H, W, max(1, H // h) if H % h == 0 else 1)
+            reference = reference_clipped(pixels, max(h, CLIP_REFERENCE_HEIGHT))  # the clipping the regions saw
 
             def regions_pixels(rows):  # the per-source regions' pixels
-                c = clipped_mask(pixels[rows[0]:rows[1]], all_channels=True)
+                c = clipped_pixels(pixels[rows[0]:rows[1]], rows[0], H, reference, all_channels=True)
                 ys, xs = np.nonzero(c)
                 return c, ys + rows[0], xs
 

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from panolight_core import sh
 from panolight_core.camera.resample import area_downsample, sample_equirect
@@ -85,3 +86,26 @@ def test_clipped_fractions_count_the_clipped_mask_on_both_paths(rng):
     odd = clipped_fractions(ldr[:60, :120], 16)  # other sizes: the masks area-averaged
     np.testing.assert_allclose(odd, area_downsample(masks[:60, :120], 16), atol=1e-6)
     assert 0 < whole[..., 1].max() and (whole[..., 1] <= whole[..., 0]).all() and (whole[..., 1] < whole[..., 0]).any()
+
+
+def test_above_the_reference_resolution_a_lone_clipped_pixel_makes_no_clipped_fraction(rng):
+    from panolight_core.camera.resample import CLIP_REFERENCE_HEIGHT, clipped_fractions, reference_clipped
+
+    f = 4  # an 8K-like panorama: 4 x 4 pixels per reference pixel
+    H = f * CLIP_REFERENCE_HEIGHT
+    ldr = np.full((H, 2 * H, 3), 188, np.uint8)  # a grey wall
+    ys, xs = rng.integers(0, H, 40) // f * f, rng.integers(0, 2 * H, 40) // f * f
+    ldr[ys, xs] = 255  # lone clipped pixels: 1/16 of a reference pixel each
+    ldr[ys, xs + 1] = 255  # two side by side: still under a quarter
+    ldr[600:632, 1800:1832] = 255  # a lamp: 8 x 8 whole reference pixels
+    frac = clipped_fractions(ldr, 128)
+    assert frac[..., 0].sum() * 16 == pytest.approx(64.0)  # the lamp's reference pixels alone (16 per work cell)
+    assert frac[608 // 16, 1808 // 16, 1] == 1.0  # a work cell inside it
+    # a camera of the reference resolution sees the lamp alone: the same fractions
+    small = np.full((CLIP_REFERENCE_HEIGHT, 2 * CLIP_REFERENCE_HEIGHT, 3), 188, np.uint8)
+    small[150:158, 450:458] = 255
+    np.testing.assert_array_equal(clipped_fractions(small, 128), frac)
+    assert reference_clipped(small) is None  # no taller than the reference: its own pixels count
+    # a quarter of a reference pixel clipped counts, as a camera at that resolution would clip it (4x the clip)
+    ldr[0:2, 0:2] = 255
+    assert reference_clipped(ldr)[0, 0].all()

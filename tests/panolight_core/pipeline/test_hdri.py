@@ -112,3 +112,25 @@ def test_half_floats_only_for_8_bit_inputs_whose_range_fits(city_ldr):
     assert not HdrRows(city_ldr, est, 2.0 ** -5).fits_half()  # its darkest steps would be subnormal
     hdr = city_ldr.astype(np.float32) / 255
     assert not HdrRows(hdr, fit_pixels(hdr)[1]).fits_half()  # a float input keeps float32
+
+
+def test_a_lone_clipped_pixel_of_a_large_panorama_is_no_firefly(rng):
+    """8K-like: 4 x 4 pixels per pixel of the training panoramas' resolution. Lone clipped pixels of a bright
+    wall (CLIP_REFERENCE_HEIGHT) get nothing in hdr.exr; the lamp keeps its fill."""
+    from panolight_core.camera.resample import CLIP_REFERENCE_HEIGHT
+
+    H = 4 * CLIP_REFERENCE_HEIGHT
+    ldr = np.full((H, 2 * H, 3), 200, np.uint8)
+    ys, xs = rng.integers(H // 4, 3 * H // 4, 200) // 4 * 4, rng.integers(0, 2 * H, 200) // 4 * 4
+    ldr[ys, xs] = 255  # specks of a sunlit wall
+    yy, xx = np.mgrid[:H, :2 * H]
+    r = np.hypot(yy - 500, xx - 1500)  # a lamp at 44 deg up: clipped core, glare falling off around it
+    ldr[r < 60] = 255
+    ring = (r >= 60) & (r < 200)
+    ldr[ring] = np.clip(255 * (r[ring] / 60.0) ** -0.6, 200, 254).astype(np.uint8)[:, None]
+    _, est = fit_pixels(ldr)
+    hdr = hdr_panorama(ldr, est)
+    specks = r[ys, xs] > 300
+    assert specks.sum() > 150
+    np.testing.assert_array_equal(hdr[ys[specks], xs[specks]], 1.0)  # as shot: the clip level, no more
+    assert float(hdr[r < 50].mean()) > 2.0  # the lamp's core holds its recovered energy
