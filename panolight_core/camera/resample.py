@@ -158,11 +158,13 @@ def clipped_pixels(block: np.ndarray, r0: int, H: int, reference: np.ndarray | N
 def clipped_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
     """(height, 2 height, 2) float64: the fraction of each cell's pixels with any channel / every channel
     at 254 or more (``clipped_mask``), ``ldr`` uint8 (H, W, 3); in a panorama taller than
-    CLIP_REFERENCE_HEIGHT (and than ``height``), of the pixels of that grid that ``reference_clipped`` marks."""
-    reference = reference_clipped(ldr, max(height, CLIP_REFERENCE_HEIGHT))
-    if reference is not None:
-        return area_downsample(reference.astype(np.float64), height)
-    return _pixel_fractions(ldr, height)
+    CLIP_REFERENCE_HEIGHT (and than ``height``) only those inside a pixel of that grid that
+    ``reference_clipped`` marks count (``clipped_pixels``: the pixels hdr.exr fills)."""
+    ref_height = max(height, CLIP_REFERENCE_HEIGHT)
+    if ldr.shape[0] <= ref_height:
+        return _pixel_fractions(ldr, height)
+    fractions = _pixel_fractions(ldr, ref_height)  # the clipped pixels that count: those of reference_clipped's
+    return area_downsample(np.where(fractions >= REFERENCE_MIN_FRACTION, fractions, 0.0), height)
 
 
 def _pixel_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
