@@ -117,12 +117,12 @@ def area_mean_lut(img: np.ndarray, height: int, lut: np.ndarray) -> np.ndarray:
 
 
 CLIP_REFERENCE_HEIGHT = 512
-"""Rows at which clipping is judged: the training panoramas' (1024 x 512). In a panorama with more rows a
-pixel of that grid counts as clipped when at least REFERENCE_MIN_FRACTION of it is (``reference_clipped``),
-as a camera of that resolution would have clipped it had that part been 4x the clip level or more. So a lone
-clipped pixel of an 8K photo (a white wall's edge, a sunlit speck of rock) makes no region: the per-source
-trees never saw one, and a region's excess poured into one pixel of a 1000-pixel work cell is a 1000x
-firefly in ``hdr.exr``."""
+"""Rows at which clipping is judged: the training panoramas' (1024 x 512). In a panorama more than twice as
+tall, a clipped pixel counts only inside a pixel of that grid at least REFERENCE_MIN_FRACTION clipped
+(``reference_clipped``), one a camera of that resolution would have clipped had that part been 4x the clip
+level or more. So a lone clipped pixel of an 8K photo (a white wall's edge, a sunlit speck of rock) makes no
+region: the per-source trees never saw one, and a region's excess poured into one pixel of a 1000-pixel work
+cell is a 1000x firefly in ``hdr.exr``. Up to twice as tall one pixel is a quarter: nothing changes there."""
 REFERENCE_MIN_FRACTION = 0.25
 
 
@@ -131,11 +131,23 @@ def _reference_blocks(H: int, height: int) -> np.ndarray:
     return np.linspace(0, H, height + 1).astype(int)
 
 
+def _block_of(n: int, blocks: int) -> np.ndarray:
+    """(n,) the block (of ``blocks`` area-average blocks, ``_reference_blocks``) each of n rows holds."""
+    return np.searchsorted(_reference_blocks(n, blocks), np.arange(n), side="right") - 1
+
+
+def _judged_as_is(H: int, W: int, height: int) -> bool:
+    """Whether every clipped pixel of an (H, W) panorama is REFERENCE_MIN_FRACTION or more of its pixel of a
+    ``height``-row grid (up to 2x its rows at a quarter): then each counts as it is."""
+    return -(-H // height) * -(-W // (2 * height)) * REFERENCE_MIN_FRACTION <= 1.0
+
+
 def reference_clipped(ldr: np.ndarray, height: int = CLIP_REFERENCE_HEIGHT) -> np.ndarray | None:
     """(height, 2 height, 2) bool: the pixels of a ``height``-row grid at least REFERENCE_MIN_FRACTION of whose
-    area is clipped in any / every channel (``clipped_mask``) in ``ldr`` (uint8 (H, W, 3)); None when ``ldr``
-    has no more rows (its own pixels are the reference)."""
-    if ldr.shape[0] <= height:
+    area is clipped in any / every channel (``clipped_mask``) in ``ldr`` (uint8 (H, W, 3)); None when each
+    clipped pixel of ``ldr`` counts as it is (``_judged_as_is``: no more than twice the rows)."""
+    H, W = ldr.shape[:2]
+    if _judged_as_is(H, W, height):
         return None
     return _pixel_fractions(ldr, height) >= REFERENCE_MIN_FRACTION
 
@@ -149,21 +161,21 @@ def clipped_pixels(block: np.ndarray, r0: int, H: int, reference: np.ndarray | N
     if reference is None:
         return mask
     h, w = reference.shape[:2]
-    n, W = mask.shape
-    rows = np.searchsorted(_reference_blocks(H, h), np.arange(r0, r0 + n), side="right") - 1
-    cols = np.searchsorted(_reference_blocks(W, w), np.arange(W), side="right") - 1
-    return mask & reference[rows][:, cols, int(all_channels)]
+    W = mask.shape[1]
+    rows = _block_of(H, h)[r0:r0 + mask.shape[0]]
+    return mask & reference[rows][:, _block_of(W, w), int(all_channels)]
 
 
 def clipped_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
     """(height, 2 height, 2) float64: the fraction of each cell's pixels with any channel / every channel
-    at 254 or more (``clipped_mask``), ``ldr`` uint8 (H, W, 3); in a panorama taller than
-    CLIP_REFERENCE_HEIGHT (and than ``height``) only those inside a pixel of that grid that
-    ``reference_clipped`` marks count (``clipped_pixels``: the pixels hdr.exr fills)."""
+    at 254 or more (``clipped_mask``), ``ldr`` uint8 (H, W, 3); in a panorama more than twice as tall as
+    CLIP_REFERENCE_HEIGHT (and ``height``) only those inside a pixel of that grid that ``reference_clipped``
+    marks (``clipped_pixels``: the pixels hdr.exr fills)."""
+    H, W = ldr.shape[:2]
     ref_height = max(height, CLIP_REFERENCE_HEIGHT)
-    if ldr.shape[0] <= ref_height:
+    if _judged_as_is(H, W, ref_height):
         return _pixel_fractions(ldr, height)
-    fractions = _pixel_fractions(ldr, ref_height)  # the clipped pixels that count: those of reference_clipped's
+    fractions = _pixel_fractions(ldr, ref_height)  # the reference pixels under a quarter clipped count for none
     return area_downsample(np.where(fractions >= REFERENCE_MIN_FRACTION, fractions, 0.0), height)
 
 

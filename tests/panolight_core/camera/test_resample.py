@@ -106,6 +106,7 @@ def test_above_the_reference_resolution_a_lone_clipped_pixel_makes_no_clipped_fr
     small[150:158, 450:458] = 255
     np.testing.assert_array_equal(clipped_fractions(small, 128), frac)
     assert reference_clipped(small) is None  # no taller than the reference: its own pixels count
+    assert reference_clipped(ldr[::2, ::2]) is None  # twice as tall: one pixel is a quarter, each counts as it is
     # a quarter of a reference pixel clipped counts, as a camera at that resolution would clip it (4x the clip)
     ldr[0:2, 0:2] = 255
     assert reference_clipped(ldr)[0, 0].all()
