@@ -115,8 +115,8 @@ def test_half_floats_only_for_8_bit_inputs_whose_range_fits(city_ldr):
 
 
 def test_a_lone_clipped_pixel_of_a_large_panorama_is_no_firefly(rng):
-    """8K-like: 4 x 4 pixels per pixel of the training panoramas' resolution. Lone clipped pixels of a bright
-    wall (CLIP_REFERENCE_HEIGHT) get nothing in hdr.exr; the lamp keeps its fill."""
+    """8K-like: 4 x 4 pixels per pixel of the training panoramas' grid (CLIP_REFERENCE_HEIGHT). Lone clipped
+    pixels of a bright wall, under a quarter of such a pixel, get nothing in hdr.exr; the lamp keeps its fill."""
     from panolight_core.camera.resample import CLIP_REFERENCE_HEIGHT
 
     H = 4 * CLIP_REFERENCE_HEIGHT
