@@ -161,9 +161,11 @@ def clipped_pixels(block: np.ndarray, r0: int, H: int, reference: np.ndarray | N
     if reference is None:
         return mask
     h, w = reference.shape[:2]
-    W = mask.shape[1]
-    rows = _block_of(H, h)[r0:r0 + mask.shape[0]]
-    return mask & reference[rows][:, _block_of(W, w), int(all_channels)]
+    n, W = mask.shape
+    rows = reference[_block_of(H, h)[r0:r0 + n], :, int(all_channels)]  # (n, w): each row's reference row
+    if W % w == 0:
+        return mask & np.repeat(rows, W // w, axis=1)
+    return mask & rows[:, _block_of(W, w)]
 
 
 def clipped_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
