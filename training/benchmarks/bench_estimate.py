@@ -1,6 +1,7 @@
 """End-to-end estimate speed: read a 2048 x 1024 JPEG from disk and estimate its lighting.
 
-The JPEG is made from each Blender studio HDRI (upsampled 2x, the EVALUATION.md camera at ev 0,
+The JPEG is made from each Blender studio HDRI (upsampled 2x, or ``--scale``: 8 makes 8192 x 4096; the
+EVALUATION.md camera at ev 0,
 quality 90) in a temporary folder. Each estimator is timed on decode + estimate, and on decode +
 estimate + the default lighting model (lights + auto SH order, what ``panolight estimate`` writes),
 interleaved over the scenes and repeated; medians are printed with their ratio to the 100 ms target
@@ -8,6 +9,7 @@ interleaved over the scenes and repeated; medians are printed with their ratio t
 22's bar: the default estimate, decode included, within 12x the decode).
 
     python -m training.benchmarks.bench_estimate [--repeats 15] [--scenes city sunset ...] [--estimators keylight sources]
+                                                 [--scale 8]
 """
 from __future__ import annotations
 
@@ -34,7 +36,11 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=15)
     ap.add_argument("--scenes", nargs="+", default=list(STUDIO_HDRIS))
     ap.add_argument("--estimators", nargs="+", default=None, help="estimators to time (default: every one available)")
+    ap.add_argument("--scale", type=int, default=2, help="upsample each 1024 x 512 HDRI this many times (default 2: "
+                                                          "2048 x 1024, issue 22's bar; 8: an 8K photo)")
     args = ap.parse_args(argv)
+    if args.scale < 1:
+        ap.error(f"--scale is a whole upsampling factor of 1 or more, got {args.scale}")
     unknown = sorted(set(args.estimators or ()) - set(available()))
     if unknown:
         ap.error(f"unknown estimator(s) {', '.join(unknown)}: choose from {', '.join(available())}")
@@ -45,7 +51,7 @@ def main(argv=None):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 hdr = load_studio_hdri(scene)
-            big = np.repeat(np.repeat(hdr, 2, axis=0), 2, axis=1)
+            big = np.repeat(np.repeat(hdr, args.scale, axis=0), args.scale, axis=1)
             path = Path(tmp) / f"{scene}.jpg"
             write_srgb8(path, hdr_to_ldr(big, 0), quality=90)
             files.append(path)
@@ -66,7 +72,8 @@ def main(argv=None):
                     t = time.perf_counter()
                     fit_pixels(read_image(f, ldr_as_uint8=True), estimator=n)
                     times[f"{n} + model"].append(time.perf_counter() - t)
-    print(f"# decode + estimate, 2048 x 1024 JPEG q90, lmax 2; {len(files)} scenes x {args.repeats} repeats\n")
+    h, w = big.shape[:2]
+    print(f"# decode + estimate, {w} x {h} JPEG q90, lmax 2; {len(files)} scenes x {args.repeats} repeats\n")
     print("| estimator | median ms | p90 ms | x 100 ms target | x decode |")
     print("|---|---:|---:|---:|---:|")
     out = {}
