@@ -35,13 +35,17 @@ def area_downsample(img: np.ndarray, height: int, width: int | None = None) -> n
     return _area_blocks(img, height, width, None)
 
 
+def _block_starts(n: int, blocks: int) -> np.ndarray:
+    """(blocks + 1,) the first row (column) of each of ``blocks`` area-average blocks of n rows (columns), and n."""
+    return np.linspace(0, n, blocks + 1).astype(int)
+
+
 def _area_blocks(img: np.ndarray, height: int, width: int, transform) -> np.ndarray:
     """Block means over rounded boundaries (sizes that are not whole multiples), a few output rows at a
     time: only a slab of ``transform(img)`` (or of img) exists in float64 at once, never the whole image
     (a 16000 x 8000 JPEG peaked at 5.4 GB the whole-image way). The same sums in the same order."""
     h, w = img.shape[:2]
-    ys = np.linspace(0, h, height + 1).astype(int)
-    xs = np.linspace(0, w, width + 1).astype(int)
+    ys, xs = _block_starts(h, height), _block_starts(w, width)
     step = max(1, (BLOCK_PIXELS // 4) // (w * max(1, -(-h // height))))  # output rows per slab (~24 MB float64)
 
     def slab(k0):
@@ -126,14 +130,15 @@ cell is a 1000x firefly in ``hdr.exr``. Up to twice as tall one pixel is a quart
 REFERENCE_MIN_FRACTION = 0.25
 
 
-def _reference_blocks(H: int, height: int) -> np.ndarray:
-    """(height + 1,) the first row of each of ``height`` area-average blocks of H rows (``_area_blocks``'s)."""
-    return np.linspace(0, H, height + 1).astype(int)
-
-
 def _block_of(n: int, blocks: int) -> np.ndarray:
-    """(n,) the block (of ``blocks`` area-average blocks, ``_reference_blocks``) each of n rows holds."""
-    return np.searchsorted(_reference_blocks(n, blocks), np.arange(n), side="right") - 1
+    """(n,) the block (of ``blocks`` area-average blocks, ``_block_starts``) each of n rows holds."""
+    return np.searchsorted(_block_starts(n, blocks), np.arange(n), side="right") - 1
+
+
+def _reference_height(height: int) -> int:
+    """Rows of the grid clipping is judged on for a work map of ``height`` rows: CLIP_REFERENCE_HEIGHT, or the
+    work map's own rows if it has more."""
+    return max(height, CLIP_REFERENCE_HEIGHT)
 
 
 def _judged_as_is(H: int, W: int, height: int) -> bool:
@@ -142,11 +147,13 @@ def _judged_as_is(H: int, W: int, height: int) -> bool:
     return -(-H // height) * -(-W // (2 * height)) * REFERENCE_MIN_FRACTION <= 1.0
 
 
-def reference_clipped(ldr: np.ndarray, height: int = CLIP_REFERENCE_HEIGHT) -> np.ndarray | None:
-    """(height, 2 height, 2) bool: the pixels of a ``height``-row grid at least REFERENCE_MIN_FRACTION of whose
-    area is clipped in any / every channel (``clipped_mask``) in ``ldr`` (uint8 (H, W, 3)); None when each
-    clipped pixel of ``ldr`` counts as it is (``_judged_as_is``: no more than twice the rows)."""
+def reference_clipped(ldr: np.ndarray, work_height: int = 0) -> np.ndarray | None:
+    """(h, 2 h, 2) bool, h = ``_reference_height(work_height)``: the pixels of that grid at least
+    REFERENCE_MIN_FRACTION of whose area is clipped in any / every channel (``clipped_mask``) in ``ldr`` (uint8
+    (H, W, 3)), what ``clipped_fractions`` judged a work map of ``work_height`` rows by; None when each clipped
+    pixel of ``ldr`` counts as it is (``_judged_as_is``: no more than twice the rows)."""
     H, W = ldr.shape[:2]
+    height = _reference_height(work_height)
     if _judged_as_is(H, W, height):
         return None
     return _pixel_fractions(ldr, height) >= REFERENCE_MIN_FRACTION
@@ -174,7 +181,7 @@ def clipped_fractions(ldr: np.ndarray, height: int) -> np.ndarray:
     CLIP_REFERENCE_HEIGHT (and ``height``) only those inside a pixel of that grid that ``reference_clipped``
     marks (``clipped_pixels``: the pixels hdr.exr fills)."""
     H, W = ldr.shape[:2]
-    ref_height = max(height, CLIP_REFERENCE_HEIGHT)
+    ref_height = _reference_height(height)
     if _judged_as_is(H, W, ref_height):
         return _pixel_fractions(ldr, height)
     fractions = _pixel_fractions(ldr, ref_height)  # the reference pixels under a quarter clipped count for none

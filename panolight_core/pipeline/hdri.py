@@ -15,8 +15,7 @@ import numpy as np
 from .. import threads
 from ..camera import ldr_to_linear
 from ..camera.color import SRGB8_TO_LINEAR
-from ..camera.resample import (CLIP_REFERENCE_HEIGHT, area_downsample, clipped_pixels, reference_clipped,
-                               row_blocks)
+from ..camera.resample import area_downsample, clipped_pixels, reference_clipped, row_blocks
 from ..estimators.sources import FullResolutionFill, fill_full_resolution
 
 
@@ -36,7 +35,7 @@ def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
     if work.shape[0] >= pixels.shape[0]:  # upsampled for a network: no cell of it maps to whole pixels
         return linear
     base = area_downsample(linear, work.shape[0], work.shape[1])
-    reference = reference_clipped(pixels, max(work.shape[0], CLIP_REFERENCE_HEIGHT))
+    reference = reference_clipped(pixels, work.shape[0])
     return fill_full_resolution(linear, clipped_pixels(pixels, 0, pixels.shape[0], reference),
                                 np.maximum(work - base, 0.0))
 
@@ -64,7 +63,7 @@ class HdrRows:
             H, W = pixels.shape[:2]
             h = rec.work.shape[0]
             self.blocks = row_blocks(H, W, max(1, H // h) if H % h == 0 else 1)
-            reference = reference_clipped(pixels, max(h, CLIP_REFERENCE_HEIGHT))  # the clipping the regions saw
+            reference = reference_clipped(pixels, h)  # the clipping the regions saw
 
             def regions_pixels(rows):  # the per-source regions' pixels
                 c = clipped_pixels(pixels[rows[0]:rows[1]], rows[0], H, reference, all_channels=True)
