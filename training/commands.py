@@ -68,6 +68,8 @@ def run_train(args) -> int:
 # ``python -m MODULE`` runs the same main (docs/development.md)
 TOOLS = {
     "source-energy": ("training.source_energy.fit", "train (ship) or cross-validate (cv) the per-source energy model"),
+    "source-regressors": ("training.source_energy.regressors", "the per-source trees against small networks, region "
+                          "by region, out of fold"),
     "accuracy-report": ("training.source_energy.report", "docs/accuracy.md and .png from eval.json and the "
                         "source-energy cross-validation"),
     "keylight-cv": ("training.keylight.cv", "the key light's direction and energy over the real HDRs, and the "
