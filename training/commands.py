@@ -77,6 +77,8 @@ TOOLS = {
     "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
     "hidden-sun": ("training.keylight.hidden_sun", "a sun the photo does not show: located from the sky alone over "
                    "the real HDRs, and the suns the estimator invents"),
+    "glare-law": ("training.keylight.glare_law", "the glare law c E theta^-2 around clipped regions over the real "
+                  "HDRs, and the gates that could trust it"),
     "sky-table": ("training.keylight.sky_table", "tabulate Mitsuba's sunsky into models/sky.safetensors"),
     "artist-check": ("training.render.artist_check", "a white sphere composited into real photos under each "
                      "estimate (Mitsuba), with lit/shadow ratios"),
