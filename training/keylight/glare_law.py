@@ -201,7 +201,8 @@ def main(argv=None) -> int:
         model_of = {p: models[k] for p, k in fold_of(files).items()}
     else:
         print("glare-law: the shipped trees saw every scene: their error here is in sample (use --fold-models)")
-        model_of = {p: load_source_model() for p in files}
+        shipped = load_source_model()
+        model_of = {p: shipped for p in files}
     rows = []
     for n, path in enumerate(files, 1):
         hdr = load_hdr(path)
