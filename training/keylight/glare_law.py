@@ -39,7 +39,7 @@ from panolight_core.estimators.sources.recovery import recover
 from panolight_core.estimators.sources.trees import load_source_model
 from training.keylight.cv import fold_model_paths, fold_models_option
 from training.source_energy.cv import fold_of
-from training.source_energy.fit import DEFAULT_HDRI, load_hdr, region_rows, scene_files
+from training.source_energy.fit import DEFAULT_HDRI, load_hdr, region_targets, scene_files
 
 HEIGHT = 512  # the ring is read at the training panoramas' resolution
 COMPACT_DEG = 12.0
@@ -117,7 +117,7 @@ def scene_rows(ldr, truth, model) -> list[dict]:
     regions = rec.regions
     if regions.count == 0:
         return []
-    _, target, share = region_rows(ldr, truth)
+    target, share = region_targets(regions, truth)  # the recovery's own regions: no second work map
     rad, frac_any, frac_all = work_maps(ldr, HEIGHT)
     lum = rad @ LUMINANCE_WEIGHTS
     dirs = sh.pixel_directions(*lum.shape)

@@ -152,14 +152,21 @@ def region_rows(ldr: np.ndarray, truth: np.ndarray):
     reg = sources.region_features(rad, frac, frac_all)
     if reg.count == 0:
         return np.zeros((0, len(sources.FEATURES))), np.zeros(0), np.zeros(0)
-    h, w = frac.shape
+    target, share = region_targets(reg, truth)
+    return reg.features, target, share
+
+
+def region_targets(regions, truth: np.ndarray):
+    """(target log ratio (n,), at least 0, true share of scene energy (n,)) of ``regions`` (``sources.Regions`` of a
+    work map, e.g. a ``recover``'s) against the exposed linear truth (H, W, 3) of their picture."""
+    h, w = regions.labels.shape
     true_lum = area_downsample(truth, h) @ LUMINANCE_WEIGHTS
     omega = sh.pixel_solid_angles(h, w)
-    m = reg.labels >= 0
-    true_e = np.bincount(reg.labels[m], (true_lum * omega)[m], reg.count)
-    target = np.log(np.maximum(true_e, 1e-12) / np.maximum(reg.held, 1e-12))
+    m = regions.labels >= 0
+    true_e = np.bincount(regions.labels[m], (true_lum * omega)[m], regions.count)
+    target = np.log(np.maximum(true_e, 1e-12) / np.maximum(regions.held, 1e-12))
     share = true_e / max(float((true_lum * omega).sum()), 1e-12)
-    return reg.features, np.maximum(target, 0.0), share
+    return np.maximum(target, 0.0), share
 
 
 def _scene_job(args):
@@ -252,18 +259,25 @@ def _export(model) -> sources.TreeEnsemble:
                                 np.concatenate(right), np.concatenate(val), np.asarray(roots), base)
 
 
+def fit_mean(X, y, w, seed: int = 0):
+    """The mean trees (GBT settings) fitted to rows (n, F), log-ratio targets (n,) and row weights (n,): a fitted
+    scikit-learn regressor."""
+    from sklearn.ensemble import GradientBoostingRegressor
+
+    return GradientBoostingRegressor(random_state=seed, **GBT).fit(X, y, sample_weight=w)
+
+
 def fit(X, y, w, seed: int = 0, oof_groups=None):
     """(mean ensemble, spread ensemble, sklearn mean model). The spread is fitted on out-of-fold absolute
     residuals (grouped by scene when ``oof_groups`` is given), so it measures generalisation error."""
     from sklearn.ensemble import GradientBoostingRegressor
     from sklearn.model_selection import GroupKFold, KFold
 
-    mean = GradientBoostingRegressor(random_state=seed, **GBT).fit(X, y, sample_weight=w)
+    mean = fit_mean(X, y, w, seed)
     oof = np.zeros_like(y)
     splitter = GroupKFold(5) if oof_groups is not None else KFold(5, shuffle=True, random_state=seed)
     for tr, te in splitter.split(X, y, oof_groups):
-        m = GradientBoostingRegressor(random_state=seed, **GBT).fit(X[tr], y[tr], sample_weight=w[tr])
-        oof[te] = m.predict(X[te])
+        oof[te] = fit_mean(X[tr], y[tr], w[tr], seed).predict(X[te])
     spread = GradientBoostingRegressor(random_state=seed, **SPREAD_GBT).fit(X, np.abs(y - oof), sample_weight=w)
     return _export(mean), _export(spread), mean
 

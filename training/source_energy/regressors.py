@@ -8,7 +8,7 @@ scene is scored by a model that saw any of its cameras. Printed per group of row
 mean of the log-ratio error (prediction - truth, natural log; rows weighted as the trees are trained,
 ``fit.sample_weight``):
 
-- **trees**: the shipped settings (``fit.GBT``);
+- **trees**: the shipped settings (``fit.fit_mean``);
 - **networks**: ``--networks`` small networks (FEATURES -> 96 ReLU units -> 1, dropout 0.1, AdamW, Huber loss,
   the same row weights), averaged; inputs standardised and held to the training rows' range, so a photo unlike
   the training scenes cannot drive a network outside what it was fitted on;
@@ -30,20 +30,13 @@ import numpy as np
 
 from panolight_core.estimators import sources
 from training.source_energy.cv import scene_folds
-from training.source_energy.fit import DEFAULT_HDRI, GBT, cached_table, sample_weight, scene_files
+from training.source_energy.fit import DEFAULT_HDRI, cached_table, fit_mean, sample_weight, scene_files
 
 HIDDEN = 96
 EPOCHS = 25
 DOMINANT_SHARE = 0.15  # a region holding more of its scene's true energy is a source that matters
 SMALL_SHARE = 0.05
 COMPACT_DEG = 12.0
-
-
-def fit_trees(X: np.ndarray, y: np.ndarray, w: np.ndarray, seed: int = 0):
-    """The shipped mean trees' settings fitted to rows (n, F) -> a fitted scikit-learn regressor."""
-    from sklearn.ensemble import GradientBoostingRegressor
-
-    return GradientBoostingRegressor(random_state=seed, **GBT).fit(X, y, sample_weight=w)
 
 
 def fit_network(X: np.ndarray, y: np.ndarray, w: np.ndarray, seed: int = 0, epochs: int = EPOCHS) -> dict:
@@ -94,7 +87,7 @@ def out_of_fold(X, y, w, scene, folds, networks: int = 3, log=print) -> dict:
         if not test.any():
             continue
         train = ~test
-        out["trees"][test] = fit_trees(X[train], y[train], w[train]).predict(X[test])
+        out["trees"][test] = fit_mean(X[train], y[train], w[train]).predict(X[test])
         nets = [fit_network(X[train], y[train], w[train], seed) for seed in range(networks)]
         out["networks"][test] = np.mean([network_predict(n, X[test]) for n in nets], axis=0)
         log(f"  fold {k}/{len(folds)}: {int(test.sum())} rows ({time.perf_counter() - t0:.0f} s)")
