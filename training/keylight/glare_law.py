@@ -35,6 +35,7 @@ from panolight_core import sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators.highlights import work_maps
+from panolight_core.estimators.sources.features import cap_cells
 from panolight_core.estimators.sources.recovery import recover
 from panolight_core.estimators.sources.trees import load_source_model
 from training.keylight.cv import fold_model_paths, fold_models_option
@@ -61,13 +62,9 @@ def ring(lum, clear, white, dirs, centre, extent_deg: float) -> dict | None:
     radians), "slope" (of log excess on log theta), "sectors" (excess per sector, NaN where too few pixels)}; None
     without a background or with under two annuli of positive excess."""
     cell = 180.0 / lum.shape[0]
-    reach = extent_deg + 1.5 + BACKGROUND_DEG[1] + cell
-    polar = math.degrees(math.acos(float(np.clip(centre[2], -1.0, 1.0))))
-    r0 = max(0, int((polar - reach) / cell) - 1)
-    r1 = min(lum.shape[0], int((polar + reach) / cell) + 2)
-    cos_c = dirs[r0:r1] @ centre
-    near = cos_c >= math.cos(math.radians(min(reach, 180.0)))
-    ang = np.degrees(np.arccos(np.clip(cos_c[near], -1.0, 1.0)))
+    reach = min(extent_deg + 1.5 + BACKGROUND_DEG[1] + cell, 180.0)
+    r0, r1, near, ang = cap_cells(dirs, centre, math.radians(reach))
+    ang = np.degrees(ang)
     lu, cl, wh = lum[r0:r1][near], clear[r0:r1][near], white[r0:r1][near]
     core = wh & (ang < extent_deg + 1.5)
     radius = float(ang[core].max()) if core.any() else 0.5 * cell

@@ -61,6 +61,19 @@ def scene_features(rad: np.ndarray, clipped: np.ndarray, count: int, scene_clipp
             "log_lower_contrast": _log10(lo_contrast)}
 
 
+def cap_cells(dirs: np.ndarray, centre: np.ndarray, reach: float):
+    """The cells of an equirectangular grid within ``reach`` (radians) of unit ``centre``, looking only at the rows
+    that cap crosses: (first row r0, row r1 past the last, near (r1 - r0, w) bool, the near cells' angles to the
+    centre (radians), in the map's order). dirs: the grid's unit directions (h, w, 3)."""
+    h = dirs.shape[0]
+    cell = math.pi / h
+    polar = math.acos(float(np.clip(centre[2], -1.0, 1.0)))
+    r0, r1 = max(0, int((polar - reach) / cell) - 1), min(h, int((polar + reach) / cell) + 2)
+    cos_c = dirs[r0:r1] @ centre
+    near = cos_c >= math.cos(reach)
+    return r0, r1, near, np.arccos(np.clip(cos_c[near], -1.0, 1.0))
+
+
 def _glare(ang, lum, rad, omega, clear, extent, cell_deg):
     """A region's glare: mean luminance of the four rings beyond its edge (RING_EDGES_DEG, unclipped
     cells), the innermost ring's mean colour (luminance 1) and the power-law exponent fitted out to three
@@ -120,7 +133,6 @@ def region_features(rad: np.ndarray, frac_any: np.ndarray, frac_all: np.ndarray,
     exponent = np.zeros(n)
     flat_dirs = dirs.reshape(-1, 3)
     cells = region_cells(labels, n)
-    cell = math.pi / h
     for i, f in enumerate(rows):
         c = centre[i]
         cos_in = flat_dirs[cells[i]] @ c
@@ -129,11 +141,7 @@ def region_features(rad: np.ndarray, frac_any: np.ndarray, frac_all: np.ndarray,
         # looked at, their cells in the map's order (the same sums as over the whole map)
         reach = min(max(extent + math.radians(RING_EDGES_DEG[-1] + cell_deg), 3.0 * extent,
                         extent + math.radians(3 * cell_deg)), math.pi)
-        polar = math.acos(float(np.clip(c[2], -1.0, 1.0)))
-        r0, r1 = max(0, int((polar - reach) / cell) - 1), min(h, int((polar + reach) / cell) + 2)
-        cos_c = dirs[r0:r1] @ c
-        near = cos_c >= math.cos(reach)
-        ang = np.arccos(np.clip(cos_c[near], -1.0, 1.0))
+        r0, r1, near, ang = cap_cells(dirs, c, reach)
         rings, ring_color, p = _glare(ang, lum[r0:r1][near], rad[r0:r1][near], omega[r0:r1][near],
                                       clear[r0:r1][near], extent, cell_deg)
         exponent[i] = p
