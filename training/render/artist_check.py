@@ -9,7 +9,9 @@ For each photo (default: every JPEG in ../shared/data/ldr; never trained or tune
 - the lit/shadow ratio a white plane gets: the model's irradiance on an upward plane over the same with
   its explicit lights blocked (the sphere's umbra), and the same ratio read off the render (the darkest
   1 % of the ground's A/B ratio), against the photo's own sunlit/shadowed ground where it shows one
-  (``PHOTO_GROUND``: two patches picked by eye, one sunlit and one in shadow, on the same material);
+  (``PHOTO_GROUND``: two patches picked by eye, one sunlit and one in a cast shadow, on the same material,
+  linearised at full resolution through sRGB as the estimate linearises the photo; only building.jpg shows a
+  clean one: its sidewalk in the sun and in a pole's shadow);
 - the key light's direction against the visible sun (``SUNS``, ../shared/data/ldr/README.md), and its
   colour (the tunnel's sodium lamps must come out orange);
 - what the product tells the artist of the key light (``lighting.lights.key_light_note``) and, for a key light
@@ -35,8 +37,13 @@ from panolight_core.lighting.lights import KEPT_BELOW, key_light_note, key_light
 ROOT = Path(__file__).resolve().parents[2]
 LDR = ROOT.parent / "shared" / "data" / "ldr"
 SUNS = {"field_lowsun.jpg": (0.732, 0.678, 0.072)}  # the README's visible (veiled) sun, CONVENTIONS.md frame
-# (row0, row1, col0, col1) as fractions of the photo: a sunlit and a shadowed patch of one ground material
-PHOTO_GROUND: dict[str, tuple[tuple[float, float, float, float], tuple[float, float, float, float]]] = {}
+# (row0, row1, col0, col1) as fractions of the photo: a sunlit and a shadowed patch of one ground material.
+# building.jpg: the far sidewalk (paving) in the sun and in the wide shadow band beside it (each patch's luminance
+# varies 4-11 % about its mean). The other photos show no cast shadow on one flat material: grass and rock facing
+# every way, leaves against a sandy path, water.
+PHOTO_GROUND: dict[str, tuple[tuple[float, float, float, float], tuple[float, float, float, float]]] = {
+    "building.jpg": ((0.628, 0.636, 0.338, 0.348), (0.641, 0.652, 0.321, 0.329)),
+}
 SPHERE_RADIUS = 0.45
 SPHERE_ALBEDO = 0.8
 
@@ -64,16 +71,21 @@ def plane_ratio(model) -> tuple[float, float, float]:
     return lit, shadow, lit / shadow
 
 
-def photo_ratio(name: str, linear: np.ndarray) -> float | None:
+def photo_ratio(name: str, px: np.ndarray) -> float | None:
+    """The photo's own lit/shadow ratio: mean linear luminance of its sunlit ground patch over its shadowed one
+    (``PHOTO_GROUND[name]``), read from the full-resolution 8-bit photo ``px`` (H, W, 3) through
+    ``camera.ldr_to_linear``; None for a photo without picked patches."""
+    from panolight_core.camera import ldr_to_linear
+
     boxes = PHOTO_GROUND.get(name)
     if boxes is None:
         return None
-    h, w = linear.shape[:2]
+    h, w = px.shape[:2]
 
     def mean(box):
         r0, r1, c0, c1 = box
-        patch = linear[int(r0 * h):int(r1 * h), int(c0 * w):int(c1 * w)]
-        return float(np.mean(patch @ LUMINANCE_WEIGHTS))
+        patch = px[int(r0 * h):max(int(r1 * h), int(r0 * h) + 1), int(c0 * w):max(int(c1 * w), int(c0 * w) + 1)]
+        return float(np.mean(ldr_to_linear(patch) @ LUMINANCE_WEIGHTS))
 
     return mean(boxes[0]) / max(mean(boxes[1]), 1e-12)
 
@@ -99,7 +111,7 @@ def check(photo: Path, estimators, spp: int, size=(320, 240), fov: float = 70.0,
 
     px = read_image(photo, ldr_as_uint8=True)
     linear = ldr_to_linear(area_downsample(px, min(512, px.shape[0])).round().astype(np.uint8))
-    rows = {"photo": photo.name, "photo_ratio": photo_ratio(photo.name, linear), "estimates": []}
+    rows = {"photo": photo.name, "photo_ratio": photo_ratio(photo.name, px), "estimates": []}
     runs = []
     for name in estimators:
         res = estimate_lighting(px, Settings(estimator=name))
@@ -152,7 +164,9 @@ def write(results, out: Path) -> Path:
              "sphere (albedo 0.8) rendered by Mitsuba under the estimate and composited into the photo's ground "
              "(differential rendering), the key light to the right. *lit/shadow*: an upward white plane's "
              "irradiance over the same in the sphere's umbra, from the model (and read off the render); an object "
-             "casts a visible shadow when it is well above 1.", "",
+             "casts a visible shadow when it is well above 1. *the photo's own ground*: the same ratio read off the photo, "
+             "a sunlit patch of its ground over a patch of the same material in a cast shadow (through sRGB), where "
+             "the photo shows one.", "",
              "| photo | estimator | key light | lights | colour of the key | lit/shadow (model) | lit/shadow (render) "
              "| sun error |", "|---|---|---|---|---|---|---|---|"]
     pictures = []

@@ -63,3 +63,19 @@ def test_a_key_light_kept_below_its_evidence_is_also_shown_raised(tmp_path, monk
     assert raised["plane_ratio"] > plain["plane_ratio"] > 1.0
     report = A.write([result], tmp_path / "out").read_text()
     assert "`auto`: kept below its evidence" in report and "auto, --sun-strength 3" in report
+
+
+def test_the_photos_own_ground_ratio_is_read_through_the_cameras_curve(monkeypatch):
+    """Two flat patches of known 8-bit values: the ratio is their sRGB-linear luminances' ratio, whatever the
+    photo's size, and a photo without picked patches has none."""
+    from panolight_core.camera import ldr_to_linear
+
+    px = np.full((400, 800, 3), 60, np.uint8)
+    px[100:200, 100:300] = 220  # sunlit
+    px[250:350, 400:600] = 120  # shadowed
+    monkeypatch.setitem(A.PHOTO_GROUND, "p.jpg", ((0.3, 0.45, 0.15, 0.35), (0.65, 0.85, 0.52, 0.73)))
+    want = float(ldr_to_linear(np.uint8([[[220, 220, 220]]])).mean() / ldr_to_linear(np.uint8([[[120, 120, 120]]])).mean())
+    assert 3.0 < want < 4.0
+    np.testing.assert_allclose(A.photo_ratio("p.jpg", px), want, rtol=1e-6)  # float32 linear values
+    assert A.photo_ratio("other.jpg", px) is None
+    assert abs(A.photo_ratio("building.jpg", np.full((64, 128, 3), 99, np.uint8)) - 1.0) < 1e-9  # the shipped boxes
