@@ -39,7 +39,8 @@ LDR = ROOT.parent / "shared" / "data" / "ldr"
 SUNS = {"field_lowsun.jpg": (0.732, 0.678, 0.072)}  # the README's visible (veiled) sun, CONVENTIONS.md frame
 # (row0, row1, col0, col1) as fractions of the photo: a sunlit and a shadowed patch of one ground material.
 # building.jpg: the far sidewalk (paving) in the sun and in the wide shadow band beside it (each patch's luminance
-# varies 4-11 % about its mean). The other photos show no cast shadow on one flat material: grass and rock facing
+# varies 4-11 % about its mean); the camera itself stands in the shade, so this is the sun where it reaches, not
+# what an object at the camera gets. The other photos show no cast shadow on one flat material: grass and rock facing
 # every way, leaves against a sandy path, water.
 PHOTO_GROUND: dict[str, tuple[tuple[float, float, float, float], tuple[float, float, float, float]]] = {
     "building.jpg": ((0.628, 0.636, 0.338, 0.348), (0.641, 0.652, 0.321, 0.329)),
@@ -166,7 +167,8 @@ def write(results, out: Path) -> Path:
              "irradiance over the same in the sphere's umbra, from the model (and read off the render); an object "
              "casts a visible shadow when it is well above 1. *the photo's own ground*: the same ratio read off the photo, "
              "a sunlit patch of its ground over a patch of the same material in a cast shadow (through sRGB), where "
-             "the photo shows one.", "",
+             "the photo shows one: what the sun gives where it reaches, which an object at the camera matches only "
+             "when the camera stands in the sun.", "",
              "| photo | estimator | key light | lights | colour of the key | lit/shadow (model) | lit/shadow (render) "
              "| sun error |", "|---|---|---|---|---|---|---|---|"]
     pictures = []
