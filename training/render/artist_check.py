@@ -11,7 +11,7 @@ For each photo (default: every JPEG in ../shared/data/ldr; never trained or tune
   1 % of the ground's A/B ratio), against the photo's own sunlit/shadowed ground where it shows one
   (``PHOTO_GROUND``: two patches picked by eye, one sunlit and one in a cast shadow, on the same material,
   linearised at full resolution through sRGB as the estimate linearises the photo; only building.jpg shows a
-  clean one: its sidewalk in the sun and in a pole's shadow);
+  clean one: its far sidewalk in the sun and in the wide shadow band beside it);
 - the key light's direction against the visible sun (``SUNS``, ../shared/data/ldr/README.md), and its
   colour (the tunnel's sodium lamps must come out orange);
 - what the product tells the artist of the key light (``lighting.lights.key_light_note``) and, for a key light
