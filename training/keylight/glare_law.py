@@ -23,7 +23,6 @@ About a minute here.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
@@ -38,9 +37,9 @@ from panolight_core.estimators.highlights import work_maps
 from panolight_core.estimators.sources.features import cap_cells
 from panolight_core.estimators.sources.recovery import recover
 from panolight_core.estimators.sources.trees import load_source_model
-from training.keylight.cv import fold_model_paths, fold_models_option
+from training.keylight.cv import fold_model_paths, fold_models_option, real_hdri_parser
 from training.source_energy.cv import fold_of
-from training.source_energy.fit import DEFAULT_HDRI, load_hdr, region_targets, scene_files
+from training.source_energy.fit import load_hdr, region_targets, scene_files
 
 HEIGHT = 512  # the ring is read at the training panoramas' resolution
 COMPACT_DEG = 12.0
@@ -186,9 +185,7 @@ def _finite(row: dict) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--hdri", default=str(DEFAULT_HDRI), help="folder of real HDR panoramas (default: %(default)s)")
-    ap.add_argument("--evs", type=float, nargs="+", default=[-2.0, 0.0, 2.0], help="exposures (default -2 0 2)")
+    ap = real_hdri_parser("python -m training.keylight.glare_law", __doc__)
     fold_models_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="also write the summary and every region's row as JSON")
     args = ap.parse_args(argv)
@@ -210,7 +207,7 @@ def main(argv=None) -> int:
             print(f"  {n}/{len(files)} scenes, {len(rows)} compact regions with a ring")
     summary = summarise(rows)
     if not summary["sources"]:
-        print("glare-law: no region holds more than a tenth of its scene: nothing to fit")
+        print(f"glare-law: no compact region with a ring holds more than {DOMINANT_SHARE:g} of its scene: nothing to fit")
         return 1
     print(f"the law c E theta^-2 over {summary['sources']} sources (over {DOMINANT_SHARE:g} of their scene): "
           f"log c = {summary['log_c']:.2f}; median |log error| {summary['glare_median_abs_error']:.2f} "
