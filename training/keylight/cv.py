@@ -187,6 +187,17 @@ def fold_estimators(pattern: str, files, estimator: str = "keylight") -> dict:
     return {p: label[k] for p, k in fold_of(files).items()}
 
 
+def scene_models(pattern: str | None, files) -> dict:
+    """{scene file: the per-source model to score it by}: the model of its fold (``fold_model_paths``), which never
+    saw it, or the shipped model for every scene when ``pattern`` is None."""
+    from panolight_core.estimators.sources import load_source_model
+
+    if not pattern:
+        return dict.fromkeys(files, load_source_model())
+    models = {k: load_source_model(path) for k, path in fold_model_paths(pattern).items()}
+    return {p: models[k] for p, k in fold_of(files).items()}
+
+
 def fold_model_paths(pattern: str, folds: int = 5) -> dict:
     """{K: path} of the fold models ``pattern`` names ({k} = 1..folds); SystemExit naming a missing one."""
     if "{k}" not in pattern:

@@ -36,9 +36,7 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators.highlights import work_maps
 from panolight_core.estimators.sources.features import cap_cells
 from panolight_core.estimators.sources.recovery import recover
-from panolight_core.estimators.sources.trees import load_source_model
-from training.keylight.cv import fold_model_paths, fold_models_option, real_hdri_parser
-from training.source_energy.cv import fold_of
+from training.keylight.cv import fold_models_option, real_hdri_parser, scene_models
 from training.source_energy.fit import load_hdr, region_targets, scene_files
 
 HEIGHT = 512  # the ring is read at the training panoramas' resolution
@@ -190,13 +188,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=None, help="also write the summary and every region's row as JSON")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
-    if args.fold_models:
-        models = {k: load_source_model(p) for k, p in fold_model_paths(args.fold_models).items()}
-        model_of = {p: models[k] for p, k in fold_of(files).items()}
-    else:
+    if not args.fold_models:
         print("glare-law: the shipped trees saw every scene: their error here is in sample (use --fold-models)")
-        shipped = load_source_model()
-        model_of = {p: shipped for p in files}
+    model_of = scene_models(args.fold_models, files)
     rows = []
     for n, path in enumerate(files, 1):
         hdr = load_hdr(path)

@@ -44,10 +44,10 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators.sources.fill import fill_with_keys
 from panolight_core.pipeline import fit_radiance
-from training.keylight.cv import (SRGB, clipped_truth, curve_option, fold_model_paths, fold_models_option,
-                                  nested_table, real_hdri_parser, save_study)
+from training.keylight.cv import (SRGB, clipped_truth, curve_option, fold_models_option, nested_table,
+                                  real_hdri_parser, save_study, scene_models)
 from training.source_energy.fit import load_hdr, scene_files
-from training.source_energy.cv import fold_of, scene_folds
+from training.source_energy.cv import scene_folds
 
 RULES = ("sources",) + keylight.ENERGY_RULES
 CONE_DEG = metrics.SOURCE_CONE_DEG
@@ -235,10 +235,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
     clipped = clipped_truth(args.hdri)
-    model_of = dict.fromkeys(files, sources.load_source_model())  # the shipped model for every scene ...
-    if args.fold_models:
-        models = {k: sources.load_source_model(path) for k, path in fold_model_paths(args.fold_models).items()}
-        model_of = {p: models[k] for p, k in fold_of(files).items()}  # ... or the one that never saw it
+    model_of = scene_models(args.fold_models, files)  # the shipped model for every scene, or the one that never saw it
     rows = []
     for i, p in enumerate(files, 1):
         if p.name in clipped:
