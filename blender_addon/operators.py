@@ -55,6 +55,22 @@ def _settings(context):
     return context.scene.panolight
 
 
+FINITE_SETTINGS = ("background_strength", "lighting_strength", "sun_strength", "background_rotation",
+                   "lighting_rotation")  # panel properties a script or a typed expression can set to NaN / inf
+
+
+def _checked(context):
+    """The panel's settings, refused (naming the setting) when one that scales or turns light is NaN or
+    infinite: Blender's min/max do not stop those, and they would make NaN lamps and backgrounds."""
+    s = _settings(context)
+    for name in FINITE_SETTINGS:
+        value = float(getattr(s, name))
+        if not np.isfinite(value):
+            label = type(s).bl_rna.properties[name].name
+            raise Error(f"{label} is {value}: it must be a finite number; set it again in the PanoLight panel")
+    return s
+
+
 def _fit(pixels, settings):
     """Runs in a worker thread: numpy only, never bpy. Returns the core's pipeline.Result."""
     return core.pipeline.estimate_lighting(pixels, settings)
@@ -142,7 +158,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
 
     def _inputs(self, context):
         world = context.scene.world
-        settings = _settings(context).estimate_settings()  # invalid settings fail before any pixel is read
+        settings = _checked(context).estimate_settings()  # invalid settings fail before any pixel is read
         self._pixels = _read_panorama(store.stored_panorama(world))
         return world, self._pixels, settings
 
@@ -226,7 +242,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
 
 
 def _world_kwargs(context):
-    s = _settings(context)
+    s = _checked(context)
     return {"background_strength": s.background_strength, "lighting_strength": s.lighting_strength,
             "background_rotation": s.background_rotation, "lighting_rotation": s.lighting_rotation,
             "glossy_panorama": s.glossy_panorama}
@@ -244,7 +260,7 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         world = context.scene.world
         doc = store.stored_lighting(world)
         panorama = store.stored_panorama(world)
-        s = _settings(context)
+        s = _checked(context)
         if s.lighting_source == "HDRI":
             image = images.own_image(images.HDRI_IMAGE_NAME)
             if image is None or image.get(store.ESTIMATE_KEY) != world.get(store.ESTIMATE_KEY) or \
@@ -272,7 +288,7 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         Estimate lighting, that would be another estimate: refused, so the stored lighting is never
         replaced behind the user's back."""
         pixels = _read_panorama(panorama)
-        result = _fit(pixels, _settings(context).estimate_settings())
+        result = _fit(pixels, _checked(context).estimate_settings())
         if not same_lighting(result.document, doc):
             raise Error("the panel's settings changed since Estimate lighting, so the HDRI would belong to "
                         "another estimate: run Estimate lighting again (or restore the settings)")

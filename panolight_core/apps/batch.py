@@ -10,8 +10,9 @@ import warnings
 from pathlib import Path
 
 from ..errors import PanoLightError, PanoLightWarning, printable
-from ..io.atomic import atomic_path, folder_lock, pid_alive
-from ..io.ownership import digest
+from ..io.atomic import atomic_path, folder_lock, pid_alive, read_small_file
+from ..io.ownership import MANIFEST, digest
+from ..io.staging import clean_stale
 from ..lighting.lights import key_light_note
 
 EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
@@ -176,25 +177,18 @@ def _up_to_date(digest: str | None, dst: Path, settings) -> bool:
     if digest is None:
         return False
     try:
-        side = json.loads((dst / SIDECAR).read_text(encoding="utf-8"))
+        side = json.loads(read_small_file(dst / SIDECAR, 1 << 20) or "null")
         return (dst / "lighting.json").is_file() and side.get("settings") == settings and \
             side.get("sha256") == digest
-    except (OSError, ValueError, AttributeError):
+    except (OSError, ValueError, AttributeError, RecursionError, PanoLightError):
         return False
 
 
 def _clean_stale(dst: Path) -> None:
-    """Remove what an interrupted earlier run left in dst: private staging folders and temporary files
-    of processes that no longer run."""
-    import shutil
-
-    if not dst.is_dir():
-        return
-    for p in dst.iterdir():
-        m = re.match(r"^\.(?:panolight-(\d+)$|.*\.tmp(\d+))", p.name)
-        pid = int(m.group(1) or m.group(2)) if m else 0
-        if pid and not pid_alive(pid):
-            shutil.rmtree(p, ignore_errors=True) if p.is_dir() else p.unlink(missing_ok=True)
+    """Remove what a killed earlier run left in dst, and only what PanoLight can prove it made there
+    (io.staging: marked staging folders, temporaries of its own records)."""
+    if dst.is_dir():
+        clean_stale(dst, {MANIFEST: "files", SIDECAR: "settings"})
 
 
 def _write_json(path: Path, doc) -> None:
@@ -246,9 +240,50 @@ def _worker_init(parent: int):
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
+    sys.stderr = _QuietOrphan(sys.stderr, parent)
     _die_with_parent(parent)
     threads.set_count(1)
     _keep_freed_memory()
+
+
+class _QuietOrphan:
+    """A worker's stderr that falls silent once the batch process is gone (killed with SIGKILL): the
+    worker's last result then meets a broken pipe, and multiprocessing would print that traceback on
+    the user's terminal. While the batch runs, every line passes through."""
+
+    def __init__(self, stream, parent: int):
+        self.stream, self.parent = stream, parent
+
+    def write(self, text):
+        return self.stream.write(text) if pid_alive(self.parent) else len(text)
+
+    def flush(self):
+        if pid_alive(self.parent):
+            self.stream.flush()
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
+def _quiet_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker with its stderr on the null device. It outlives a batch
+    killed with SIGKILL and then warns, on the user's terminal, of the pool's 'leaked semaphore objects',
+    which it cleans up itself (nothing is lost; the message is noise). No-op where it already runs."""
+    import os
+
+    try:
+        from multiprocessing import resource_tracker
+    except ImportError:  # no tracker on this platform
+        return
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+            resource_tracker.ensure_running()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def _exit_on_sigterm(signum, frame):
@@ -357,6 +392,7 @@ def _run_locked(inputs, names, mine, out_dir, job, shard_spec, quiet, settings, 
             from .. import threads
 
             ctx = threads.process_context()  # never a fork: library thread pools would hang in the child
+            _quiet_resource_tracker()
             pool = ctx.Pool(min(jobs, len(tasks)), initializer=_worker_init, initargs=(os.getpid(),))
             for k, result in pool.imap_unordered(_process_task, tasks):
                 record(k, result)

@@ -6,7 +6,8 @@ import hashlib
 import json
 from pathlib import Path
 
-from .atomic import atomic_path
+from ..errors import PanoLightError
+from .atomic import atomic_path, read_small_file
 
 MANIFEST = ".panolight-files.json"  # {"files": {name: [{"size": bytes, "sha256": hex}, ...]}}
 
@@ -25,13 +26,27 @@ def digest(path) -> dict | None:
     return {"size": size, "sha256": h.hexdigest()}
 
 
+MANIFEST_MAX_BYTES = 1 << 20  # a manifest lists a few files: ~1 KB; anything this large is not ours
+
+
 def _entries(folder: Path) -> dict[str, list[dict]]:
+    """The manifest's entries; {} when there is none or it is not a manifest (nothing is owned then).
+    PanoLightError naming it when it is not a regular file, over MANIFEST_MAX_BYTES, or nested too deep
+    to parse: a hostile manifest is refused, never parsed at any cost."""
+    path = Path(folder) / MANIFEST
+    text = read_small_file(path, MANIFEST_MAX_BYTES)
+    if text is None:
+        return {}
     try:
-        doc = json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
-        files = doc["files"]
-        return {str(k): [e for e in v if isinstance(e, dict)] for k, v in files.items() if isinstance(v, list)}
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return {}  # no manifest, or not ours to trust: nothing is owned
+        doc = json.loads(text)
+    except RecursionError:
+        raise PanoLightError(f"{path}: nested too deeply to be PanoLight's manifest; remove it") from None
+    except ValueError:
+        return {}  # not ours to trust: nothing is owned
+    files = doc.get("files") if isinstance(doc, dict) else None
+    if not isinstance(files, dict):
+        return {}
+    return {str(k): [e for e in v if isinstance(e, dict)] for k, v in files.items() if isinstance(v, list)}
 
 
 def owned(folder, name: str, entries: dict | None = None) -> bool:

@@ -9,7 +9,9 @@ scanline EXR, Radiance .hdr). Quirks handled by the book:
 - orientation (EXIF 1-8 of JPEG/PNG, a Radiance ``+Y`` resolution line): applied, the size is the upright one;
 - integer EXR channels (UINT): their values, not OpenImageIO's normalisation to [0, 1];
 - 16-bit PNG: display-referred LDR (as 8 bits for the estimators, or sRGB-decoded to linear);
-- grey (Y) and grey + alpha images: the grey channel three times;
+- grey (Y) and grey + alpha images: the grey channel three times; two channels that are not grey + alpha
+  (an R, G EXR) are refused;
+- alpha: ignored, said once (a PNG's colours are read unassociated, never multiplied by alpha);
 - Radiance RGBE: the half-step offset of Radiance's own decoder ((mantissa + 0.5) 2^(e - 136));
 - any decoder complaint (a JPEG padded with grey past its data, a short file): refused, not kept.
 """
@@ -40,13 +42,16 @@ class Opened:
         import OpenImageIO as oiio
 
         self.path, self.fmt = path, fmt
-        self.inp = oiio.ImageInput.open(str(path))
+        config = oiio.ImageSpec()
+        config.attribute("oiio:UnassociatedAlpha", 1)  # a PNG's colours as stored, never multiplied by alpha
+        self.inp = oiio.ImageInput.open(str(path), config)
         if self.inp is None:
             raise ImageError(path, f"cannot read {fmt.upper()} header (corrupt or truncated file): "
                                    f"{_clean(oiio.geterror())}")
         try:
             self.subimage, self.spec = self._choose_subimage()
             self.channels = _colour_channels(path, self.spec)
+            self.alpha = _has_alpha(self.spec)
             self.luminance_chroma = bool(self.spec.get_int_attribute("openexr:luminancechroma", 0))
             self.orientation = int(self.spec.get_int_attribute("Orientation", 1))
             if self.orientation not in range(1, 9):
@@ -134,6 +139,9 @@ class Opened:
         if self.inp.has_error:  # a warning the last block raised (libjpeg's "premature end", ...)
             raise ImageError(self.path, f"cannot decode {self.fmt.upper()} pixels (corrupt or truncated file): "
                                         f"{_clean(self.inp.geterror())}")
+        if self.alpha:
+            warnings.warn(PanoLightWarning(f"{self.path}: its alpha channel was ignored: a panorama's alpha is not "
+                                           f"a lighting weight, so its colours are used as they are"))
         if integer_ldr and out.dtype == np.uint8 and not as_uint8:
             out = SRGB8_TO_LINEAR[out]  # the table gather makes only its output
         return upright(out, self.orientation)
@@ -178,7 +186,7 @@ def _colour_layout(names) -> str | None:
         return "RGB"
     if {"Y", "RY", "BY"} <= names:
         return "YC"
-    return "Y" if "Y" in names or len(names) in (1, 2) else None
+    return "Y" if "Y" in names or len(names) == 1 or (len(names) == 2 and "A" in names) else None
 
 
 def _colour_channels(path, spec) -> list[int]:
@@ -188,9 +196,15 @@ def _colour_channels(path, spec) -> list[int]:
         return [names.index(c) for c in "RGB"]
     if "Y" in names and not {"RY", "BY"} & set(names):
         return [names.index("Y")] * 3
-    if len(names) in (1, 2):  # grey, grey + alpha (PNG)
+    if len(names) == 1 or (len(names) == 2 and _has_alpha(spec)):  # grey, grey + alpha (PNG)
         return [0, 0, 0]
-    raise ImageError(path, f"no R, G, B (or Y) channels; channels are {names}")
+    raise ImageError(path, f"has channels {names}: not grey, grey + alpha or RGB, so its colours are unknown "
+                           f"(PanoLight reads Y, Y + A, R G B or R G B A)")
+
+
+def _has_alpha(spec) -> bool:
+    """Whether the image has an alpha channel (an 'A' channel, or one the format marks as alpha)."""
+    return spec.alpha_channel >= 0 or "A" in list(spec.channelnames)
 
 
 def _clean(message: str) -> str:

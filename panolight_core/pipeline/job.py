@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import time
 import warnings
 from pathlib import Path
@@ -15,6 +16,7 @@ from ..errors import PanoLightError, PanoLightWarning
 from ..io import read_image, write_image, write_srgb8
 from ..io import ownership
 from ..io.atomic import folder_lock
+from ..io.staging import clean_stale, make_stage
 from ..io.images import write_exr_rows
 from ..io.lighting import write_lighting
 from ..lighting.lights import key_light_note
@@ -68,7 +70,9 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
         raise PanoLightError(f"{out_dir}: cannot create the output folder ({exc.strerror or exc})") from None
     try:
         with folder_lock(out_dir):  # the whole run: a second writer is refused before it reads anything
+            clean_stale(out_dir, {ownership.MANIFEST: "files"})  # what a killed run left, proven its own
             writes = _planned_files(outputs)
+            _check_destinations(out_dir, writes)
             if not overwrite:
                 _check_foreign_outputs(out_dir, writes)
             return _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_megapixels, outputs)
@@ -137,15 +141,13 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
 
 def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev) -> dict:
     t2 = time.perf_counter()
-    import os
     import shutil
 
     from ..io.usd import usd_available, write_usd
 
     # the whole set is written into a private folder and renamed into place, lighting.json last: an
     # interrupted run leaves nothing half-done, and readers never see a mix of two runs
-    stage = out_dir / f".panolight-{os.getpid()}"
-    stage.mkdir(exist_ok=True)
+    stage = make_stage(out_dir)
     written = []
     try:
         fitted = result.model
@@ -180,19 +182,38 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
         # replaced files too, so an interruption between two renames never makes our own files foreign
         digests = {name: ownership.digest(stage / name) for name in written}
         earlier = ownership.current(out_dir, OUTPUT_FILES)  # again, under the lock: the run may be long
+        _check_destinations(out_dir, written)  # every rename can succeed before the first is made
         ownership.record(out_dir, digests, keep=earlier)
         for name in written[:-1]:
-            os.replace(stage / name, out_dir / name)
+            _move(stage / name, out_dir / name)
         for name in OUTPUT_FILES:  # an earlier run's outputs this run did not write: never a mix of runs
             if name not in written and name in earlier:  # only ours: a user's file of that name is kept
                 (out_dir / name).unlink(missing_ok=True)
-        os.replace(stage / "lighting.json", out_dir / "lighting.json")  # last: it marks the set complete
+        _move(stage / "lighting.json", out_dir / "lighting.json")  # last: it marks the set complete
         ownership.record(out_dir, digests)
     except PanoLightError as exc:  # a full disk, a size limit: named as the output, not the staging copy
         raise PanoLightError(str(exc).replace(str(stage), str(out_dir))) from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     return doc
+
+
+def _move(src: Path, dest: Path) -> None:
+    """Rename a staged file into place; a failure names the user's path, not the staging copy."""
+    try:
+        os.replace(src, dest)
+    except OSError as exc:
+        raise PanoLightError(f"{dest}: cannot replace it ({exc.strerror or exc})") from None
+
+
+def _check_destinations(out_dir: Path, names) -> None:
+    """Refuse, before anything is renamed into place, a destination that a file cannot replace (a folder
+    of the user's named like an output): the run then leaves the folder as it was, never half of two runs."""
+    for name in names:
+        dest = out_dir / name
+        if dest.is_dir() and not dest.is_symlink():
+            raise PanoLightError(f"{dest}: is a folder, and PanoLight writes a file of that name; move it or choose "
+                                 f"another output folder (-o)")
 
 
 def _check_foreign_outputs(out_dir: Path, writes) -> None:

@@ -101,6 +101,38 @@ def test_missing_file_and_missing_estimate_are_reported_not_raised(tmp_path):
         bpy.ops.panolight.build_environment()
 
 
+@pytest.mark.parametrize("name", ["sun_strength", "lighting_strength", "background_strength"])
+@pytest.mark.parametrize("value", [float("nan"), float("inf")])
+def test_a_non_finite_strength_is_refused_not_built(tmp_path, name, value):
+    """A NaN or inf strength (set by script, or typed as an expression) passes Blender's min/max: Build made
+    NaN lamps and backgrounds and reported FINISHED."""
+    _estimate_and_build(_small_city(tmp_path, 16))
+    s = bpy.context.scene.panolight
+    world = bpy.context.scene.world
+    before = [float(n.inputs["Strength"].default_value) for n in world.node_tree.nodes
+              if n.bl_idname == "ShaderNodeBackground"]
+    setattr(s, name, value)
+    if np.isfinite(getattr(s, name)):  # Blender clamps inf to a property's max (or float's) itself
+        assert value == float("inf")
+        setattr(s, name, 1.0)
+        return
+    try:
+        with pytest.raises(RuntimeError, match="must be a finite number"):
+            bpy.ops.panolight.build_environment()
+        if name == "sun_strength":
+            s.lighting_source = "HDRI"
+            with pytest.raises(RuntimeError, match="Sun lamp strength is .*must be a finite number"):
+                bpy.ops.panolight.estimate_lighting()
+    finally:
+        setattr(s, name, 1.0)
+        s.lighting_source = "SH"
+    after = [float(n.inputs["Strength"].default_value) for n in world.node_tree.nodes
+             if n.bl_idname == "ShaderNodeBackground"]
+    assert after == before and all(np.isfinite(after))
+    lamps = [o.data.energy for o in bpy.data.collections["PanoLight Lights"].objects]
+    assert all(np.isfinite(lamps))
+
+
 def _render_equirect(tmp_path, w, h, samples=1, name="bg"):
     scene = bpy.context.scene
     for obj in scene.objects:

@@ -118,12 +118,22 @@ def test_batch_resumes_skips_what_is_done_and_cleans_what_interrupted_runs_left(
     assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "2"]) == 0
     report = json.loads((out / "batch_report.json").read_text())
     assert [r["status"] for r in report["results"]] == ["ok", "ok"] and report["settings"]["lmax"] == "2"
-    (out / "a" / ".panolight-999999999").mkdir()  # left by a run that died
-    (out / "a" / ".hdr.exr.tmp999999999.exr").write_bytes(b"x")
+    stage = out / "a" / ".panolight-999999999-x"  # left by a run that died (io.staging's marked folder)
+    stage.mkdir()
+    (stage / ".panolight-staging").write_text('{"tool": "panolight", "pid": 999999999}')
+    (stage / ".hdr.exr.tmp999999999.exr").write_bytes(b"x")
+    (out / "a" / "..panolight-batch.json.tmp999999999").write_text('{"sha256": "x", "settings": {}}')
+    user = {".draft.tmp4000000": "a draft", ".thesis.tmp4000001.docx": "a thesis"}  # a user's, never ours
+    for name, text in user.items():
+        (out / "a" / name).write_text(text)
+    (out / "a" / ".panolight-4000002").mkdir()
+    (out / "a" / ".panolight-4000002" / "notes.txt").write_text("mine")
     assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "2"]) == 0
     report = json.loads((out / "batch_report.json").read_text())
     assert [r["status"] for r in report["results"]] == ["skipped", "skipped"]
     assert not [p for p in (out / "a").iterdir() if "999999999" in p.name]
+    assert all((out / "a" / name).read_text() == text for name, text in user.items())
+    assert (out / "a" / ".panolight-4000002" / "notes.txt").read_text() == "mine"
     write_image(src / "b.exr", np.full((16, 32, 3), 0.9, np.float32))  # the input changed
     assert main(["batch", str(src), "-o", str(out), "-q", "--lmax", "2"]) == 0
     assert [r["status"] for r in json.loads((out / "batch_report.json").read_text())["results"]] == ["skipped", "ok"]
@@ -295,3 +305,36 @@ def test_the_report_names_the_plates_whose_key_light_needs_a_look(tmp_path):
     assert results["retouched.png"]["key_light"].startswith("the photo shows no sun, so one was placed")
     assert results["grey.png"]["key_light"].startswith("no sun or lamp was weighed as a key light")
     assert "key_light" not in results["lamp.png"]
+
+
+def test_a_killed_batch_leaves_a_clean_terminal(tmp_path):
+    """SIGKILL of a batch whose workers were returning results: they printed BrokenPipeError tracebacks, and
+    the resource tracker a 'leaked semaphore' warning, on the user's terminal."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "quickjob.py").write_text(
+        "import time\n"
+        "def job(src, dst):\n"
+        "    dst.mkdir(parents=True, exist_ok=True)\n"
+        "    (dst / 'done').write_text('x')\n"
+        "    time.sleep(0.02)\n"
+        "    return {}\n")
+    for i in range(400):
+        (tmp_path / f"p{i:03d}.png").write_bytes(b"x")
+    script = ("import sys; from pathlib import Path; import quickjob\n"
+              "from panolight_core.apps.batch import run_batch\n"
+              f"run_batch(sorted(Path({str(tmp_path)!r}).glob('p*.png')), Path({str(tmp_path / 'out')!r}), "
+              "quickjob.job, quiet=True, jobs=3)\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(Path(__file__).parents[3])])}
+    proc = subprocess.Popen([sys.executable, "-c", script], env=env, stderr=subprocess.PIPE)
+    deadline = time.time() + 60
+    while len(list((tmp_path / "out").glob("*/done"))) < 30 and time.time() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    _, err = proc.communicate(timeout=60)  # every process that shared stderr (workers, tracker) has gone
+    assert len(list((tmp_path / "out").glob("*/done"))) < 400  # killed mid-run
+    assert b"Traceback" not in err and b"leaked" not in err, err.decode()[-3000:]

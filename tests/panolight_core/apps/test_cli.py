@@ -527,3 +527,77 @@ def test_sun_strength_raises_the_key_light_in_every_output(tmp_path, capsys):
     # hdr.exr gains the second half of the light (its colour's RGB), nothing else
     np.testing.assert_allclose(e2 - e1, key1[0]["intensity"] * np.asarray(key1[0]["color"]), rtol=2e-3)
     np.testing.assert_allclose(c2, c1, atol=1e-3 * np.abs(c1).max())
+
+
+@pytest.mark.parametrize("command", ["estimate", "batch"])
+def test_a_symlinked_lock_never_writes_outside_the_folder(tmp_path, capsys, command):
+    """`ln -s ../victim.txt o/.panolight.lock` made the lock write a pid into victim.txt, then remove the link."""
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / ".panolight.lock").symlink_to("../victim.txt")
+    assert main([command, str(src), "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert ".panolight.lock: is a symbolic link" in err and "Traceback" not in err and len(err.splitlines()) == 1
+    assert victim.read_text() == "precious" and (out / ".panolight.lock").is_symlink()
+    assert sorted(p.name for p in out.iterdir()) == [".panolight.lock"]
+
+
+def test_the_next_run_cleans_the_staging_folder_a_killed_estimate_left(tmp_path):
+    """A SIGKILLed estimate leaves OUT/.panolight-PID-X/ (MBs); the next run into OUT removes it, as its
+    marker proves it PanoLight's, and keeps a look-alike folder of the user's."""
+    import signal
+    import time
+
+    src = write_image(tmp_path / "in.exr", np.full((64, 128, 3), 0.5, np.float32))
+    out = tmp_path / "o"
+    code = ("import os, signal, sys\n"
+            "from panolight_core.pipeline import job\n"
+            "real = job.write_lighting\n"
+            "def die(*a, **k): real(*a, **k); os.kill(os.getpid(), signal.SIGKILL)\n"
+            "job.write_lighting = die\n"
+            f"job.run_estimate({str(src)!r}, {str(out)!r})\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == -signal.SIGKILL
+    left = [p for p in out.iterdir() if p.name.startswith(".panolight-") and p.is_dir()]
+    assert len(left) == 1 and (left[0] / "lighting.json").is_file()
+    user = out / ".panolight-4000002"
+    user.mkdir()
+    (user / "notes.txt").write_text("mine")
+    time.sleep(0.01)
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0
+    assert not left[0].exists() and (user / "notes.txt").read_text() == "mine"
+
+
+def test_a_hostile_manifest_is_one_line_naming_it(tmp_path, capsys):
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / ".panolight-files.json").write_text("[" * 100000)
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert ".panolight-files.json: nested too deeply" in err and "Traceback" not in err
+    (out / ".panolight-files.json").write_text(" " * (2 << 20))
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
+    assert ".panolight-files.json: is 2097152 bytes, more than PanoLight ever writes" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == [".panolight-files.json"]
+
+
+def test_a_failed_overwrite_leaves_the_folder_as_it_was_and_names_the_users_path(tmp_path, capsys):
+    """A folder of the user's named preview.png: the run renamed three files, then failed naming the staging
+    path, leaving hdr.exr of one photo beside lighting.json of another."""
+    first = write_image(tmp_path / "first.exr", np.full((16, 32, 3), 0.5, np.float32))
+    second = write_image(tmp_path / "second.exr", np.full((16, 32, 3), 0.9, np.float32))
+    out = tmp_path / "o"
+    assert main(["estimate", str(first), "-o", str(out), "-q"]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file() and p.name != "preview.png"}
+    (out / "preview.png").unlink()
+    (out / "preview.png").mkdir()
+    (out / "preview.png" / "mine.txt").write_text("mine")
+    assert main(["estimate", str(second), "-o", str(out), "-q", "--overwrite"]) == 1
+    err = capsys.readouterr().err
+    assert f"{out / 'preview.png'}: is a folder" in err and ".panolight-" not in err
+    after = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file() and p.name != "preview.png"}
+    assert after == before and (out / "preview.png" / "mine.txt").read_text() == "mine"

@@ -388,3 +388,45 @@ def test_a_luminance_chroma_exr_without_the_openexr_package_is_refused_not_misre
     for read in (images.preflight, read_image):
         with pytest.raises(ImageError, match="yc.exr: a luminance/chroma .* needs the OpenEXR package"):
             read(tmp_path / "yc.exr")
+
+
+def _write_oiio(path, pixels, names):
+    import OpenImageIO as oiio
+
+    h, w, c = pixels.shape
+    spec = oiio.ImageSpec(w, h, c, "float" if pixels.dtype == np.float32 else "uint8")
+    spec.channelnames = tuple(names)
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), spec) and out.write_image(pixels) and out.close()
+
+
+def test_a_two_channel_exr_that_is_not_grey_and_alpha_is_refused(tmp_path):
+    """An (R, G) EXR was read as grey from R alone, exit 0, no warning."""
+    rg = np.random.default_rng(0).random((16, 32, 2)).astype(np.float32)
+    _write_oiio(tmp_path / "rg.exr", rg, ("R", "G"))
+    with pytest.raises(ImageError, match=r"rg.exr: .*channels .*'G', 'R'"):
+        read_image(tmp_path / "rg.exr")
+    _write_oiio(tmp_path / "ya.exr", rg, ("Y", "A"))  # grey + alpha is grey
+    with pytest.warns(PanoLightWarning, match="alpha channel was ignored"):
+        img = read_image(tmp_path / "ya.exr")
+    np.testing.assert_array_equal(img, np.repeat(rg[..., :1], 3, axis=2))
+
+
+@pytest.mark.parametrize("alpha", ["zero", "ramp"])
+def test_png_alpha_is_not_a_lighting_weight(tmp_path, alpha):
+    """A PNG's pixels were multiplied by alpha: alpha 0 gave black lighting, a ramp a third of the light."""
+    from PIL import Image
+
+    rgba = np.zeros((16, 32, 4), np.uint8)
+    rgba[..., :3] = np.random.default_rng(1).integers(0, 256, (16, 32, 3))
+    rgba[..., 3] = 0 if alpha == "zero" else np.linspace(0, 255, 32).astype(np.uint8)[None, :]
+    Image.fromarray(rgba, "RGBA").save(tmp_path / "a.png")
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        img = read_image(tmp_path / "a.png", ldr_as_uint8=True)
+        lin = read_image(tmp_path / "a.png")
+    np.testing.assert_array_equal(img, rgba[..., :3])
+    np.testing.assert_allclose(lin, SRGB8_TO_LINEAR[rgba[..., :3]], rtol=1e-6)
+    msgs = [str(w.message) for w in said if issubclass(w.category, PanoLightWarning)]
+    assert msgs == [f"{tmp_path / 'a.png'}: its alpha channel was ignored: a panorama's alpha is not a lighting "
+                    f"weight, so its colours are used as they are"] * 2
