@@ -121,6 +121,7 @@ def run_batch(args) -> int:
 
     shard_spec = parse_shard(args.shard)
     settings = estimate_settings.from_args(args)
+    estimate_settings.check_map_cost(settings.order, args.resolution[1])  # refused before any input
     inputs = collect_inputs(args.inputs, args.list, args.recursive, exclude=args.output)
     if not inputs:
         raise PanoLightError("no input panoramas found (give files, folders, or --list FILE)")

@@ -21,7 +21,7 @@ from ..io.images import write_exr_rows
 from ..io.lighting import write_lighting
 from ..lighting.lights import key_light_note
 from .estimate import estimate_lighting, require_finite
-from .settings import Settings
+from .settings import Settings, check_map_cost
 
 logger = logging.getLogger(__name__)
 
@@ -59,6 +59,7 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
     Raises PanoLightError."""
     src, out_dir = Path(src), Path(out_dir)
     outputs = parse_outputs(outputs)
+    check_map_cost(settings.order, resolution[1])
     for name in OUTPUT_FILES:  # an output never replaces the input (estimate hdr.exr -o . would)
         if _same_file(out_dir / name, src):
             raise PanoLightError(f"{src}: the output {name} in {out_dir} would overwrite the input; "

@@ -601,3 +601,18 @@ def test_a_failed_overwrite_leaves_the_folder_as_it_was_and_names_the_users_path
     assert f"{out / 'preview.png'}: is a folder" in err and ".panolight-" not in err
     after = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file() and p.name != "preview.png"}
     assert after == before and (out / "preview.png" / "mine.txt").read_text() == "mine"
+
+
+def test_an_sh_order_and_map_size_that_would_cost_gigabytes_are_refused_up_front(tmp_path, capsys):
+    """--lmax 100 --model sh --resolution 4096x2048 took 50 s and 6.7 GB, each value within its own limit."""
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    for command in ("estimate", "batch"):
+        argv = [command, str(src), "-o", str(tmp_path / command), "-q", "--model", "sh", "--lmax", "100",
+                "--resolution", "4096x2048"]
+        assert main(argv) == 1
+        err = capsys.readouterr().err
+        assert "SH order 100 with --resolution 4096x2048 would take several GB" in err
+        assert "lower --resolution to 512x256 or below, or the order to 43 or below" in err
+        assert not (tmp_path / command).exists()
+    assert main(["estimate", str(src), "-o", str(tmp_path / "ok"), "-q", "--model", "sh", "--lmax", "43",
+                 "--resolution", "4096x2048", "--outputs", "lighting"]) == 0
