@@ -19,9 +19,9 @@ from bpy.props import StringProperty
 from bpy_extras.io_utils import ExportHelper
 
 from . import images, store
+from .core import core
 from .lights import LIGHTS_COLLECTION, set_lights
 from .world import build_world
-from .core import core
 
 Error = core.errors.PanoLightError
 REPORTED = (Error, OSError, MemoryError)  # what an operator reports; anything else is a bug and raises

@@ -4,6 +4,9 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$root/scripts/setup.sh"
 cd "$root"
+# the linter first (pyproject.toml's [tool.ruff]: pyflakes, import order, bugbear): an unused import or a
+# redefinition fails the run before the suite starts
+"$root/.venv/bin/ruff" check --quiet . || { echo "test.sh: ruff found problems (fix them, or 'ruff check --fix .')" >&2; exit 1; }
 set +e
 "$root/.venv/bin/python" -m pytest "$@"
 rc=$?

@@ -1,6 +1,6 @@
 """The checkout's commands for ``panolight``: train, synth, sheet and render-mitsuba with their own options
-here, and every other tool of training/ (TOOLS: the studies, the model fits, the benchmarks) under its
-own command line, so that ``panolight --help`` lists them all.
+here, and every other tool of training/ (TOOLS: the model fits, the studies, the benchmarks) under
+``panolight dev TOOL`` with its own command line, so that ``panolight --help`` lists what users run.
 
 Registered through the ``panolight.commands`` entry point (pyproject.toml), so the core's CLI never
 imports training code; each command imports its module (torch, Mitsuba) only when it runs.
@@ -64,7 +64,7 @@ def run_train(args) -> int:
     return 0
 
 
-# name: (module with main(argv), one line of help). ``panolight NAME --help`` shows the module's own options;
+# name: (module with main(argv), one line of help). ``panolight dev NAME --help`` shows the module's own options;
 # ``python -m MODULE`` runs the same main (docs/development.md)
 TOOLS = {
     "source-energy": ("training.source_energy.fit", "train (ship) or cross-validate (cv) the per-source energy model"),
@@ -97,19 +97,19 @@ TOOLS = {
 
 
 def run_tool(args) -> int:
-    """Run a TOOLS module's main with the arguments after the command's name (its usage says panolight NAME)."""
+    """Run a TOOLS module's main with the arguments after the tool's name (its usage says panolight dev NAME)."""
     import importlib
 
     from panolight_core.errors import PanoLightError
 
     try:
-        module = importlib.import_module(TOOLS[args.command][0])
+        module = importlib.import_module(TOOLS[args.tool][0])
     except ModuleNotFoundError as exc:  # an extra this machine lacks (torch, mitsuba, sphericart, matplotlib)
         if exc.name and exc.name.split(".")[0] in ("training", "panolight_core"):
             raise
-        raise PanoLightError(f"{args.command} needs the package {exc.name!r}, which is not installed here: run "
+        raise PanoLightError(f"{args.tool} needs the package {exc.name!r}, which is not installed here: run "
                              f"scripts/setup.sh, or pip install -e '.[train,mitsuba,bench,plot]'") from None
-    argv0, sys.argv[0] = sys.argv[0], f"panolight {args.command}"
+    argv0, sys.argv[0] = sys.argv[0], f"panolight dev {args.tool}"
     try:
         return module.main(list(args.forwarded)) or 0
     finally:
@@ -195,8 +195,19 @@ def register(sub) -> None:
                                "model.safetensors and config.json.")
     add_train_arguments(tr)
     tr.set_defaults(func=run_train)
+    dev = sub.add_parser("dev", help="developer tools: model fits, studies and benchmarks ('panolight dev --help')",
+                         formatter_class=fmt,
+                         description="The developers' tools: fitting the shipped models, the studies behind them "
+                                     "(docs/studies/) and the benchmarks. Each takes its own options: "
+                                     "'panolight dev TOOL --help'.",
+                         epilog="examples:\n"
+                                "  panolight dev bench-sh                     # the SH engine against its peers\n"
+                                "  panolight dev keylight-cv --help           # one tool's options\n"
+                                "Each tool also runs as 'python -m MODULE' (the module its description names).")
+    dev.set_defaults(func=lambda args: dev.print_help() or 2)
+    tools = dev.add_subparsers(dest="tool", metavar="tool")
     for name, (module, text) in TOOLS.items():
-        t = sub.add_parser(name, help=f"(developer) {text}", add_help=False, description=f"{text} (python -m {module})")
+        t = tools.add_parser(name, help=text, add_help=False, description=f"{text} (python -m {module})")
         t.set_defaults(func=run_tool, forward=True)
 
 

@@ -117,7 +117,8 @@ def run_batch(args) -> int:
     import functools
 
     from ..pipeline import run_estimate as job
-    from .batch import collect_inputs, default_jobs, parse_shard, run_batch as batch
+    from .batch import collect_inputs, default_jobs, parse_shard
+    from .batch import run_batch as batch
 
     shard_spec = parse_shard(args.shard)
     settings = estimate_settings.from_args(args)
@@ -294,6 +295,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _unknown_arguments(parser, args, rest) -> None:
+    """Exit 2 with the usage of the command that was given (not the top level's) and, for an option that
+    looks like a mistyped one, the nearest of that command's options ("did you mean --exposure?")."""
+    import difflib
+
+    command = parser
+    while True:  # down the sub-commands that were chosen: panolight dev TOOL ...
+        subs = [a for a in command._actions if isinstance(a, argparse._SubParsersAction)]
+        chosen = subs and getattr(args, subs[0].dest, None)
+        if not chosen or chosen not in subs[0].choices:
+            break
+        command = subs[0].choices[chosen]
+    options = [o for a in command._actions for o in a.option_strings if o.startswith("--")]
+    hints = []
+    for word in rest:
+        if word.startswith("-"):
+            close = difflib.get_close_matches(word.split("=", 1)[0], options, n=1, cutoff=0.6)
+            if close:
+                hints.append(f"{word}: did you mean {close[0]}?")
+    command.error(f"unrecognized arguments: {' '.join(rest)}" + ("\n  " + "\n  ".join(hints) if hints else ""))
+
+
 def _terminate(signum, frame):
     """SIGTERM (a render farm cancelling a job, ``kill``) unwinds like Ctrl-C: the writers' ``finally``
     blocks remove their temporary files, and the exit status says why (128 + 15)."""
@@ -310,7 +333,7 @@ def main(argv=None) -> int:
     # name in args.forwarded; any other command refuses arguments it does not know, as parse_args would
     args, rest = parser.parse_known_args(argv)
     if rest and not getattr(args, "forward", False):
-        parser.error(f"unrecognized arguments: {' '.join(rest)}")
+        _unknown_arguments(parser, args, rest)
     args.forwarded = rest
     if not getattr(args, "command", None):
         parser.print_help()

@@ -26,8 +26,8 @@ import math
 import numpy as np
 
 from .. import sh
-from ..camera.resample import area_downsample, area_mean_lut, clipped_fractions
 from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
+from ..camera.resample import area_downsample, area_mean_lut, clipped_fractions
 from ..errors import PanoLightError
 
 CLIP_LEVEL = 0.99  # linear value of sRGB 254/255 is 0.991: at or above counts as clipped

@@ -14,8 +14,18 @@ import numpy as np
 
 from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
-from .sky import (CLEAR_RMS, MIN_BLUENESS, MIN_SKY_SR, OCCLUDER_LOG, SkyFit, SkyTable, fit_clear_sky, fit_rows,
-                  load_sky_table, sky_cells)
+from .sky import (
+    CLEAR_RMS,
+    MIN_BLUENESS,
+    MIN_SKY_SR,
+    OCCLUDER_LOG,
+    SkyFit,
+    SkyTable,
+    fit_clear_sky,
+    fit_rows,
+    load_sky_table,
+    sky_cells,
+)
 
 SEARCH_ROWS, REFINE_ROWS = 16, 32  # rows of the coarse search's map (11 degree cells) and of its refinement's
 SEARCH_STEP_DEG, REFINE_STEP_DEG = 7.5, 2.5  # the candidate suns' spacing (elevation; azimuth at the horizon x 1.5)

@@ -54,11 +54,6 @@ def is_hdr(path) -> bool:
     return sniff_format(path) in HDR_FORMATS
 
 
-def is_hdr(path) -> bool:
-    """True for OpenEXR / Radiance files (by content)."""
-    return sniff_format(path) in HDR_FORMATS
-
-
 def check_size(path, h: int, w: int, equirect: bool, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS):
     """ImageError unless (h, w) is a size worth decoding: not zero, within the decode budget
     (``max_megapixels``) and MAX_PIXELS, and 2:1 when ``equirect``."""

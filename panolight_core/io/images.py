@@ -17,8 +17,19 @@ from ..errors import ImageError
 from . import hdr as _hdr
 from . import read_exr, read_jpeg, read_oiio
 from .atomic import atomic_path
-from .checks import (BLOCK_ROWS, DEFAULT_MAX_MEGAPIXELS, HDR_FORMATS, LDR_FORMATS, MAX_PIXELS,  # noqa: F401
-                     check_jpeg_data, check_size, is_hdr, sanitise_pixels, sniff_format, _sanitise)
+from .checks import (  # noqa: F401
+    BLOCK_ROWS,
+    DEFAULT_MAX_MEGAPIXELS,
+    HDR_FORMATS,
+    LDR_FORMATS,
+    MAX_PIXELS,
+    _sanitise,
+    check_jpeg_data,
+    check_size,
+    is_hdr,
+    sanitise_pixels,
+    sniff_format,
+)
 
 _EXTENSIONS = {".exr": "exr", ".hdr": "hdr", ".pic": "hdr", ".rgbe": "hdr", ".png": "png", ".jpg": "jpeg",
                ".jpeg": "jpeg"}

@@ -100,7 +100,7 @@ class Opened:
             name = spec.get_string_attribute("name") or str(i)
             warnings.warn(PanoLightWarning(f"{self.path}: {len(specs)} parts; using part {i} ({name!r}, "
                                            f"{spec.width} x {spec.height} {_colour_layout(spec.channelnames)}), "
-                                           f"the largest full-frame colour part"))
+                                           f"the largest full-frame colour part"), stacklevel=2)
         self.inp.seek_subimage(i, 0)
         return i, spec
 
@@ -141,7 +141,7 @@ class Opened:
                                         f"{_clean(self.inp.geterror())}")
         if self.alpha:
             warnings.warn(PanoLightWarning(f"{self.path}: its alpha channel was ignored: a panorama's alpha is not "
-                                           f"a lighting weight, so its colours are used as they are"))
+                                           f"a lighting weight, so its colours are used as they are"), stacklevel=2)
         if integer_ldr and out.dtype == np.uint8 and not as_uint8:
             out = SRGB8_TO_LINEAR[out]  # the table gather makes only its output
         return upright(out, self.orientation)

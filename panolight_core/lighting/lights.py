@@ -29,9 +29,9 @@ import numpy as np
 
 from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
+from ..camera.resample import area_downsample
 from ..estimators.highlights import component_at
 from ..estimators.sun_search import AT_THE_HORIZON
-from ..camera.resample import area_downsample
 
 PEAK_RATIO = 50.0
 MAX_RADIUS_DEG = 10.0

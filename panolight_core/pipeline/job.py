@@ -13,12 +13,11 @@ from .. import sh
 from ..camera import linear
 from ..camera.resample import area_downsample_rows
 from ..errors import PanoLightError, PanoLightWarning
-from ..io import read_image, write_image, write_srgb8
-from ..io import ownership
+from ..io import ownership, read_image, write_image, write_srgb8
 from ..io.atomic import folder_lock
-from ..io.staging import clean_stale, make_stage
 from ..io.images import write_exr_rows
 from ..io.lighting import write_lighting
+from ..io.staging import clean_stale, make_stage
 from ..lighting.lights import key_light_note
 from .estimate import estimate_lighting, require_finite
 from .settings import Settings, check_map_cost

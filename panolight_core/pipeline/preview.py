@@ -8,7 +8,6 @@ import numpy as np
 from ..camera.color import linear_to_srgb, luminance
 from ..camera.resample import area_downsample, sample_equirect
 
-
 PREVIEW_HEIGHT = 256  # rows of each preview tile
 SH_PEAK_PERCENTILE = 99.0  # the SH panel is darkened (and labelled so) until this percentile's luminance is white
 

@@ -6,8 +6,8 @@ from .basis import basis
 from .convert import filament_sh_txt, from_paper, to_filament, to_paper, to_threejs, to_unity
 from .grid import elevation_deg, pixel_directions, pixel_solid_angles, row_solid_angles
 from .indexing import degrees_orders, lmax_from_count, num_coeffs
-from .nonnegative import emitter_map, nonnegative
 from .irradiance import convolve_lambert, irradiance, irradiance_matrix, irradiance_rh, lambert_kernel
+from .nonnegative import emitter_map, nonnegative
 from .rotation import rotate, rotate_z, rotation_matrices
 from .transform import project, reconstruct
 from .window import auto_window_width, min_over_grid, window, window_weights

@@ -60,7 +60,7 @@ def _solve(r, y, wy, lam, max_iterations, tolerance):
     f = r + y @ lam
     residual = wy.T @ np.maximum(f, 0) - target
     its = 0
-    for its in range(max_iterations + 1):
+    for its in range(max_iterations + 1):  # noqa: B007 (the count is returned)
         if np.abs(residual).max() <= tolerance * scale:
             break
         active = f > 0

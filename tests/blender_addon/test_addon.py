@@ -264,8 +264,9 @@ def test_extension_zip_installs_offline_and_works(tmp_path):
     assert r.returncode == 0, r.stderr
     zpath, = (tmp_path / "dist").glob("panolight-*.zip")
     pano = _small_city(tmp_path, 32)
-    from panolight_core.camera import hdr_to_ldr
     from PIL import Image
+
+    from panolight_core.camera import hdr_to_ldr
 
     ldr = tmp_path / "city_small.jpg"
     Image.fromarray(hdr_to_ldr(read_image(pano).astype(np.float64), 0.0)).save(ldr, quality=90)
@@ -312,10 +313,11 @@ def test_batch_script_end_to_end_and_clear_failure(tmp_path):
 
 
 def test_build_from_the_reconstructed_hdri(tmp_path):
-    from panolight_core.camera import hdr_to_ldr
-    from panolight_core.pipeline.hdri import hdr_panorama
-    from panolight_core.pipeline import fit_pixels
     from PIL import Image
+
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.pipeline import fit_pixels
+    from panolight_core.pipeline.hdri import hdr_panorama
 
     hdr = load_studio_hdri("city")
     ldr = hdr_to_ldr(hdr, 0.0, 90)

@@ -20,8 +20,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     import torch
 
-    from training.render import mitsuba as mr
     from training.neural.relight_data import procedural_pool, relight_dataset, synthetic_sources
+    from training.render import mitsuba as mr
     from training.synth import store
 
     variant = mr.mitsuba().variant()

@@ -9,7 +9,7 @@ ratio r (EVALUATION.md) from its ``hdr.exr`` against the truth at the copy's siz
 key light is the one the JPEG as it is gets (within 3 degrees and 1.5x, or none in both).
 
     python -m training.keylight.copies [--evs -2 0 2] [--fold-models 'runs/folds/sources_{k}.safetensors']
-                                       [--out docs/keylight_copies.json]
+                                       [--out docs/studies/keylight_copies.json]
 """
 from __future__ import annotations
 
@@ -25,8 +25,14 @@ from panolight_core.lighting.lights import key_light_range
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.keylight import turns
-from training.keylight.cv import (clipped_truth, fold_estimators, fold_models_option, nested_table, real_hdri_parser,
-                                  save_study)
+from training.keylight.cv import (
+    clipped_truth,
+    fold_estimators,
+    fold_models_option,
+    nested_table,
+    real_hdri_parser,
+    save_study,
+)
 from training.source_energy.fit import load_hdr, scene_files
 
 QUALITY = 90

@@ -12,7 +12,7 @@ log(true / physical) of the clear-sky suns. Its cross-validated check: each fold
 the median of the OTHER folds' scenes (5 folds by scene, the assignment of ``training.source_energy.cv``); the
 table then shows how far that lands from the shipped all-scene value.
 
-    python -m training.keylight.cv [--evs -2 0 2] [--out docs/keylight.json]
+    python -m training.keylight.cv [--evs -2 0 2] [--out docs/studies/keylight.json]
     python -m training.keylight.cv --fold-models 'runs/folds/sources_{k}.safetensors'   # by scene, out of sample
     python -m training.keylight.cv --curve contrast:1.6     # through another camera's tone curve
 
@@ -34,9 +34,8 @@ from panolight_core.camera import TONE_CURVES, auto_exposure, hdr_to_ldr
 from panolight_core.estimators import keylight, register_source_model
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
-from training.source_energy.fit import DEFAULT_HDRI, load_hdr, manifest, scene_files
 from training.source_energy.cv import fold_of, scene_folds
-
+from training.source_energy.fit import DEFAULT_HDRI, load_hdr, manifest, scene_files
 
 SRGB = ("srgb", None)  # EVALUATION.md's camera curve (``--curve``)
 

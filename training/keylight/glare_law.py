@@ -17,7 +17,7 @@ sources that matter (over DOMINANT_SHARE of their scene) and reports, with it:
 - how many of the sources the trees weigh more than e^2 low pass them.
 
     python -m training.keylight.glare_law --fold-models 'runs/folds/sources_{k}.safetensors' [--out F.json]
-    panolight glare-law ...                                                        # the same
+    panolight dev glare-law ...                                                        # the same
 
 About a minute here.
 """

@@ -20,9 +20,9 @@ often the estimator invents one.
    against the ORIGINAL HDR, whose sun lit the scene: whether a hidden sun is made, its direction error, the
    dominant source's energy ratio r (EVALUATION.md) and m-RMSE / naive at lmax 2.
 
-    python -m training.keylight.hidden_sun [--evs -2 0 2] [--mask 20] [--out docs/hidden_sun.json]
+    python -m training.keylight.hidden_sun [--evs -2 0 2] [--mask 20] [--out docs/studies/hidden_sun.json]
     python -m training.keylight.hidden_sun --picture ../shared/data/ldr/examplepano.jpg docs/hidden_sun.jpg
-    panolight hidden-sun ...   (the same)
+    panolight dev hidden-sun ...   (the same)
 
 ``--picture PHOTO IMAGE`` draws, over the photo, how well a clear sky with its sun at each position fits the
 photo's sky (bright: fits), the sun the search puts there and its 68 % circle, and what lighting.json says.

@@ -26,14 +26,14 @@ and for every other region it was tried on.
 
     python -m training.keylight.rules [--evs -2 0 2] [--gate] [--plateaus 15 30 60] [--floors none 30:15]
                                       [--fold-models 'f_{k}.safetensors']
-                                      [--curve NAME[:PARAM]] [--out docs/keylight_rules.json]
+                                      [--curve NAME[:PARAM]] [--out docs/studies/keylight_rules.json]
 """
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 import math
 import statistics
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -44,10 +44,18 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators.sources.fill import fill_with_keys
 from panolight_core.pipeline import fit_radiance
-from training.keylight.cv import (SRGB, clipped_truth, curve_option, fold_models_option, nested_table,
-                                  real_hdri_parser, save_study, scene_models)
-from training.source_energy.fit import load_hdr, scene_files
+from training.keylight.cv import (
+    SRGB,
+    clipped_truth,
+    curve_option,
+    fold_models_option,
+    nested_table,
+    real_hdri_parser,
+    save_study,
+    scene_models,
+)
 from training.source_energy.cv import scene_folds
+from training.source_energy.fit import load_hdr, scene_files
 
 RULES = ("sources",) + keylight.ENERGY_RULES
 CONE_DEG = metrics.SOURCE_CONE_DEG

@@ -89,9 +89,8 @@ def main(argv=None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=OUT, help="where to write the table (default: %(default)s)")
     args = ap.parse_args(argv)
-    from safetensors.numpy import save_file
-
     import mitsuba
+    from safetensors.numpy import save_file
 
     tables = tabulate()
     meta = {"source": f"mitsuba {mitsuba.__version__} sunsky (Hosek-Wilkie), scalar_rgb",

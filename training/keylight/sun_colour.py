@@ -17,7 +17,7 @@ direction, as ``sun_elevation`` does; over the fits that pass the cloudiness gat
   ``training.source_energy.cv``); the colour error of a sun is the largest |log2| of its channels' ratios to the truth
   (0.32: a channel 25 % off), summarised by its median and by elevation band.
 
-    python -m training.keylight.sun_colour [--evs -2 0 2] [--out docs/sun_colour.json]
+    python -m training.keylight.sun_colour [--evs -2 0 2] [--out docs/studies/sun_colour.json]
 """
 from __future__ import annotations
 

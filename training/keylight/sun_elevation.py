@@ -11,7 +11,7 @@ turbidity and whether it passes the cloudiness gate, and the truth's energy with
 corrected energy (SKY_CORRECTION x the fit's solar disk, in the same camera units): 1 is exact, 0.1 a sun the fit
 makes 10x too strong.
 
-    python -m training.keylight.sun_elevation [--evs -2 0 2] [--out docs/sun_elevation.json]
+    python -m training.keylight.sun_elevation [--evs -2 0 2] [--out docs/studies/sun_elevation.json]
 """
 from __future__ import annotations
 

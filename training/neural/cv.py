@@ -4,11 +4,11 @@ A run trained with ``panolight train ... --hdr DIR --hold-out K/N`` never saw fo
 held_out.json names them). Each is scored as EVALUATION.md says (ev -2/0/+2, JPEG q90; whole model,
 lights + SH, projected to lmax 2, exactly as ``source_energy cv`` scores the per-source model), beside
 naive and beside the per-source model's own cross-validated rows for the same scenes (from
-docs/source_energy_cv.json: a model that did not see them either).
+docs/studies/source_energy_cv.json: a model that did not see them either).
 
     python -m training.neural.cv --weights real=runs/real/model.safetensors [--weights other=...]
-           [--cv docs/source_energy_cv.json] [--out docs/neural_cv.json]
-    python -m training.neural.cv --merge runs/f1/cv.json ... runs/f5/cv.json --out docs/neural_cv.json
+           [--cv docs/studies/source_energy_cv.json] [--out docs/studies/neural_cv.json]
+    python -m training.neural.cv --merge runs/f1/cv.json ... runs/f5/cv.json --out docs/studies/neural_cv.json
 
 ``--merge`` joins the folds' results (each scene scored once, by the run that never saw it) into one
 cross-validation table over every scene; it also joins an earlier merged table with a new run's folds
@@ -50,9 +50,9 @@ def main(argv=None) -> int:
                     help="a run trained with --hdr DIR --hold-out K/N (its held_out.json names the scenes)")
     ap.add_argument("--also", type=_weights, action="append", default=[], metavar="NAME=PATH",
                     help="a model trained on no real HDR at all (the shipped one), scored on the same scenes")
-    ap.add_argument("--cv", default="docs/source_energy_cv.json",
+    ap.add_argument("--cv", default="docs/studies/source_energy_cv.json",
                     help="the per-source model's cross-validation rows (python -m training.source_energy.fit cv)")
-    ap.add_argument("--out", default="docs/neural_cv.json")
+    ap.add_argument("--out", default="docs/studies/neural_cv.json")
     args = ap.parse_args(argv)
     if args.merge:
         return _merge(args)
@@ -60,12 +60,12 @@ def main(argv=None) -> int:
         ap.error("give --weights NAME=PATH (a run trained with --hold-out), or --merge")
 
     from panolight_core.estimators import neural_estimator
-    from training.source_energy.fit import load_hdr, scene_files
     from training.source_energy.cv import fold_files, score_scene
+    from training.source_energy.fit import load_hdr, scene_files
 
     runs = [(name, path, held_out(path)) for name, path in args.weights]
     scenes, hdr = runs[0][2]["scenes"], Path(runs[0][2]["hdr"])
-    for name, path, info in runs[1:]:
+    for _name, path, info in runs[1:]:
         if info["scenes"] != scenes:
             raise PanoLightError(f"{path}: held out other scenes than {runs[0][1]}; compare runs of one fold")
     variants = {"naive": None}
@@ -87,8 +87,8 @@ def main(argv=None) -> int:
 
 def _report(args, rows, scenes, meta) -> int:
     """Add the per-source model's cross-validated rows for ``scenes``, print the table, write --out."""
-    from training.source_energy.report import table
     from training.source_energy.cv import DECIDED, EVS
+    from training.source_energy.report import table
 
     rows = [r for r in rows if r["estimator"] != CV_LABEL]
     cv_path = Path(args.cv)

@@ -30,8 +30,8 @@ import numpy as np
 
 from panolight_core import sh, threads
 from panolight_core.camera import auto_exposure, hdr_to_ldr
-from panolight_core.estimators.nn.inputs import network_input
 from panolight_core.camera.resample import area_downsample
+from panolight_core.estimators.nn.inputs import network_input
 
 KINDS = ("procedural", "synthetic", "relit", "hdr")
 PROCEDURAL_HEIGHT = 256

@@ -49,8 +49,8 @@ def held_out_scenes(hdr, fold) -> list[str]:
     """The scene names (file stems) of fold (K, N) of the real HDRs in folder ``hdr``: the assignment of
     ``source_energy cv`` (training.source_energy.cv.scene_folds), so a network and the per-source model are
     scored on the same held-out scenes."""
-    from training.source_energy.fit import scene_files
     from training.source_energy.cv import fold_files
+    from training.source_energy.fit import scene_files
 
     return sorted(f.stem for f in fold_files(scene_files(Path(hdr)), fold))
 
@@ -71,8 +71,8 @@ def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None,
         from panolight_core.errors import PanoLightError
 
         raise PanoLightError(f"{data}: no synthetic samples (write some with 'panolight synth --out {data}')")
-    from training.neural.relight_data import hdr_files
     from panolight_core.errors import PanoLightError
+    from training.neural.relight_data import hdr_files
 
     if relight_pool not in ("procedural", "hdr"):
         raise PanoLightError(f"relight pool {relight_pool!r}: choose procedural or hdr")
@@ -106,7 +106,7 @@ def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None,
                 count = kw["procedural"] or len(kw["synth"] or kw["hdr"]) * max(1, kw.get("hdr_copies", 0))
                 log(f"preparing the {name} set's {count} {what} samples -> {path}")
                 lighting_data.prepare(path, height=h, lmax=lmax, seed=s, **kw,
-                                      progress=_every(lambda d, n: log(f"  {name} {what}: {d}/{n}"), 250))
+                                      progress=_every(lambda d, n, name=name, what=what: log(f"  {name} {what}: {d}/{n}"), 250))
             parts.append(lighting_data.load(path))
         if not parts:
             from panolight_core.errors import PanoLightError

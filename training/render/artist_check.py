@@ -103,11 +103,10 @@ def sphere_shape(yaw_deg: float) -> dict:
 def check(photo: Path, estimators, spp: int, size=(320, 240), fov: float = 70.0, log=print) -> dict:
     """The renders and numbers of one photo, per estimator (see the module's docstring)."""
     from panolight_core.camera import ldr_to_linear
-    from panolight_core.camera.resample import area_downsample
+    from panolight_core.camera.resample import area_downsample, sample_equirect
     from panolight_core.io import read_image
     from panolight_core.pipeline.estimate import estimate_lighting
     from panolight_core.pipeline.settings import Settings
-    from panolight_core.camera.resample import sample_equirect
     from training.render.mitsuba import composite_view, perspective_rays, scene_emitters
 
     px = read_image(photo, ldr_as_uint8=True)

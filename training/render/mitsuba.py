@@ -331,7 +331,7 @@ def _verified_source(lighting_path: Path, source: dict) -> Path | None:
     ok = found is not None and found["sha256"] == digest
     if not ok:
         warnings.warn(PanoLightWarning(f"{lighting_path}: its source panorama {path} is missing or not the file "
-                                       f"it was estimated from (SHA-256 differs); rendering over a grey background"))
+                                       f"it was estimated from (SHA-256 differs); rendering over a grey background"), stacklevel=2)
         return None
     return p
 
@@ -342,12 +342,12 @@ def load_input(path, lmax="auto", from_ldr=None):
     exists). from_ldr: an ev; an HDR input is first turned into the JPEG an auto-exposing camera takes
     (EVALUATION.md, q90), which is estimated and shown, and ``truth`` is the HDR in that JPEG's units
     (k x HDR), for the ground-truth row; the figure then estimates from a photograph, as the paper's."""
-    from panolight_core.lighting.adaptive import fit_model
+    from panolight_core.camera import ldr_to_linear
     from panolight_core.estimators import estimate
     from panolight_core.estimators.highlights import CLIP_LEVEL
     from panolight_core.io import read_image
-    from panolight_core.camera import ldr_to_linear
     from panolight_core.io.lighting import read_lighting
+    from panolight_core.lighting.adaptive import fit_model
 
     p = Path(path)
     if p.suffix.lower() == ".json":

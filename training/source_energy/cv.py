@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core import metrics, sh
-from panolight_core.estimators import sources
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
+from panolight_core.estimators import sources
 from panolight_core.estimators.highlights import recover_highlights
 from panolight_core.pipeline import fit_radiance
 
@@ -141,7 +141,7 @@ def cross_validate(files, X, y, w, g, args, fit, load_hdr):
     from training.source_energy.report import table
 
     print("\n".join(table(rows, list(dict.fromkeys(r["estimator"] for r in rows)), EVS)))
-    out = Path(args.out or "docs/source_energy_cv.json")
+    out = Path(args.out or "docs/studies/source_energy_cv.json")
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"rows": rows, "shipped": DECIDED,
                                "augment": args.augment, "seed": args.seed,

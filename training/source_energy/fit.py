@@ -20,7 +20,7 @@ training folds): each held-out scene is scored exactly as EVALUATION.md says (ev
 whole model: lights + SH projected to lmax 2) for naive, analytic, the power-law-only region model
 and the learned one; the pooled table goes to docs/accuracy.md.
 
-    python -m training.source_energy.fit cv   [--augment 16] [--out docs/source_energy_cv.json]   # about 13 min here
+    python -m training.source_energy.fit cv   [--augment 16] [--out docs/studies/source_energy_cv.json]   # about 13 min here
     python -m training.source_energy.fit ship [--augment 16] [--out panolight_core/models/sources.safetensors]
     python -m training.source_energy.fit ship --table runs/table.npz --hold-out K/5 [--drop-features NAME ...] --out F
         # the five fold models (and the shipped one) from one cached table; --drop-features for an ablation
@@ -38,13 +38,13 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core import sh, threads
-from panolight_core.estimators import sources
-from panolight_core.pipeline.settings import number
 from panolight_core.camera import auto_exposure, jpeg_roundtrip, lanczos_resize, tone_curve
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
-from panolight_core.errors import PanoLightError
-from panolight_core.io import read_image
 from panolight_core.camera.resample import area_downsample
+from panolight_core.errors import PanoLightError
+from panolight_core.estimators import sources
+from panolight_core.io import read_image
+from panolight_core.pipeline.settings import number
 from training.source_energy.cv import fold_files, parse_fold
 
 DEFAULT_HDRI = Path(__file__).resolve().parents[3] / "shared" / "data" / "hdri"

@@ -15,7 +15,7 @@ mean of the log-ratio error (prediction - truth, natural log; rows weighted as t
 - **average**: the mean of the two.
 
     python -m training.source_energy.regressors [--table runs/table_s0.npz] [--networks 3] [--out F.json]
-    panolight source-regressors ...                                              # the same
+    panolight dev source-regressors ...                                              # the same
 
 About 3 minutes here with the table cached (the trees take most of it); building the table takes 1 minute more.
 """

@@ -17,8 +17,8 @@ import math
 import numpy as np
 
 from panolight_core import sh
-from training.render import mitsuba as mr
 from panolight_core.synthetic import outdoor as outdoor_sky
+from training.render import mitsuba as mr
 
 FACE_YAW_PITCH = mr.CUBE_FACES
 

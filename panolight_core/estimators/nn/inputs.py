@@ -62,8 +62,8 @@ def _source_excess(ldr: np.ndarray, height: int, source_model, maps=None) -> np.
     """(height, 2 height, 3) the per-source estimator's recovered excess over the plain linear map, area
     averaged from its own work map (which it computes at its own resolution) to the network's; maps:
     its work maps when the network's height is theirs (sources.recover)."""
-    from .. import sources
     from ...camera.resample import area_downsample
+    from .. import sources
 
     model = sources.load_source_model(source_model) if source_model else None
     rec = sources.recover(ldr, model, maps=maps)

@@ -15,12 +15,19 @@ predicted from what the picture does show. One module per job:
 
 Work maps: radiance (h, 2h, 3) linear in clip units (1 = white), Blender world frame (CONVENTIONS.md).
 """
-from .decision import (DECISION_CORRELATION, DECISION_SAMPLES, DECISION_TOLERANCE, MIN_MEDIAN_RATIO,
-                       SHRINK_CANDIDATES, _weighted_errors, choose_shrink)
+from ..highlights import WORK_HEIGHT, work_maps
+from .decision import (
+                       DECISION_CORRELATION,
+                       DECISION_SAMPLES,
+                       DECISION_TOLERANCE,
+                       MIN_MEDIAN_RATIO,
+                       SHRINK_CANDIDATES,
+                       _weighted_errors,
+                       choose_shrink,
+)
 from .features import FEATURES, RING_EDGES_DEG, region_features
 from .fill import FullResolutionFill, fill_full_resolution, fill_regions
 from .recovery import Recovery, power_law_log_ratio, recover
-from ..highlights import WORK_HEIGHT, work_maps
 from .regions import MAX_REGIONS, SHAPE_MAX_EXTENT_DEG, WIDE_CONCENTRATION, Regions
 from .trees import MODEL_PATH, SourceModel, TreeEnsemble, ensemble_arrays, load_source_model
 

@@ -11,10 +11,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..highlights import WORK_HEIGHT, work_maps
 from .decision import choose_shrink, shrunk
 from .features import region_features
 from .fill import fill_with_keys
-from ..highlights import WORK_HEIGHT, work_maps
 from .regions import WIDE_CONCENTRATION, Regions
 from .trees import SourceModel, load_source_model
 

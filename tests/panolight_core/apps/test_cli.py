@@ -59,8 +59,9 @@ def test_default_model_writes_lights_and_sh_model_does_not(tmp_path):
 def test_estimate_ldr_auto_order_exposure_and_window(tmp_path):
     hdr = np.full((64, 128, 3), 0.2, np.float32)
     hdr[10:14, 30:34] = 400.0
-    from panolight_core.camera import hdr_to_ldr
     from PIL import Image
+
+    from panolight_core.camera import hdr_to_ldr
 
     src = tmp_path / "sun.png"
     Image.fromarray(hdr_to_ldr(hdr, 0)).save(src)

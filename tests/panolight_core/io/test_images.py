@@ -6,8 +6,8 @@ import pytest
 
 from panolight_core.camera.color import SRGB8_TO_LINEAR
 from panolight_core.errors import ImageError, PanoLightWarning
-from panolight_core.io import read_image, sniff_format, write_image, write_srgb8
 from panolight_core.io import hdr as hdr_codec
+from panolight_core.io import read_image, sniff_format, write_image, write_srgb8
 
 
 @pytest.fixture
@@ -191,8 +191,8 @@ def test_cropped_exr_is_refused(tmp_path):
 
 
 def test_luminance_chroma_exr_keeps_its_colour(tmp_path):
-    import OpenEXR
     import numpy as np
+    import OpenEXR
 
     from panolight_core.camera.color import LUMINANCE_WEIGHTS
     from panolight_core.io import read_image

@@ -2,12 +2,12 @@
 import numpy as np
 import pytest
 
-from panolight_core.apps import evaluation
 from panolight_core import metrics, sh
-from panolight_core.lighting.adaptive import fit_model
+from panolight_core.apps import evaluation
 from panolight_core.camera import hdr_to_ldr
 from panolight_core.data import load_studio_hdri
 from panolight_core.estimators import estimate
+from panolight_core.lighting.adaptive import fit_model
 from panolight_core.synthetic import environment
 
 

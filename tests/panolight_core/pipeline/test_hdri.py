@@ -6,10 +6,10 @@ import pytest
 
 from panolight_core import sh
 from panolight_core.camera import hdr_to_ldr
-from panolight_core.data import load_studio_hdri
-from panolight_core.pipeline.hdri import hdr_panorama
-from panolight_core.pipeline import fit_pixels
 from panolight_core.camera.resample import area_downsample
+from panolight_core.data import load_studio_hdri
+from panolight_core.pipeline import fit_pixels
+from panolight_core.pipeline.hdri import hdr_panorama
 
 
 @pytest.fixture(scope="module")
@@ -71,8 +71,7 @@ def test_hdr_input_is_its_own_hdri():
 
 
 def test_block_wise_hdri_is_the_whole_image_fill_even_when_blocks_split_work_cells(city_ldr, monkeypatch):
-    from panolight_core.camera import clipped_mask, ldr_to_linear
-    from panolight_core.camera import resample
+    from panolight_core.camera import clipped_mask, ldr_to_linear, resample
     from panolight_core.estimators.sources import fill_full_resolution
     from panolight_core.pipeline.hdri import assemble, hdr_blocks
 
@@ -101,9 +100,8 @@ def test_the_peak_bounds_every_value_before_the_first_block(city_ldr):
 
 
 def test_half_floats_only_for_8_bit_inputs_whose_range_fits(city_ldr):
-    from panolight_core.pipeline.hdri import HdrRows
-
     from panolight_core.io.images import HALF_MAX
+    from panolight_core.pipeline.hdri import HdrRows
 
     _, est = fit_pixels(city_ldr)
     peak = HdrRows(city_ldr, est).peak  # set by the sun light's splat (at scale 1 it can pass 65504)

@@ -74,7 +74,7 @@ def test_a_scored_sunny_scene():
     hdr[core] = 2000.0  # a dominant compact source
     row = keylight_rules.score_scene(hdr, 0.0, sources.load_source_model())
     assert row["dominant"] and row["keys"] and set(row["rules"]) == set(keylight_rules.RULES)
-    for rule, got in row["rules"].items():
+    for got in row["rules"].values():
         assert len(got) == 3 and all(np.isfinite(got)) and got[0] >= 0 and got[2] > 0
     # a clipped compact source: the baseline's cone holds only the clip level and the decided fill, the
     # key lights put more there

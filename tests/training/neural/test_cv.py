@@ -6,9 +6,9 @@ import pytest
 
 from panolight_core.errors import PanoLightError
 from panolight_core.io import write_image
+from panolight_core.synthetic import environment
 from training.neural import cv as neural_cv
 from training.neural import train as T
-from panolight_core.synthetic import environment
 
 
 def test_a_held_out_run_is_scored_on_its_scenes_beside_naive(tmp_path):

@@ -51,9 +51,9 @@ def test_real_hdr_folders_become_coupled_examples_and_the_public_set_is_refused(
     from panolight_core.data import studio_hdri_dir
     from panolight_core.errors import PanoLightError
     from panolight_core.io import write_image
+    from panolight_core.synthetic import environment
     from training.neural.models import load_config
     from training.neural.relight_data import hdr_files
-    from panolight_core.synthetic import environment
     from training.neural.train import _datasets
 
     folder = tmp_path / "laval"
@@ -71,10 +71,10 @@ def test_real_hdr_folders_become_coupled_examples_and_the_public_set_is_refused(
 
 def test_augmented_views_and_held_out_scenes_never_reach_training(tmp_path):
     from panolight_core.io import read_image, write_image
-    from training.neural.models import load_config
-    from training.source_energy.cv import scene_folds
     from panolight_core.synthetic import environment
+    from training.neural.models import load_config
     from training.neural.train import _datasets, held_out_scenes
+    from training.source_energy.cv import scene_folds
 
     folder = tmp_path / "real"
     folder.mkdir()
@@ -102,8 +102,8 @@ def test_an_hdr_relighting_pool_is_each_panorama_turned_and_mirrored_and_refuses
     from panolight_core.errors import PanoLightError
     from panolight_core.io import write_image
     from panolight_core.sh.rotation import rotate_z
-    from training.neural.relight_data import hdr_pool
     from panolight_core.synthetic import environment
+    from training.neural.relight_data import hdr_pool
 
     path = tmp_path / "sky.exr"
     write_image(path, environment(7, 32)[0].astype(np.float32))
@@ -122,8 +122,8 @@ def test_an_hdr_relighting_pool_is_each_panorama_turned_and_mirrored_and_refuses
 def test_the_hdr_relighting_pool_of_each_split_holds_only_its_own_scenes(synth, tmp_path, monkeypatch):
     from panolight_core.errors import PanoLightError
     from panolight_core.io import write_image
-    from training.neural.models import load_config
     from panolight_core.synthetic import environment
+    from training.neural.models import load_config
     from training.neural.train import _datasets, held_out_scenes
 
     folder = tmp_path / "real"

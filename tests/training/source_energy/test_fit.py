@@ -4,8 +4,8 @@ import json
 import numpy as np
 import pytest
 
-from panolight_core.estimators import sources
 from panolight_core.errors import PanoLightError
+from panolight_core.estimators import sources
 from training.source_energy import fit as se
 
 

@@ -7,8 +7,8 @@ pytest.importorskip("sklearn")
 
 from panolight_core.estimators import sources  # noqa: E402
 from training.source_energy import regressors  # noqa: E402
-from training.source_energy.fit import fit_mean  # noqa: E402
 from training.source_energy.cv import scene_folds  # noqa: E402
+from training.source_energy.fit import fit_mean  # noqa: E402
 
 
 def _rows(scenes=10, per_scene=40, seed=0):

@@ -6,8 +6,8 @@ import torch
 from panolight_core import metrics, sh
 from panolight_core.errors import PanoLightError
 from panolight_core.lighting.relight import relight
-from training.render import mitsuba as mr
 from training.neural.relight_data import folder_pool, paired_sources, relight_dataset, synthetic_sources
+from training.render import mitsuba as mr
 from training.synth import scenes, store
 
 mi = mr.mitsuba()

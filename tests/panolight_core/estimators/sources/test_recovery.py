@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from panolight_core import sh
-from panolight_core.estimators import estimate, sources
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
+from panolight_core.estimators import estimate, sources
 
 from .helpers import fixed_ratio, sun_ldr
 

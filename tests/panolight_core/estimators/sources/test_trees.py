@@ -4,8 +4,8 @@ import json
 import numpy as np
 import pytest
 
-from panolight_core.estimators import sources
 from panolight_core.errors import PanoLightError
+from panolight_core.estimators import sources
 
 
 def _random_ensemble(rng, trees=5, depth=3, features=4):
