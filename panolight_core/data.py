@@ -46,3 +46,24 @@ def load_studio_hdri(name: str):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PanoLightWarning)
         return read_image(studio_hdri(name)).astype(np.float64)
+
+
+def main(argv=None) -> int:
+    """``python -m panolight_core.data [NAME ...]``: the paths of the bundled studio HDRIs, one per line (all
+    eight, or those named), to try PanoLight on a real HDRI without looking for one."""
+    import argparse
+    import sys
+
+    ap = argparse.ArgumentParser(prog="python -m panolight_core.data", description=main.__doc__.split(": ", 1)[1])
+    ap.add_argument("names", nargs="*", metavar="NAME", help=f"any of {', '.join(STUDIO_HDRIS)} (default: all)")
+    args = ap.parse_args(argv)
+    try:
+        print("\n".join(str(studio_hdri(n)) for n in args.names or STUDIO_HDRIS))
+    except PanoLightError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
