@@ -186,9 +186,12 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
         ownership.record(out_dir, digests, keep=earlier)
         for name in written[:-1]:
             _move(stage / name, out_dir / name)
-        for name in OUTPUT_FILES:  # an earlier run's outputs this run did not write: never a mix of runs
-            if name not in written and name in earlier:  # only ours: a user's file of that name is kept
-                (out_dir / name).unlink(missing_ok=True)
+        stale = [n for n in OUTPUT_FILES if n not in written and n in earlier]  # only ours: a user's is kept
+        for name in stale:  # an earlier run's outputs this run did not write: never a mix of runs
+            (out_dir / name).unlink(missing_ok=True)
+        if stale:
+            logger.info("removed %s: an earlier run's output(s) that this run's --outputs does not write",
+                        ", ".join(stale))
         _move(stage / "lighting.json", out_dir / "lighting.json")  # last: it marks the set complete
         ownership.record(out_dir, digests)
     except PanoLightError as exc:  # a full disk, a size limit: named as the output, not the staging copy

@@ -324,8 +324,11 @@ def test_outputs_choose_the_groups_and_leave_no_mix_of_runs(tmp_path, capsys):
     src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
     out = tmp_path / "o"
     assert main(["estimate", str(src), "-o", str(out), "-q"]) == 0
-    assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "lighting"]) == 0
+    capsys.readouterr()
+    assert main(["estimate", str(src), "-o", str(out), "--outputs", "lighting"]) == 0
     assert sorted(p.name for p in out.iterdir()) == [".panolight-files.json", "lighting.json", "lighting.usda", "radiance.exr"]
+    assert ("removed hdr.exr, irradiance.exr, preview.png: an earlier run's output(s) that this run's --outputs does "
+            "not write") in capsys.readouterr().err  # said on the terminal
     assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "hdr,previews"]) == 0
     assert sorted(p.name for p in out.iterdir()) == [".panolight-files.json", "hdr.exr", "irradiance.exr",
                                                      "lighting.json", "lighting.usda", "preview.png", "radiance.exr"]
