@@ -25,7 +25,8 @@ def tonemap(image: np.ndarray, scale: float) -> np.ndarray:
 
 def strip(panels: list[tuple[str, np.ndarray]], height: int = 256, scale: float | None = None,
           lights: list | None = None) -> np.ndarray:
-    """Side-by-side uint8 image of labelled (name, linear image) panels resized to a common height.
+    """Side-by-side uint8 image of labelled (name, linear image) panels resized to a common height (plus the
+    CAPTION_ROWS band above each that holds its name).
 
     scale: one exposure for every panel (so they compare); None: each panel auto-exposed on its own (median
     luminance -> 0.18). lights: lighting-file light dicts, marked on every panel (``mark_lights``).
@@ -40,32 +41,71 @@ def strip(panels: list[tuple[str, np.ndarray]], height: int = 256, scale: float 
         if lights:
             mark_lights(tile, lights)
         tiles.append(_labelled(tile, name))
-    gap = np.full((height, 4, 3), 255, dtype=np.uint8)
+    gap = np.full((height + CAPTION_ROWS, 4, 3), 255, dtype=np.uint8)
     out = [tiles[0]]
     for t in tiles[1:]:
         out += [gap, t]
     return np.concatenate(out, axis=1)
 
 
+CAPTION_ROWS = 16  # the band above each tile that holds its label: a label never covers the picture
+
+
 def mark_lights(tile, lights: list) -> None:
-    """Draw each light of ``lights`` (lighting-file dicts, brightest first) on a PIL equirect ``tile`` (Blender
-    world frame, CONVENTIONS.md) as a ring, black outside white, numbered from 1: visible on sky and ground."""
+    """Draw each light of ``lights`` (lighting-file dicts, in lighting.json's ``lights[]`` order) on a PIL
+    equirect ``tile`` (Blender world frame, CONVENTIONS.md) as a ring, black outside white, labelled with its
+    index in ``lights[]``: visible on sky and ground. Labels are placed beside their ring where they cover no
+    other ring or label (``label_boxes``), so overlapping rings keep readable numbers."""
     from PIL import ImageDraw
 
     from ..sh.grid import pixel_coordinates
 
     draw = ImageDraw.Draw(tile)
-    h = tile.height
+    h, w = tile.height, tile.width
     r = max(4, h // 40)
-    for n, light in enumerate(lights, 1):
-        y, x = pixel_coordinates(np.asarray(light["direction"], dtype=np.float64), h, tile.width)
-        for dx in (-tile.width, 0, tile.width):  # a ring at the seam shows on both edges
-            cx, cy = float(x) + 0.5 + dx, float(y) + 0.5
-            draw.ellipse((cx - r - 1, cy - r - 1, cx + r + 1, cy + r + 1), outline=(0, 0, 0), width=2)
-            draw.ellipse((cx - r + 1, cy - r + 1, cx + r - 1, cy + r - 1), outline=(255, 255, 255), width=1)
-            tx, ty = cx + r + 2, min(max(cy - r - 6, 0), h - 12)
-            draw.text((tx + 1, ty + 1), str(n), fill=(0, 0, 0))
-            draw.text((tx, ty), str(n), fill=(255, 255, 255))
+    centres = []
+    for light in lights:
+        y, x = pixel_coordinates(np.asarray(light["direction"], dtype=np.float64), h, w)
+        centres.append((float(x) + 0.5, float(y) + 0.5))
+    for cx, cy in centres:
+        for dx in (-w, 0, w):  # a ring at the seam shows on both edges
+            draw.ellipse((cx + dx - r - 1, cy - r - 1, cx + dx + r + 1, cy + r + 1), outline=(0, 0, 0), width=2)
+            draw.ellipse((cx + dx - r + 1, cy - r + 1, cx + dx + r - 1, cy + r - 1), outline=(255, 255, 255), width=1)
+    for n, (x0, y0, x1, y1) in enumerate(label_boxes(centres, r, w, h)):
+        draw.rectangle((x0, y0, x1, y1), fill=(0, 0, 0))
+        draw.text((x0 + 2, y0 + 1), str(n), fill=(255, 255, 255))
+
+
+def label_boxes(centres, r: float, width: int, height: int, char_w: int = 7, box_h: int = 12) -> list[tuple]:
+    """(x0, y0, x1, y1) of each light's index label (its position in ``centres``: ``lights[]`` order), inside
+    the tile: the first of the places right, left, above and below its ring (then further out) that overlaps
+    no ring and no label placed before it; the nearest place right of its ring when none is free."""
+    boxes: list[tuple] = []
+    rings = [(cx - r - 1, cy - r - 1, cx + r + 1, cy + r + 1) for cx, cy in centres]
+
+    def hits(a, b):
+        return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+    for n, (cx, cy) in enumerate(centres):
+        bw = char_w * len(str(n)) + 4
+        choice = None
+        for step in (0, 1, 2, 3, 4):
+            gap = r + 3 + step * (box_h + 2)
+            for x0, y0 in ((cx + gap, cy - box_h / 2), (cx - gap - bw, cy - box_h / 2),
+                           (cx - bw / 2, cy - gap - box_h), (cx - bw / 2, cy + gap)):
+                x0 = min(max(x0, 0), width - bw - 1)
+                y0 = min(max(y0, 0), height - box_h - 1)
+                box = (x0, y0, x0 + bw, y0 + box_h)
+                if choice is None:
+                    choice = box  # the fallback: right of the ring
+                if not any(hits(box, o) for o in rings + boxes):
+                    choice = box
+                    break
+            else:
+                continue
+            break
+        boxes.append(tuple(int(round(v)) for v in choice))
+    return boxes
 
 
 def diffuse_sphere(model, size: int = 256, albedo: float = 0.8, irradiance_map=None) -> np.ndarray:
@@ -103,7 +143,8 @@ def estimate_preview(image: np.ndarray, radiance: np.ndarray, model, lmax: int,
                      height: int = 256, irradiance_map=None, exposure: float | None = None,
                      model_gain: float = 1.0) -> np.ndarray:
     """uint8 strip: input | SH radiance | diffuse sphere under the estimated light, all at one exposure, with
-    the model's explicit lights marked (numbered, brightest first) on the input and the SH radiance.
+    the model's explicit lights marked (labelled with their ``lights[]`` index) on the input and the SH
+    radiance; each tile's label is in a band above it (CAPTION_ROWS), never over the picture.
 
     image: the input, linear (H, W, 3); exposure: its display scale (an LDR photo's own is 1: it shows as
     shot; None: its median luminance -> 0.18, for HDR). The sphere shares it, so it looks as a white object
@@ -112,7 +153,7 @@ def estimate_preview(image: np.ndarray, radiance: np.ndarray, model, lmax: int,
     over most of the sphere (its non-negative emitter) thus never sets its exposure from that zero.
     model_gain: the factor the model carries over the input (2^exposure_ev). model: SH coefficients or an
     adaptive.LightingModel (its lights then light the sphere too)."""
-    lights = sorted(getattr(model, "lights", []), key=lambda light: -light["intensity"])
+    lights = list(getattr(model, "lights", []))  # lighting.json's order: the preview's numbers are its indices
     label = f"SH radiance (lmax {lmax})" + (f" + {len(lights)} light(s)" if lights else "")
     scale = exposure_for(image) if exposure is None else float(exposure)
     panels = strip([("input", image)], height, scale, lights)
@@ -126,15 +167,15 @@ def estimate_preview(image: np.ndarray, radiance: np.ndarray, model, lmax: int,
     from PIL import Image
 
     tile = _labelled(Image.fromarray(tonemap(sphere, scale / model_gain)), "diffuse sphere (view +X)")
-    gap = np.full((height, 4, 3), 255, dtype=np.uint8)
+    gap = np.full((height + CAPTION_ROWS, 4, 3), 255, dtype=np.uint8)
     return np.concatenate([panels, gap, shown, gap, tile], axis=1)
 
 
 def _labelled(tile, name: str) -> np.ndarray:
-    """A PIL tile with ``name`` written top left, white on black, as a uint8 array."""
-    from PIL import ImageDraw
+    """A PIL tile with ``name`` written in a black band of CAPTION_ROWS above it, as a uint8 array."""
+    from PIL import Image, ImageDraw
 
-    draw = ImageDraw.Draw(tile)
-    draw.rectangle((0, 0, 8 + 7 * len(name), 16), fill=(0, 0, 0))
-    draw.text((4, 2), name, fill=(255, 255, 255))
-    return np.asarray(tile)
+    out = Image.new("RGB", (tile.width, tile.height + CAPTION_ROWS), (0, 0, 0))
+    out.paste(tile, (0, CAPTION_ROWS))
+    ImageDraw.Draw(out).text((4, 2), name, fill=(255, 255, 255))
+    return np.asarray(out)

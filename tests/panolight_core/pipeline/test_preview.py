@@ -2,7 +2,9 @@ import numpy as np
 
 from panolight_core import sh
 from panolight_core.lighting.adaptive import LightingModel
-from panolight_core.pipeline.preview import diffuse_sphere, estimate_preview, exposure_for, strip, tonemap
+from panolight_core.pipeline.preview import CAPTION_ROWS, diffuse_sphere, estimate_preview, exposure_for, strip, tonemap
+
+C = CAPTION_ROWS  # the label band above every tile
 
 
 def test_exposure_puts_the_median_at_18_percent_and_degenerate_images_get_1():
@@ -38,9 +40,10 @@ def test_preview_strip_layout():
     image = np.random.default_rng(0).random((32, 64, 3))
     coeffs = sh.project(image, 2)
     out = estimate_preview(image, sh.reconstruct(coeffs, 32, 64), coeffs, 2, height=32)
-    assert out.dtype == np.uint8 and out.shape == (32, 64 + 4 + 64 + 4 + 32, 3)
+    assert out.dtype == np.uint8 and out.shape == (C + 32, 64 + 4 + 64 + 4 + 32, 3)
     assert (out[:, 64:68] == 255).all()  # white gaps between the tiles
-    assert strip([("a", image)], 16).shape == (16, 32, 3)
+    assert strip([("a", image)], 16).shape == (C + 16, 32, 3)
+    assert (out[:C, :64] == 0).any() and (out[:C, :64] > 128).any()  # the label, in its own band
 
 
 def test_the_sphere_from_the_irradiance_map_matches_the_model():
@@ -62,10 +65,10 @@ def test_an_ldr_photo_shows_as_shot_and_the_sh_panel_shares_its_exposure():
     radiance = np.full((32, 64, 3), 0.002)
     radiance[17:20] = 0.5  # like a non-negative emitter: a bright band, nearly zero elsewhere (so is the median)
     out = estimate_preview(ldr_to_linear(photo), radiance, np.zeros((9, 3)), 2, height=32, exposure=1.0)
-    assert (out[20:, :64] == photo[20:]).all()  # below the label (17 rows): the photo itself
-    band = out[21, 68 + 8:68 + 64]
+    assert (out[C:, :64] == photo).all()  # below the label band: the photo itself, every row of it
+    band = out[C + 21, 68:68 + 64]
     assert (band <= 7).all()  # nearly black stays nearly black
-    assert (out[18, 68 + 8:68 + 64] == 188).all()  # 0.5 at the photo's exposure: sRGB 188, not clipped white
+    assert (out[C + 18, 68:68 + 64] == 188).all()  # 0.5 at the photo's exposure: sRGB 188, not clipped white
     # an exposure the model carries (2^exposure_ev) is taken out again: the same picture
     gained = estimate_preview(ldr_to_linear(photo), 4.0 * radiance, np.zeros((9, 3)), 2, height=32, exposure=1.0,
                               model_gain=4.0)
@@ -73,8 +76,8 @@ def test_an_ldr_photo_shows_as_shot_and_the_sh_panel_shares_its_exposure():
     # HDR input (exposure None): the input's median goes to 0.18, and the SH panel takes the same scale
     hdr = np.full((32, 64, 3), 0.25)
     auto = estimate_preview(hdr, radiance, np.zeros((9, 3)), 2, height=32)
-    assert (auto[20, 8:64] == tonemap(np.array([[[0.18] * 3]]), 1.0)[0, 0]).all()
-    assert (auto[18, 68 + 8:68 + 64] == tonemap(np.array([[[0.5] * 3]]), 0.18 / 0.25)[0, 0]).all()
+    assert (auto[C + 20, :64] == tonemap(np.array([[[0.18] * 3]]), 1.0)[0, 0]).all()
+    assert (auto[C + 18, 68:68 + 64] == tonemap(np.array([[[0.5] * 3]]), 0.18 / 0.25)[0, 0]).all()
 
 
 def test_the_lights_are_marked_where_they_are():
@@ -98,5 +101,41 @@ def test_a_recovered_sun_spread_over_the_sh_panel_darkens_it_instead_of_clipping
     radiance[24:] = 4.0  # the brightest quarter: 4 x the clip level
     photo = np.full((32, 64, 3), 0.5)
     out = estimate_preview(photo, radiance, np.zeros((9, 3)), 2, height=32, exposure=1.0)
-    assert (out[28, 68:68 + 64] == 255).all()  # the brightest percentile is white
-    assert (out[20, 68:68 + 64] == 137).all()  # the clip level at -2 EV: sRGB(0.25), not white
+    assert (out[C + 28, 68:68 + 64] == 255).all()  # the brightest percentile is white
+    assert (out[C + 20, 68:68 + 64] == 137).all()  # the clip level at -2 EV: sRGB(0.25), not white
+
+
+def test_the_preview_numbers_are_lighting_json_indices_and_labels_hide_no_ring(monkeypatch):
+    """preview.png numbered the lights by sorted intensity while lights[] is in another order; a ring on the
+    top edge hid under the label bar; overlapping rings hid their numbers."""
+    from PIL import ImageDraw
+
+
+    said = []
+    real = ImageDraw.ImageDraw.text
+    monkeypatch.setattr(ImageDraw.ImageDraw, "text", lambda self, xy, text, **kw: (said.append(text),
+                                                                                   real(self, xy, text, **kw)))
+    up = [0.1, 0.0, 0.995]  # near the zenith: the top edge of every tile
+    lights = [{"type": "sun", "direction": [1.0, 0.0, 0.0], "color": [1, 1, 1], "intensity": 1.0, "angle": 0.01},
+              {"type": "sun", "direction": up, "color": [1, 1, 1], "intensity": 9.0, "angle": 0.01}]
+    model = LightingModel(lights, np.zeros((9, 3)))
+    out = estimate_preview(np.full((64, 128, 3), 0.3), np.full((64, 128, 3), 0.3), model, 2, height=64)
+    assert [t for t in said if t in ("0", "1")] == ["0", "1", "0", "1"]  # lights[] order on both panels
+    top = out[C:C + 6, :128].astype(int)  # the ring at the zenith, in the picture, not under a label
+    assert (top == 0).all(-1).any() and (top == 255).all(-1).any()
+
+
+def test_labels_of_overlapping_rings_never_cover_each_other_or_a_ring():
+    from panolight_core.pipeline.preview import label_boxes
+
+    centres = [(60.0, 30.0), (66.0, 30.0), (63.0, 36.0), (70.0, 25.0)]  # four rings of radius 4 overlapping
+    boxes = label_boxes(centres, 4, 256, 128)
+    rings = [(x - 5, y - 5, x + 5, y + 5) for x, y in centres]
+
+    def hits(a, b):
+        return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+    for i, box in enumerate(boxes):
+        assert 0 <= box[0] and box[2] < 256 and 0 <= box[1] and box[3] < 128
+        assert not any(hits(box, r) for r in rings)
+        assert not any(hits(box, o) for j, o in enumerate(boxes) if j != i)
