@@ -79,6 +79,8 @@ TOOLS = {
                    "the real HDRs, and the suns the estimator invents"),
     "glare-law": ("training.keylight.glare_law", "the glare law c E theta^-2 around clipped regions over the real "
                   "HDRs, and the gates that could trust it"),
+    "digests": ("training.digests", "digests of the shipped estimates over the real HDRs: prove a refactoring "
+                "changed nothing (--out, then --compare)"),
     "sky-table": ("training.keylight.sky_table", "tabulate Mitsuba's sunsky into models/sky.safetensors"),
     "artist-check": ("training.render.artist_check", "a white sphere composited into real photos under each "
                      "estimate (Mitsuba), with lit/shadow ratios"),
