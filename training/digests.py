@@ -25,9 +25,17 @@ from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 
 
+def _without_timings(doc):
+    """The document without its wall-clock times ("timings", and every "*_s" key: model.fit_s, ...)."""
+    if isinstance(doc, dict):
+        return {k: _without_timings(v) for k, v in doc.items() if k != "timings" and not k.endswith("_s")}
+    if isinstance(doc, list):
+        return [_without_timings(v) for v in doc]
+    return doc
+
+
 def _document_digest(doc: dict) -> str:
-    doc = {k: v for k, v in doc.items() if k != "timings"}
-    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
+    return hashlib.sha256(json.dumps(_without_timings(doc), sort_keys=True, default=str).encode()).hexdigest()
 
 
 def _hdr_digest(result, ldr) -> str:
