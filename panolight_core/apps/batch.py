@@ -345,8 +345,6 @@ def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: 
     after every input, so an interrupted run leaves an accurate record of this run alone ("interrupted":
     true); per input: status ("ok", "skipped" or "failed"), output folder or error, seconds.
     """
-    names = output_names(inputs)
-    mine = shard(inputs, *shard_spec)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -354,10 +352,12 @@ def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: 
     # one batch per output folder (and shard: the shards of one job run side by side) at a time
     i, n = shard_spec
     with folder_lock(out_dir, ".panolight.lock" if n == 1 else f".panolight-shard-{i}-of-{n}.lock"):
-        return _run_locked(inputs, names, mine, out_dir, job, shard_spec, quiet, settings, jobs)
+        return _run_locked(inputs, out_dir, job, shard_spec, quiet, settings, jobs)
 
 
-def _run_locked(inputs, names, mine, out_dir, job, shard_spec, quiet, settings, jobs) -> dict:
+def _run_locked(inputs, out_dir, job, shard_spec, quiet, settings, jobs) -> dict:
+    names = output_names(inputs)
+    mine = shard(inputs, *shard_spec)
     prog = Progress(len(mine), quiet)
     done: dict[int, dict] = {}
     i, n = shard_spec

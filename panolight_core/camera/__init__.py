@@ -76,7 +76,7 @@ def jpeg_roundtrip(ldr: np.ndarray, quality: int) -> np.ndarray:
     """(H, W, 3) uint8 -> the same picture saved as a JPEG of that quality and decoded again."""
     from PIL import Image
 
-    from ..io.images import encode_srgb8
+    from .codec import encode_srgb8
 
     with Image.open(_io.BytesIO(encode_srgb8(ldr, "jpeg", quality))) as im:
         return np.asarray(im.convert("RGB"))

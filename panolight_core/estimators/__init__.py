@@ -91,7 +91,11 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
     from . import sources
 
     model = sources.load_source_model(sources.MODEL_PATH if model_path is None else model_path)
-    rec = sources.recover(pixels, model, key_lights=key_lights)
+    rec = sources.recover(pixels, model)
+    if key_lights:  # also without regions: a sun the photo does not show
+        from .keylight import with_key_lights
+
+        rec = with_key_lights(rec)
     return _recovery_estimate(rec, lmax, name, {"input": "ldr", "work_height": rec.frac.shape[0],
                                                 "model": model.path.name, "decision": rec.decision})
 

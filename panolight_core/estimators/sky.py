@@ -142,7 +142,7 @@ def _table_coordinates(dirs: np.ndarray, suns: np.ndarray, nt: int, nph: int):
 @lru_cache(maxsize=2)
 def load_sky_table(path=MODEL_PATH) -> SkyTable:
     """The tabulated clear sky in ``path`` (safetensors, no pickle); PanoLightError naming the file."""
-    from .nn.safetensors_np import load_shipped
+    from ..io.safetensors_np import load_shipped
 
     path = Path(path)
     t, _ = load_shipped(path, "clear-sky table")

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..camera.codec import encode_srgb8  # noqa: F401 (also io.images' to callers)
 from ..camera.color import SRGB8_TO_LINEAR, linear_to_srgb
 from ..errors import ImageError
 from . import hdr as _hdr
@@ -236,21 +237,6 @@ def _write_planes(out, block: np.ndarray, dtype) -> None:
     """One (n, W, 3) block into an open OpenEXR.OutputFile, as its R, G and B planes of ``dtype``."""
     out.writePixels({c: np.ascontiguousarray(block[..., i], dtype=dtype) for i, c in enumerate("RGB")},
                     block.shape[0])
-
-
-def encode_srgb8(rgb8: np.ndarray, fmt: str = "png", quality: int = 95) -> bytes:
-    """(H, W, 3) uint8 display-referred sRGB -> PNG or JPEG (fmt "png" | "jpeg", JPEG quality) file bytes."""
-    import io as _bytes_io
-
-    from PIL import Image
-
-    if fmt not in ("png", "jpeg"):
-        raise ValueError(f"8-bit formats are png and jpeg, got {fmt!r}")
-    buf = _bytes_io.BytesIO()
-    # PNG level 1: 3x faster than the default 6 for a fifth more bytes (previews, figures)
-    kw = {"quality": int(quality)} if fmt == "jpeg" else {"compress_level": 1}
-    Image.fromarray(np.ascontiguousarray(rgb8, dtype=np.uint8), "RGB").save(buf, format=fmt.upper(), **kw)
-    return buf.getvalue()
 
 
 def write_srgb8(path, rgb8: np.ndarray, *, quality: int = 95) -> Path:

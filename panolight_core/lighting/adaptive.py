@@ -90,19 +90,17 @@ def _ringing_why(ring: dict, window, deringing: str) -> str:
 
 
 def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", tolerance: float = DEFAULT_TOLERANCE,
-              max_order: int = DEFAULT_MAX_ORDER, irradiance_ringing: float = IRRADIANCE_RINGING,
-              radiance_ringing: float | None = None, deringing: str = "auto",
-              light_threshold: float | None = None, known_lights=(), exclude=()) -> LightingModel:
+              deringing: str = "auto", light_threshold: float | None = None, known_lights=(), exclude=()
+              ) -> LightingModel:
     """Fit lights + SH to a linear (H, W, 3) radiance map.
 
-    lights: extract explicit lights (False: SH only). lmax: "auto" (smallest order 0..max_order whose
-    diffuse relighting error against order max_order is <= tolerance of the model's mean irradiance) or
-    an int. deringing: "auto" applies the weakest sinc^4 window only when ringing would show: the
-    model's irradiance dips below -irradiance_ringing x its mean (dark patches on diffuse surfaces), or,
-    when ``radiance_ringing`` is given, the SH radiance dips below -radiance_ringing x its mean (for
-    those who display the SH radiance itself; off by default because a residual with bright sky or
-    windows rings in radiance at every useful order, and windowing it costs 2-10x in irradiance
-    accuracy on the Blender HDRIs). "none" disables it; a window family name forces that window.
+    lights: extract explicit lights (False: SH only). lmax: "auto" (smallest order 0..DEFAULT_MAX_ORDER whose
+    diffuse relighting error against order DEFAULT_MAX_ORDER is <= tolerance of the model's mean irradiance)
+    or an int. deringing: "auto" applies the weakest sinc^4 window only when ringing would show: the model's
+    irradiance dips below -IRRADIANCE_RINGING x its mean (dark patches on diffuse surfaces). (Not when the SH
+    radiance alone dips: a residual with bright sky or windows rings in radiance at every useful order, and
+    windowing it costs 2-10x in irradiance accuracy on the Blender HDRIs.) "none" disables it; a window
+    family name forces that window.
     light_threshold: see lights.extract_lights (the clip level for LDR-derived maps).
     known_lights: lights found before (an estimator's key lights), whose energy is not in ``radiance``: they
     come first, and no light is extracted within ``exclude`` ((direction, radius) pairs). With lights=False
@@ -127,6 +125,7 @@ def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", toleran
     else:
         found, residual = [], np.asarray(radiance, dtype=np.float64)
     auto = lmax == "auto"
+    max_order = DEFAULT_MAX_ORDER
     order = max_order if auto else int(lmax)
     coeffs = sh.project(residual, order).astype(np.float64)
     if known_lights and not lights:  # a fixed SH recipe holds the key lights in its coefficients
@@ -143,11 +142,7 @@ def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", toleran
     ring = ringing(coeffs, found)
     window = None
     if deringing == "auto":
-        target = None
-        if ring["min_irradiance_rel"] < -irradiance_ringing:
-            target = "irradiance"
-        elif radiance_ringing is not None and ring["min_radiance_rel"] < -radiance_ringing:
-            target = "radiance"
+        target = "irradiance" if ring["min_irradiance_rel"] < -IRRADIANCE_RINGING else None
         if target is not None and coeffs.shape[0] > 1:
             width = sh.auto_window_width(coeffs, "sinc4", target)
             if math.isfinite(width):
@@ -159,8 +154,8 @@ def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", toleran
         width = default_width(sh.lmax_from_count(coeffs.shape[0]))
         coeffs = sh.window(coeffs, deringing, width)
         window = {"kind": deringing, "width": width, "target": "fixed"}
-    info["ringing"] = {**{k: round(v, 6) for k, v in ring.items()}, "irradiance_threshold": irradiance_ringing,
-                       "radiance_threshold": radiance_ringing, "window": window,
+    info["ringing"] = {**{k: round(v, 6) for k, v in ring.items()}, "irradiance_threshold": IRRADIANCE_RINGING,
+                       "radiance_threshold": None, "window": window,
                        "why": _ringing_why(ring, window, deringing),
                        "emitters": EMITTERS_NOTE if ring["min_radiance_rel"] < 0 else "the SH radiance is non-negative"}
     model = LightingModel(found, coeffs, info)

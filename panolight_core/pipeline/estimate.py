@@ -51,9 +51,7 @@ def fit_radiance(radiance: np.ndarray, *, hdr_input: bool, lmax="auto", model: s
     not above the LDR clip level). lmax: "auto" or an int (as a string or int). known_lights: lights the
     estimator found itself, not in ``radiance`` (a fixed SH recipe, model "sh", projects them into its SH);
     exclude: (direction, radius) where no further light is taken (``lighting.adaptive.fit_model``)."""
-    lmax = str(lmax)
-    order = DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax)
-    return fit_model(radiance, lights=model == "auto", lmax=lmax, tolerance=tolerance, max_order=order,
+    return fit_model(radiance, lights=model == "auto", lmax=str(lmax), tolerance=tolerance,
                      deringing=deringing or ("auto" if model == "auto" else "none"),
                      light_threshold=None if hdr_input else CLIP_LEVEL, known_lights=known_lights, exclude=exclude)
 

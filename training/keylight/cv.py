@@ -75,7 +75,7 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight", cur
         # the physical energy in camera units against the truth's: only through EVALUATION.md's sRGB curve
         if sky_key is not None and curve == SRGB and metrics.angle_deg(sky_key.direction, ds["direction"]) <= 10.0:
             k = auto_exposure(hdr, ev)
-            physical = sky_key.physical / keylight.SKY_CORRECTION / (ds["energy"] * k)
+            physical = sky_key.physical / keylight.PARAMS.sky_correction / (ds["energy"] * k)
         rows.append({"scene": path.stem, "ev": ev, "clipped_truth": clipped, "share": round(ds["share"], 4),
                      "angle_deg": round(angle, 3), "ratio": ratio,
                      "lights": len(res.model.lights), "key_method": key.get("source") if key else None,
@@ -307,7 +307,7 @@ def main(argv=None) -> int:
                   flush=True)
     result = {"estimator": args.estimator, "fold_models": args.fold_models, "curve": list(args.curve),
               "summary": {f"{ev:+g}": summary(rows, ev) for ev in args.evs},
-              "sky_correction": correction_cv(rows, files), "shipped_sky_correction": keylight.SKY_CORRECTION,
+              "sky_correction": correction_cv(rows, files), "shipped_sky_correction": keylight.PARAMS.sky_correction,
               "rows": rows}
     print(json.dumps({k: v for k, v in result.items() if k != "rows"}, indent=1))
     save_study(result, args.out)

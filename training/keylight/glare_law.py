@@ -34,6 +34,7 @@ from panolight_core import sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators.highlights import work_maps
+from panolight_core.estimators.keylight import with_key_lights
 from panolight_core.estimators.sources.features import cap_cells
 from panolight_core.estimators.sources.recovery import recover
 from training.keylight.cv import fold_models_option, real_hdri_parser, scene_models
@@ -107,7 +108,7 @@ def scene_rows(ldr, truth, model) -> list[dict]:
     """One dict per compact region of a camera JPEG with a glare ring: its share of the truth's energy, the true log
     ratio, the trees' mu, held energy, radius, whether a larger region is near, how the default estimate weighs the
     key light it makes there (``key``: its method, None without one) and the ring (``ring``)."""
-    rec = recover(ldr, model, key_lights=True)
+    rec = with_key_lights(recover(ldr, model))
     regions = rec.regions
     if regions.count == 0:
         return []

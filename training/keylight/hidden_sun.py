@@ -63,14 +63,14 @@ def located(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
                 elevation_deg=round(found.elevation_deg, 2), contrast=round(found.contrast, 4),
                 rms=round(found.fit.rms, 4), sky_sr=round(found.fit.sky_sr, 3), blueness=round(found.fit.blueness, 3),
                 colour_match=round(found.colour_match, 3), direction_68_deg=round(found.direction_68_deg, 3),
-                clear=bool(found.fit.clear), energy_ratio=keylight.SKY_CORRECTION * found.fit.sun_energy / truth)
+                clear=bool(found.fit.clear), energy_ratio=keylight.PARAMS.sky_correction * found.fit.sun_energy / truth)
 
 
 def invented(hdr: np.ndarray, ev: float) -> dict:
     """The shipped estimator's hidden suns on the camera JPEG of ``hdr`` (unmasked)."""
     ds = metrics.dominant_source(hdr)
     ldr = hdr_to_ldr(hdr, ev, 90)
-    rec = sources.recover(ldr, maps=sources.work_maps(ldr), key_lights=True)
+    rec = keylight.with_key_lights(sources.recover(ldr, maps=sources.work_maps(ldr)))
     suns = [k for k in rec.keys if k.region < 0]
     out = {"ev": ev, "dominant": bool(ds["dominant"]), "hidden": []}
     for k in suns:
@@ -133,7 +133,7 @@ def picture(photo: Path, out: Path, width: int = 1024) -> dict:
     if ldr.dtype != np.uint8:
         raise SystemExit(f"{photo}: --picture takes an 8-bit photo (JPEG or PNG)")
     rad, frac_any, frac_all = maps = sources.work_maps(ldr)
-    rec = sources.recover(ldr, maps=maps, key_lights=True)
+    rec = keylight.with_key_lights(sources.recover(ldr, maps=maps))
     h = width // 2
     dirs = sh.pixel_directions(h, width)
     el = np.degrees(np.arcsin(np.clip(dirs[..., 2], -1, 1)))

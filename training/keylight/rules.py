@@ -7,7 +7,7 @@ less its light, plus the light) is scored as ``panolight estimate`` fits it: m-R
 (EVALUATION.md, as ratios to the naive map's), and for scenes with a dominant compact source the energy
 within 5 degrees of it against the truth's (r; median |log2 r| reported as "within 2^x").
 
-Rules (``keylight.ENERGY_RULES``) and the baseline:
+Rules (``ENERGY_RULES``: the shipped one is ``keylight.key_energy``) and the baseline:
 - ``sources``: no key light (the default estimator);
 - ``decided``: every light carries the energy the decision rule reports for its region;
 - ``capped``: the clear-sky fit's energy (or the model's mean) capped at the larger of mean and decided;
@@ -19,7 +19,7 @@ The shipped trees saw the scenes they were trained on, which favours all rules a
 each scene with the model of its fold, which never saw it (``training.source_energy.fit ship --hold-out K/5``).
 ``--gate`` adds a scene-level gate (one feature threshold, chosen on
 the other folds' scenes, 5 folds by scene) that turns the key lights on or off; ``--plateaus`` scores the
-shipped rule with other plateau extents (``keylight.PLATEAU_EXTENT_DEG``: how wide a region may be and still
+shipped rule with other plateau extents (``keylight.PARAMS.plateau_extent_deg``: how wide a region may be and still
 make a light without a clear-sky sun in it). The summary also lists the clear-sky fits' blueness (the kept
 sky's blue/red over the model's; ``sky.MIN_BLUENESS``) for real suns (a dominant source within 10 degrees)
 and for every other region it was tried on.
@@ -42,7 +42,7 @@ from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
-from panolight_core.estimators.sources.fill import fill_with_keys
+from panolight_core.estimators.sources.fill import cap_log_ratios, fill_with_keys
 from panolight_core.pipeline import fit_radiance
 from training.keylight.cv import (
     SRGB,
@@ -57,8 +57,27 @@ from training.keylight.cv import (
 from training.source_energy.cv import scene_folds
 from training.source_energy.fit import load_hdr, scene_files
 
-RULES = ("sources",) + keylight.ENERGY_RULES
+ENERGY_RULES = ("decided", "capped", "physical", "hybrid", "sky")
+SHIPPED_RULE = "hybrid"  # ``keylight.key_energy`` (tested equal to it)
+RULES = ("sources",) + ENERGY_RULES
 CONE_DEG = metrics.SOURCE_CONE_DEG
+
+
+def rule_energy(rule: str, physical: float | None, learned: float, decided: float, trusted: bool = False,
+                params: keylight.KeyLightParams = keylight.PARAMS) -> float:
+    """A key light's energy under one of ENERGY_RULES from its candidates (luminance x sr, camera units): the
+    clear-sky fit's (x sky_correction; None where there is none), the per-source model's mean and the decided
+    fill's. "decided": the decided fill's; "capped": the fit's (else the mean), capped at the larger of mean and
+    decided; "physical": the fit's, else the mean; "hybrid" (shipped, ``keylight.key_energy``): "capped" for a
+    clear-sky sun, but never below the low end of the fit's 68 % range where the fit is ``trusted``, "decided"
+    otherwise; "sky": the fit's whole energy for a clear-sky sun, "decided" otherwise."""
+    if rule not in ENERGY_RULES:
+        raise ValueError(f"unknown key-light energy rule {rule!r}: one of {', '.join(ENERGY_RULES)}")
+    if rule == "hybrid":
+        return keylight.key_energy(physical, learned, decided, trusted, params)
+    capped = min(learned if physical is None else physical, max(decided, learned))
+    return {"decided": decided, "capped": capped, "physical": learned if physical is None else physical,
+            "sky": decided if physical is None else physical}[rule]
 
 
 def _energies(rule: str, keys: list[dict]) -> list[float]:
@@ -66,10 +85,26 @@ def _energies(rule: str, keys: list[dict]) -> list[float]:
     ``find_key_lights`` trusted its fit: the shipped floor); none for the baseline ``sources``."""
     if rule == "sources":
         return [0.0] * len(keys)
-    return [keylight.rule_energy(rule, k["physical"], k["learned"], k["decided"], k["trusted"]) for k in keys]
+    return [rule_energy(rule, k["physical"], k["learned"], k["decided"], k["trusted"]) for k in keys]
 
 
-NO_FLOOR = (-1.0, 91.0)  # a ``find_key_lights`` floor no sun meets: "hybrid" as it was before the floor
+def find_under(rule: str, maps, regions, prediction, params=keylight.PARAMS, fits=None) -> list:
+    """``keylight.find_key_lights`` with the region lights weighed by another energy rule (those it gives no
+    energy dropped), then the hidden sun: the key lights a shipped estimator with that rule would find."""
+    keys = []
+    for k in keylight.region_candidates(maps, regions, prediction, params, fits):
+        e = rule_energy(rule, k.physical, k.learned, k.decided, k.trusted, params)
+        if e > 0:
+            keys.append(replace(k, energy=e))
+    return keylight.with_hidden_sun(keys, maps, regions, params, fits)
+
+
+NO_FLOOR = (-1.0, 91.0)  # a ``physics_trusted`` floor no sun meets: "hybrid" as it was before the floor
+
+
+def floor_params(floor) -> keylight.KeyLightParams:
+    """The shipped key-light parameters with the ``physics_trusted`` floor (extent, elevation), degrees."""
+    return replace(keylight.PARAMS, floor_max_extent_deg=floor[0], floor_min_elevation_deg=floor[1])
 
 
 def floor_label(floor) -> str:
@@ -78,7 +113,7 @@ def floor_label(floor) -> str:
 
 
 def parse_floor(text: str) -> tuple[float, float]:
-    """--floors item "EXTENT:ELEVATION" (degrees) or "none" -> a ``find_key_lights`` floor."""
+    """--floors item "EXTENT:ELEVATION" (degrees) or "none" -> a ``physics_trusted`` floor (extent, elevation)."""
     if text == "none":
         return NO_FLOOR
     try:
@@ -104,7 +139,7 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB, floo
            "keys": [], "rules": {}}
     found = []
     fits = {}  # the clear-sky fits, made once for every plateau setting
-    found = keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported, rule="physical", fits=fits)
+    found = find_under("physical", maps, reg, (mu, sigma, reported), fits=fits)
     for k in found:
         j, parts = k.region, [k.region, *k.parts]  # the regions the light stands for
         hidden = j < 0  # a sun the photo does not show: no region, every rule gives it the fit's energy
@@ -128,7 +163,7 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB, floo
                 np.median(hdr @ LUMINANCE_WEIGHTS))
 
     def scores(keys):
-        work = fill_with_keys(rad, reg, keylight.cap_log_ratios(reg, reported, keys), keys)[1]
+        work = fill_with_keys(rad, reg, cap_log_ratios(reg, reported, keys), keys)[1]
         q = fit_radiance(work, hdr_input=False).project(2)
         got = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
         if cone is not None:
@@ -137,12 +172,12 @@ def score_scene(hdr: np.ndarray, ev: float, model, plateaus=(), curve=SRGB, floo
 
     for rule in RULES:
         row["rules"][rule] = scores([replace(k, energy=e) for k, e in zip(found, _energies(rule, row["keys"])) if e > 0])
-    row["plateau"] = {f"{t:g}": scores(keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported,
-                                                               plateau_deg=t, fits=fits))
-                      for t in plateaus}
-    row["floor"] = {floor_label(f): scores(keylight.find_key_lights(rad, frac_any, frac_all, reg, mu, sigma, reported,
-                                                                    fits=fits, floor=f))
-                    for f in floors}
+    prediction = (mu, sigma, reported)
+    row["plateau"] = {f"{t:g}": scores(keylight.find_key_lights(
+        maps, reg, prediction, replace(keylight.PARAMS, plateau_extent_deg=t), fits)) for t in plateaus}
+    row["floor"] = {floor_label(f): scores(keylight.find_key_lights(
+        maps, reg, prediction, floor_params(f), fits))
+        for f in floors}
     return row
 
 
@@ -233,7 +268,7 @@ def main(argv=None) -> int:
     ap = real_hdri_parser("python -m training.keylight.rules", __doc__)
     ap.add_argument("--gate", action="store_true", help="also score a cross-validated one-threshold gate")
     ap.add_argument("--plateaus", type=float, nargs="*", default=[],
-                    help="also score the shipped rule with these plateau extents (degrees; keylight.PLATEAU_EXTENT_DEG)")
+                    help="also score the shipped rule with these plateau extents (degrees; keylight.PARAMS.plateau_extent_deg)")
     ap.add_argument("--floors", type=parse_floor, nargs="*", default=[], metavar="EXTENT:ELEVATION",
                     help="also score the shipped rule with these physics_trusted floors (degrees; 'none': no floor), "
                          "and the floor chosen on the other folds' scenes")
@@ -271,11 +306,11 @@ def main(argv=None) -> int:
         if gate:
             per["hybrid, gated (CV)"] = summary(sel, lambda r: gate["scores"][(r["scene"], r["ev"])])
         for f in labels:
-            per[f"{keylight.ENERGY_RULE}, floor {f}"] = summary(sel, lambda r, f=f: r["floor"][f])
+            per[f"{SHIPPED_RULE}, floor {f}"] = summary(sel, lambda r, f=f: r["floor"][f])
         if floors:
-            per[f"{keylight.ENERGY_RULE}, floor chosen by CV"] = summary(sel, lambda r: floors["scores"][(r["scene"], r["ev"])])
+            per[f"{SHIPPED_RULE}, floor chosen by CV"] = summary(sel, lambda r: floors["scores"][(r["scene"], r["ev"])])
         for t in args.plateaus:
-            per[f"{keylight.ENERGY_RULE}, plateau {t:g} deg"] = summary(sel, lambda r, t=t: r["plateau"][f"{t:g}"])
+            per[f"{SHIPPED_RULE}, plateau {t:g} deg"] = summary(sel, lambda r, t=t: r["plateau"][f"{t:g}"])
         result["summary"][f"{ev:+g}"] = per
     print("\n".join(table(result)))
     for name, v in result["blueness"].items():

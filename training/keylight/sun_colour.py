@@ -10,9 +10,9 @@ luminance 1), and at each ev the clear-sky fit of its camera JPEG (EVALUATION.md
 direction, as ``sun_elevation`` does; over the fits that pass the cloudiness gate:
 
 - the camera's white point: per channel, the median of log(model / true) over the suns at least
-  ``keylight.WHITE_RAMP_DEG[1]`` up, as a colour of luminance 1 (the model's colour divided by it, made luminance 1
+  ``keylight.PARAMS.white_ramp_deg[1]`` up, as a colour of luminance 1 (the model's colour divided by it, made luminance 1
   again, is what the camera shows; lower suns take a share of it, ``keylight.camera_colour``):
-  ``keylight.CAMERA_WHITE``;
+  ``keylight.PARAMS.camera_white``;
 - cross-validated by scene: each fold's suns corrected by the median of the OTHER folds' (the folds of
   ``training.source_energy.cv``); the colour error of a sun is the largest |log2| of its channels' ratios to the truth
   (0.32: a channel 25 % off), summarised by its median and by elevation band.
@@ -87,10 +87,17 @@ def score_scene(hdr, evs) -> list[dict]:
     return rows
 
 
+def with_white(white) -> "keylight.KeyLightParams":
+    """The shipped key-light parameters with another camera white point (3,)."""
+    from dataclasses import replace
+
+    return replace(keylight.PARAMS, camera_white=tuple(float(v) for v in white))
+
+
 def white_point(rows: list[dict]) -> np.ndarray:
     """(3,) the camera's white point (luminance 1): per channel exp(median log(model / true)) over the ``rows`` of
-    suns at least WHITE_RAMP_DEG[1] up (all of them where none is)."""
-    high = [r for r in rows if r["elevation_deg"] >= keylight.WHITE_RAMP_DEG[1]] or rows
+    suns at least white_ramp_deg[1] up (all of them where none is)."""
+    high = [r for r in rows if r["elevation_deg"] >= keylight.PARAMS.white_ramp_deg[1]] or rows
     logs = np.array([np.log(np.array(r["model"]) / np.array(r["true"])) for r in high])
     return unit_colour(np.exp(np.median(logs, axis=0)))
 
@@ -98,7 +105,7 @@ def white_point(rows: list[dict]) -> np.ndarray:
 def cross_validate(rows: list[dict], files) -> dict:
     """The white point of all the clear suns, and each fold's suns balanced by the OTHER folds' (by scene; ``files``:
     every scene of the folder, whose folds are those of ``training.source_energy.cv``):
-    per row the colour error before (the model's colour), with the shipped CAMERA_WHITE, and cross-validated."""
+    per row the colour error before (the model's colour), with the shipped camera_white, and cross-validated."""
     clear = [r for r in rows if r["clear"]]
     folds = {p.stem: k for p, k in fold_of(files).items()}
     out = {"suns": len({r["scene"] for r in clear}), "fits": len(clear),
@@ -112,7 +119,7 @@ def cross_validate(rows: list[dict], files) -> dict:
         out["folds"][k] = [round(float(v), 4) for v in white]
         for r in clear:
             if folds[r["scene"]] == k:
-                r["error_cv"] = colour_error(keylight.camera_colour(r["model"], r["elevation_deg"], white), r["true"])
+                r["error_cv"] = colour_error(keylight.camera_colour(r["model"], r["elevation_deg"], with_white(white)), r["true"])
     for r in clear:
         r["error_model"] = colour_error(r["model"], r["true"])
         r["error_shipped"] = colour_error(keylight.camera_colour(r["model"], r["elevation_deg"]), r["true"])
@@ -144,7 +151,7 @@ def main(argv=None) -> int:
     rows = score_manifest_suns(args.hdri, args.evs, score_scene, describe)
     cv = cross_validate(rows, scene_files(args.hdri))
     print(f"white point over {cv['fits']} clear fits of {cv['suns']} suns: {cv['white_point']} "
-          f"(shipped {[round(float(v), 4) for v in keylight.CAMERA_WHITE]}); by fold: {cv['folds']}")
+          f"(shipped {[round(float(v), 4) for v in keylight.PARAMS.camera_white]}); by fold: {cv['folds']}")
     bands = summary(rows)
     for b in bands:
         lo, hi = b["band_deg"]
@@ -152,7 +159,7 @@ def main(argv=None) -> int:
             print(f"{lo:g}-{hi:g} deg: {b['fits']} clear fits, median colour error (max |log2| channel ratio) "
                   f"model {b['median_error_model']:.3f}, cross-validated {b['median_error_cv']:.3f}, "
                   f"shipped {b['median_error_shipped']:.3f}")
-    save_study({"camera_white": [float(v) for v in keylight.CAMERA_WHITE], "cv": cv, "summary": bands, "rows": rows},
+    save_study({"camera_white": [float(v) for v in keylight.PARAMS.camera_white], "cv": cv, "summary": bands, "rows": rows},
                args.out)
     return 0
 

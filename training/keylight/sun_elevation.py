@@ -60,7 +60,7 @@ def score_scene(hdr, evs) -> list[dict]:
         fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, ds["direction"])
         row = {"ev": ev, "elevation_deg": round(elevation, 2), "share": round(ds["share"], 4), "fit": fit is not None}
         if fit is not None:
-            physical = keylight.SKY_CORRECTION * fit.sun_energy
+            physical = keylight.PARAMS.sky_correction * fit.sun_energy
             row.update(turbidity=fit.turbidity, clear=bool(fit.clear), rms=round(fit.rms, 4),
                        true_over_physical=ds["energy"] * auto_exposure(hdr, ev) / physical if physical > 0 else None)
         rows.append(row)
@@ -103,7 +103,7 @@ def main(argv=None) -> int:
         lo, hi = b["band_deg"]
         print(f"{lo:g}-{hi:g} deg: {b['fits']} clear fits" + (
             f", median true / physical {b['median_true_over_physical']:.2f}, within {b['within']:.2f}x" if b["fits"] else ""))
-    save_study({"sky_correction": keylight.SKY_CORRECTION, "summary": bands, "rows": rows}, args.out)
+    save_study({"sky_correction": keylight.PARAMS.sky_correction, "summary": bands, "rows": rows}, args.out)
     return 0
 
 

@@ -2,7 +2,7 @@
 vertical (its columns rolled, as another camera's "north" would), saved again as a JPEG, or made smaller (what a web
 page, a chat or a CMS does to a photo before a user gets it) is the same scene, so it should get the same key light.
 Work cells are whole groups of pixels, so a turn that is no whole number of cells regroups the clipped pixels; a
-threshold on what a region holds (``keylight.KEY_SHARE``) can then let a sun come and go. A JPEG saved again pulls
+threshold on what a region holds (``keylight.PARAMS.key_share``) can then let a sun come and go. A JPEG saved again pulls
 some channel of a barely clipped sun below 254, and a region is made of pixels white in every channel.
 
 For each photo (default: every JPEG in ../shared/data/ldr) and each turn (pixels; default a spread of 0-1500, most

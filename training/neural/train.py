@@ -156,7 +156,7 @@ def load_autoencoder(path, net) -> dict:
     configuration, read without pickle and checked: PanoLightError naming the file when a tensor is
     missing, has another shape, or holds NaN / Inf."""
     from panolight_core.errors import PanoLightError
-    from panolight_core.estimators.nn.safetensors_np import load_safetensors
+    from panolight_core.io.safetensors_np import load_safetensors
 
     weights, _ = load_safetensors(path)
     ae = {k[3:]: v for k, v in weights.items() if k.startswith("ae.")}

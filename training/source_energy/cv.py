@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
@@ -11,6 +12,9 @@ from panolight_core import metrics, sh
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
 from panolight_core.estimators import sources
 from panolight_core.estimators.highlights import recover_highlights
+from panolight_core.estimators.sources.decision import choose_shrink, shrunk
+from panolight_core.estimators.sources.features import region_features
+from panolight_core.estimators.sources.regions import WIDE_CONCENTRATION
 from panolight_core.pipeline import fit_radiance
 
 EVS = (-2.0, 0.0, 2.0)
@@ -39,6 +43,32 @@ WIDE_CONCENTRATIONS = (0.0, 1.0, 2.0, 3.0)  # profile of wide regions' excess (t
 DECIDED = f"learned (decision, wide regions q = {sources.WIDE_CONCENTRATION:g})"  # what the estimator reports
 
 
+def recover_variant(ldr, model=None, log_ratio_fn=None, wide_concentration: float = WIDE_CONCENTRATION):
+    """``sources.recover`` with a study's variant: another ratio function ``log_ratio_fn(regions) -> (mu, sigma,
+    reported)`` (no decision then), or the regions' wide-profile exponent ``wide_concentration``
+    (``Regions.shape_exponents``). Through ``sources.assemble``, the core's lower-level entry point."""
+    maps = sources.work_maps(ldr)
+    regions = region_features(*maps, wide_concentration=wide_concentration)
+    if log_ratio_fn is not None:
+        return sources.assemble(maps, regions, log_ratio_fn(regions))
+    mu, sigma, reported = (model or sources.load_source_model()).predict(regions.features)
+    decision = None
+    if regions.count:
+        c, expected = choose_shrink(maps[0], regions, mu, sigma)
+        reported = shrunk(mu, sigma, c)
+        decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
+    return sources.assemble(maps, regions, (mu, sigma, reported), decision)
+
+
+def power_law_log_ratio(regions):
+    """The physical model alone as a region ratio (the learned model's yardstick): the power law's gain
+    over the clipped area, no spread."""
+    gain = 10.0 ** regions.feature("log_power_law_gain")
+    ratio = (regions.held + (gain - 1.0) * regions.clipped_sr) / np.maximum(regions.held, 1e-30)
+    lr = np.log(np.maximum(ratio, 1.0))
+    return lr, np.zeros_like(lr), lr
+
+
 def variant_label(shrink: float) -> str:
     return "learned (mu)" if shrink == 0 else f"learned (mu - {shrink:g} s2)"
 
@@ -51,12 +81,12 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS, quick: bool = Fal
             def fn(reg):
                 mu, sigma, _ = model.predict(reg.features)
                 return mu, sigma, np.maximum(mu - shrink * sigma ** 2, 0.0)
-            return sources.recover(ldr, log_ratio_fn=fn).work
+            return recover_variant(ldr, log_ratio_fn=fn).work
         return run
 
     def decided(q):
         def run(ldr):
-            return sources.recover(ldr, model, wide_concentration=q).work
+            return recover_variant(ldr, model, wide_concentration=q).work
         return run
 
     def coarse(rows, clipped_excess):
@@ -80,7 +110,7 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS, quick: bool = Fal
             "sources at 64 rows": coarse(64, 0.0),
             "sources + 0.05 clipped": coarse(sources.WORK_HEIGHT, 0.05),
             "sources at 64 rows + 0.05 clipped (the untrained network)": coarse(64, 0.05),
-            "power-law regions": lambda ldr: sources.recover(ldr, log_ratio_fn=sources.power_law_log_ratio).work,
+            "power-law regions": lambda ldr: recover_variant(ldr, log_ratio_fn=power_law_log_ratio).work,
             **{variant_label(c): learned(c) for c in shrinks},
             **{f"learned (decision, wide regions q = {q:g})": decided(q) for q in WIDE_CONCENTRATIONS}}
 

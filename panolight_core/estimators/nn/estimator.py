@@ -16,9 +16,9 @@ import numpy as np
 
 from ... import sh
 from ...errors import PanoLightError
+from ...io.safetensors_np import load_safetensors
 from .inputs import CHANNELS, network_input
 from .model import forward
-from .safetensors_np import load_safetensors
 
 MODEL_DIR = Path(__file__).resolve().parents[2] / "models"
 DEFAULT_WEIGHTS = MODEL_DIR / "small.safetensors"

@@ -11,7 +11,7 @@ predicted from what the picture does show. One module per job:
   r = true energy / energy its cells hold, as a mean mu and a spread sigma.
 - ``decision``: which ratio to report, the one of least expected error under the metric itself.
 - ``fill``: the excess put back into the work map and the full-resolution pixels.
-- ``recovery``: all of it in one call, ``recover``.
+- ``recovery``: all of it in one call, ``recover`` (``assemble``: from a prediction of any origin).
 
 Work maps: radiance (h, 2h, 3) linear in clip units (1 = white), Blender world frame (CONVENTIONS.md).
 """
@@ -26,15 +26,16 @@ from .decision import (
                        choose_shrink,
 )
 from .features import FEATURES, RING_EDGES_DEG, region_features
-from .fill import FullResolutionFill, fill_full_resolution, fill_regions
-from .recovery import Recovery, power_law_log_ratio, recover
+from .fill import FullResolutionFill, cap_log_ratios, fill_full_resolution, fill_regions
+from .recovery import Recovery, assemble, recover
 from .regions import MAX_REGIONS, SHAPE_MAX_EXTENT_DEG, WIDE_CONCENTRATION, Regions
 from .trees import MODEL_PATH, SourceModel, TreeEnsemble, ensemble_arrays, load_source_model
 
 __all__ = [
     "DECISION_CORRELATION", "DECISION_SAMPLES", "DECISION_TOLERANCE", "FEATURES", "MAX_REGIONS", "MIN_MEDIAN_RATIO",
     "MODEL_PATH", "RING_EDGES_DEG", "SHAPE_MAX_EXTENT_DEG", "SHRINK_CANDIDATES", "WIDE_CONCENTRATION", "WORK_HEIGHT",
-    "FullResolutionFill", "Recovery", "Regions", "SourceModel", "TreeEnsemble", "_weighted_errors", "choose_shrink",
-    "ensemble_arrays", "fill_full_resolution", "fill_regions", "load_source_model", "power_law_log_ratio", "recover",
+    "FullResolutionFill", "Recovery", "Regions", "SourceModel", "TreeEnsemble", "_weighted_errors", "assemble",
+    "cap_log_ratios", "choose_shrink", "ensemble_arrays", "fill_full_resolution", "fill_regions", "load_source_model",
+    "recover",
     "region_features", "work_maps",
 ]

@@ -36,6 +36,23 @@ def fill_regions(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray, keys=
     return out
 
 
+def cap_log_ratios(regions, log_ratio: np.ndarray, keys) -> np.ndarray:
+    """(n,) the reported log ratios of ``regions`` with each capped key light's regions (``KeyLight.cap``: a
+    trusted sun) lowered, by one factor on their excess, so that together they add at most its cap: the decided
+    fill of a sun's patch can otherwise hold more than the light and its fit's whole 68 % range (the trees' mean
+    over a sun the sky weighs lower). The others unchanged; a new array."""
+    out = np.array(log_ratio, dtype=np.float64, copy=True)
+    for k in keys:
+        if k.cap is None or k.region < 0:
+            continue
+        parts = [k.region, *k.parts]
+        excess = np.expm1(out[parts]) * regions.held[parts]
+        total = float(excess.sum())
+        if total > k.cap:
+            out[parts] = np.log1p(excess * (k.cap / total) / regions.held[parts])
+    return out
+
+
 def fill_with_keys(rad: np.ndarray, regions: Regions, log_ratio: np.ndarray, keys=()):
     """(diffuse, work): ``fill_regions`` (each region's fill less its key light's energy) and the same map
     with the key lights' energy deposited in their cells (``key_deposits``); both (h, w, 3)."""

@@ -1,4 +1,5 @@
-"""Recovering a panorama's clipped energy: regions, the model's prediction, the decision and the fill, in one call.
+"""Recovering a panorama's clipped energy: regions, the model's prediction, the decision and the fill, in one call
+(``recover``; ``assemble`` takes a prediction of any origin).
 
 The excess (r - 1) x held goes into each region's cells by ``Regions.share``, white in the camera's balance,
 so the recovered work map holds exactly r x held in the region; ``fill.fill_full_resolution`` puts the
@@ -14,8 +15,8 @@ import numpy as np
 from ..highlights import WORK_HEIGHT, work_maps
 from .decision import choose_shrink, shrunk
 from .features import region_features
-from .fill import fill_with_keys
-from .regions import WIDE_CONCENTRATION, Regions
+from .fill import cap_log_ratios, fill_with_keys
+from .regions import Regions
 from .trees import SourceModel, load_source_model
 
 
@@ -35,10 +36,25 @@ class Recovery:
     keys: list = field(default_factory=list)  # keylight.KeyLight: the compact sources, as explicit lights
     diffuse: np.ndarray | None = None  # ``work`` without the key lights (what the SH part is fitted to)
     sun_search: dict | None = None  # keylight.sun_search_report: the search for a sun the photo does not show
+    frac_any: np.ndarray | None = None  # the any-channel clipped fraction (h, 2h): with base and frac, the work maps
 
     def __post_init__(self):
         if self.diffuse is None:
             self.diffuse = self.work
+
+    @property
+    def maps(self) -> tuple:
+        """The work maps (rad, frac_any, frac_all) this recovery was made from (``highlights.work_maps``)."""
+        return self.base, self.frac_any, self.frac
+
+    def with_keys(self, keys: list, sun_search: dict | None = None) -> "Recovery":
+        """This recovery with ``keys`` (``keylight.KeyLight``) as explicit lights: each key light's region keeps
+        in its fill only what its decided energy holds beyond the light's, and a trusted sun's regions at most the
+        high end of its fit's 68 % range (``cap_log_ratios``: the reported log ratios say so); ``sun_search``: the
+        account of the search for a sun the photo does not show (``keylight.sun_search_report``)."""
+        reported = cap_log_ratios(self.regions, self.log_ratio, keys)
+        diffuse, work = fill_with_keys(self.base, self.regions, reported, keys)
+        return replace(self, work=work, diffuse=diffuse, log_ratio=reported, keys=list(keys), sun_search=sun_search)
 
     def with_key_strength(self, strength: float) -> "Recovery":
         """This recovery with every key light's energy times ``strength`` (>= 0; an artist's setting: lighting.json
@@ -87,49 +103,29 @@ class Recovery:
         return out
 
 
-def recover(ldr: np.ndarray, model: SourceModel | None = None, log_ratio_fn=None,
-            height: int = WORK_HEIGHT, decide: bool = True, tolerance: float | None = None,
-            min_median_ratio: float | None = None, maps=None, key_lights: bool = False,
-            wide_concentration: float = WIDE_CONCENTRATION) -> Recovery:
-    """Recover the clipped energy of a uint8 sRGB panorama with the learned model (default: the shipped
-    one) or ``log_ratio_fn(regions) -> (mu, sigma, reported)`` (alternatives and oracles in evaluation).
-
-    decide: report the energies ``choose_shrink`` picks (the expected-error optimum under the metric);
-    False: the model's fixed rule, log r = mu - shrink sigma^2. maps: ``work_maps(ldr, height)`` when the
-    caller already has them (the learned estimator's input at this height), so they are made once.
-    key_lights: make the regions that hold a compact key source explicit lights (``keylight``); each such
-    region's fill keeps only what its decided energy holds beyond its light's, and a trusted sun's regions at
-    most the high end of its fit's 68 % range (``keylight.cap_log_ratios``: the reported log ratios say so).
-    wide_concentration: the profile exponent of wide regions' excess (``Regions.shape_exponents``; the
-    cross-validation's knob)."""
-    rad, frac, frac_all = work_maps(ldr, height) if maps is None else maps
-    regions = region_features(rad, frac, frac_all, wide_concentration=wide_concentration)
+def recover(ldr: np.ndarray, model: SourceModel | None = None, maps=None) -> Recovery:
+    """Recover the clipped energy of a uint8 sRGB panorama with the learned model (default: the shipped one):
+    its regions, the model's prediction (mu, sigma) and the energies ``choose_shrink`` decides (the
+    expected-error optimum under the metric), filled into the work map. maps: ``work_maps(ldr)`` when the
+    caller already has them (the learned estimator's input at this height), so they are made once. The key
+    lights are a further step (``keylight.with_key_lights``)."""
+    maps = work_maps(ldr, WORK_HEIGHT) if maps is None else maps
+    regions = region_features(*maps)
+    mu, sigma, reported = (model or load_source_model()).predict(regions.features)
     decision = None
-    if log_ratio_fn is not None:
-        mu, sigma, reported = log_ratio_fn(regions)
-    else:
-        mu, sigma, reported = (model or load_source_model()).predict(regions.features)
-        if decide and regions.count:
-            c, expected = choose_shrink(rad, regions, mu, sigma, tolerance=tolerance,
-                                        min_median_ratio=min_median_ratio)
-            reported = shrunk(mu, sigma, c)
-            decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
-    keys, report = [], None
-    if key_lights and log_ratio_fn is None:  # also without regions: a sun the photo does not show
-        from ..keylight import cap_log_ratios, find_key_lights, sun_search_report
-
-        fits = {}
-        keys = find_key_lights(rad, frac, frac_all, regions, mu, sigma, reported, fits=fits)
-        report = sun_search_report(fits, keys, regions)
-        reported = cap_log_ratios(regions, reported, keys)  # a trusted sun's patch holds at most its fit's 68 % high end
-    diffuse, work = fill_with_keys(rad, regions, reported, keys)
-    return Recovery(work, rad, frac_all, regions, mu, sigma, reported, decision, keys, diffuse, report)
+    if regions.count:
+        c, expected = choose_shrink(maps[0], regions, mu, sigma)
+        reported = shrunk(mu, sigma, c)
+        decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
+    return assemble(maps, regions, (mu, sigma, reported), decision)
 
 
-def power_law_log_ratio(regions: Regions):
-    """The physical model alone as a region ratio (the learned model's yardstick): the power law's gain
-    over the clipped area, no spread."""
-    gain = 10.0 ** regions.feature("log_power_law_gain")
-    ratio = (regions.held + (gain - 1.0) * regions.clipped_sr) / np.maximum(regions.held, 1e-30)
-    lr = np.log(np.maximum(ratio, 1.0))
-    return lr, np.zeros_like(lr), lr
+def assemble(maps, regions: Regions, prediction, decision: dict | None = None) -> Recovery:
+    """The lower-level entry point: the Recovery of work ``maps`` (rad, frac_any, frac_all), their ``regions``
+    and a per-region ``prediction`` (mu, sigma, reported: natural logs of the energy ratio) of any origin, the
+    reported ratios filled into the work map. ``recover`` is it with the shipped model and decision; training's
+    variants (other ratio functions, region profiles, decisions, oracles) call it with their own."""
+    rad, frac_any, frac_all = maps
+    mu, sigma, reported = prediction
+    diffuse, work = fill_with_keys(rad, regions, reported)
+    return Recovery(work, rad, frac_all, regions, mu, sigma, reported, decision, [], diffuse, None, frac_any)

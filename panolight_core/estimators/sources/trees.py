@@ -105,7 +105,7 @@ def load_source_model(path=MODEL_PATH) -> SourceModel:
     """The source-energy model in ``path`` (safetensors, no pickle); PanoLightError naming the file."""
     import json
 
-    from ..nn.safetensors_np import load_shipped
+    from ...io.safetensors_np import load_shipped
 
     path = Path(path)
     tensors, meta = load_shipped(path, "source-energy model")

@@ -28,7 +28,7 @@ def test_estimate_hdr_writes_its_outputs_and_they_are_right(tmp_path, rng):
     np.testing.assert_allclose(read_image(out / "irradiance.exr", negative="error"),
                                sh.irradiance_map(coeffs, 32, 64), rtol=1e-5, atol=1e-5)
     preview = read_image(out / "preview.png", equirect=False)
-    assert preview.shape[0] == 256 and preview.shape[1] == 2 * 512 + 256 + 8  # input | radiance | sphere
+    assert preview.shape[0] == 16 + 256 and preview.shape[1] == 2 * 512 + 256 + 8  # titles above input | radiance | sphere
 
 
 def test_default_model_writes_lights_and_sh_model_does_not(tmp_path):

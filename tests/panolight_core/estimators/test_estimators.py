@@ -41,7 +41,7 @@ def test_a_registered_per_source_model_file_is_the_one_used(tmp_path, monkeypatc
 
     monkeypatch.setattr(estimators, "_REGISTRY", dict(estimators._REGISTRY))  # the test's labels go with it
     from panolight_core.camera import hdr_to_ldr
-    from panolight_core.estimators.nn.safetensors_np import load_safetensors
+    from panolight_core.io.safetensors_np import load_safetensors
     from panolight_core.synthetic import environment
 
     seed = next(s for s in range(200, 260) if environment(s, 128)[1]["kind"] == "outdoor"

@@ -1,4 +1,5 @@
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -104,7 +105,7 @@ def test_a_sun_retouched_out_of_a_clear_sky_is_put_back_from_the_sky():
     assert report["direction_68_deg"] == pytest.approx(math.degrees(sun.direction_68), abs=0.01)
     assert sun.region == -1 and sun.method.startswith("hidden sun")
     assert metrics.angle_deg(sun.direction, s) < math.degrees(sun.direction_68)  # within its own 68 % radius
-    assert sun.energy == pytest.approx(keylight.SKY_CORRECTION * energy, rel=0.25)
+    assert sun.energy == pytest.approx(keylight.PARAMS.sky_correction * energy, rel=0.25)
     assert sun.energy_68[0] < sun.energy < sun.energy_68[1]
     assert math.degrees(sun.angle) == pytest.approx(keylight.SUN_DIAMETER_DEG)
     assert sun.color[0] > sun.color[2]  # a sun's colour, not the blue sky's
@@ -132,9 +133,9 @@ def test_a_weakly_admitted_glint_gives_way_to_the_sun_the_sky_search_places():
     passing = clear_sky.fit_clear_sky(rad, fa == 0, fb > 0.5, s)  # a fit that passes the gate, given to the glint
     assert passing.clear
     sigma = np.full(reg.count, 0.3)
-    weak = keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.05, g), sigma, fits={g: passing})
+    weak = keylight.find_key_lights((rad, fa, fb), reg, (_share_mu(reg, rad, 0.05, g), sigma, None), fits={g: passing})
     assert [k.region for k in weak] == [-1] and metrics.angle_deg(weak[0].direction, s) < 10.0
-    strong = keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.3, g), sigma, fits={g: passing})
+    strong = keylight.find_key_lights((rad, fa, fb), reg, (_share_mu(reg, rad, 0.3, g), sigma, None), fits={g: passing})
     assert [k.region for k in strong] == [g] and not strong[0].weak
 
 
@@ -192,30 +193,6 @@ def test_off_by_default_and_sources_unchanged():
     assert float(keyed.coeffs[0] @ LUMINANCE_WEIGHTS) >= float(plain.coeffs[0] @ LUMINANCE_WEIGHTS) - 1e-9
 
 
-def test_energy_rules_give_a_lamp_the_decided_energy_and_name_bad_rules():
-    from panolight_core.errors import PanoLightError
-    from panolight_core.estimators import keylight
-
-    ldr = hdr_to_ldr(_lamps([(0.3, -0.2, -0.2)]), 0.0)  # below the horizon: no clear-sky fit, a lamp
-    rad, fa, fb = sources.work_maps(ldr)
-    reg = sources.region_features(rad, fa, fb)
-    mu, sigma, _ = sources.load_source_model().predict(reg.features)
-    reported = np.maximum(mu - 1.0 * sigma ** 2, 0.0)  # a shrunk decision, below the model's mean
-    held = reg.held
-
-    def energies(rule):
-        return {k.region: k.energy for k in keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule=rule)}
-
-    hybrid, decided, capped = energies("hybrid"), energies("decided"), energies("capped")
-    assert hybrid and all(k.method == "per-source model" for k in
-                          keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="hybrid"))
-    for i, e in hybrid.items():  # a lamp (no clear-sky fit): the decision's energy, not the model's mean
-        assert e == pytest.approx((math.exp(reported[i]) - 1.0) * held[i]) == pytest.approx(decided[i])
-        assert capped[i] == pytest.approx((math.exp(mu[i]) - 1.0) * held[i]) and capped[i] > e
-    with pytest.raises(PanoLightError, match="unknown key-light energy rule 'loud'.*hybrid"):
-        keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="loud")
-
-
 def test_a_wide_plateau_makes_no_light_unless_a_clear_sky_sun_is_in_it():
     """A 45 degree (radius) patch of clipped overcast sky over a grey ground: the fill lights it evenly; a
     point light there would cast a shadow the scene does not have. Below the plateau extent it is a lamp."""
@@ -229,9 +206,9 @@ def test_a_wide_plateau_makes_no_light_unless_a_clear_sky_sun_is_in_it():
     rad, fa, fb = sources.work_maps(hdr_to_ldr(img, 0.0))
     reg = sources.region_features(rad, fa, fb)
     mu, sigma, _ = sources.load_source_model().predict(reg.features)
-    assert reg.extent_deg().max() > keylight.PLATEAU_EXTENT_DEG
-    assert keylight.find_key_lights(rad, fa, fb, reg, mu, sigma) == []
-    lamps = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, plateau_deg=180.0)
+    assert reg.extent_deg().max() > keylight.PARAMS.plateau_extent_deg
+    assert keylight.find_key_lights((rad, fa, fb), reg, (mu, sigma, None)) == []
+    lamps = keylight.find_key_lights((rad, fa, fb), reg, (mu, sigma, None), replace(keylight.PARAMS, plateau_extent_deg=180.0))
     assert len(lamps) == 1 and lamps[0].sky is not None and not lamps[0].sky.clear
 
 
@@ -246,7 +223,7 @@ def test_a_key_light_says_how_far_its_source_may_be():
     key = rec.keys[0]
     extent = math.radians(float(rec.regions.extent_deg()[key.region]))
     cell = math.pi / rec.work.shape[0]
-    assert key.direction_68 == pytest.approx(max(keylight.DIRECTION_68_PER_EXTENT * extent, cell))
+    assert key.direction_68 == pytest.approx(max(keylight.PARAMS.direction_68_per_extent * extent, cell))
     light = next(l for l in res.model.lights if "direction_68_deg" in l)
     assert light["direction_68_deg"] == pytest.approx(math.degrees(key.direction_68), abs=1e-3)
     assert metrics.angle_deg(light["direction"], v) <= light["direction_68_deg"]
@@ -289,20 +266,6 @@ def test_one_sun_in_the_sky_when_its_patch_is_split_in_two():
     assert added == pytest.approx(max(decided, sun.energy), rel=1e-6)
 
 
-def test_the_sky_rule_gives_a_clear_sky_sun_its_whole_fitted_energy():
-    """The study's "sky" rule (not shipped, docs/keylight.md): the fit's energy uncapped; "hybrid" caps it."""
-    from panolight_core.estimators import keylight
-
-    ldr, s = _clear_sky_with_pole(pole_deg=0.0)
-    rad, fa, fb = sources.work_maps(ldr)
-    reg = sources.region_features(rad, fa, fb)
-    mu, sigma, reported = sources.load_source_model().predict(reg.features)
-    (a,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="hybrid")
-    (b,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported, rule="sky")
-    assert a.method.startswith("clear-sky fit") and metrics.angle_deg(b.direction, s) < 1.5
-    assert b.energy == pytest.approx(b.physical) and b.energy > a.energy  # the cap bites here
-
-
 @pytest.mark.parametrize("elev, floored", [(35.0, True), (12.0, False)])
 def test_a_compact_high_sun_keeps_its_fit_s_low_end_when_the_trees_say_less(elev, floored):
     """"hybrid" caps a clear-sky sun at the trees' mean, but where the fit is trusted (a compact patch, the sun
@@ -314,16 +277,16 @@ def test_a_compact_high_sun_keeps_its_fit_s_low_end_when_the_trees_say_less(elev
     ldr, s = _clear_sky_with_pole(pole_deg=0.0, elev=elev)
     rad, fa, fb = sources.work_maps(ldr)
     reg = sources.region_features(rad, fa, fb)
-    assert reg.count == 1 and reg.extent_deg()[0] <= keylight.FLOOR_MAX_EXTENT_DEG
+    assert reg.count == 1 and reg.extent_deg()[0] <= keylight.PARAMS.floor_max_extent_deg
     fit = clear_sky.fit_clear_sky(rad, fa == 0, fb > 0.5, reg.centre[0])
     assert fit.clear
-    weak = keylight.SKY_CORRECTION * fit.sun_energy / (2.0 * keylight.SKY_SPREAD)  # the trees: half the low end
+    weak = keylight.PARAMS.sky_correction * fit.sun_energy / (2.0 * keylight.PARAMS.sky_spread)  # the trees: half the low end
     mu, sigma = np.log1p(np.array([weak]) / reg.held), np.full(1, 0.3)
-    (k,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma)
-    assert k.method.startswith("clear-sky") and k.physical == pytest.approx(keylight.SKY_CORRECTION * fit.sun_energy)
+    (k,) = keylight.find_key_lights((rad, fa, fb), reg, (mu, sigma, None))
+    assert k.method.startswith("clear-sky") and k.physical == pytest.approx(keylight.PARAMS.sky_correction * fit.sun_energy)
     # the compact high sun keeps its fit's low end; the low one keeps the trees' mean (the cap)
-    assert k.energy == pytest.approx(k.physical / keylight.SKY_SPREAD if floored else weak)
-    (none,) = [k for k in keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, floor=(-1.0, 91.0))
+    assert k.energy == pytest.approx(k.physical / keylight.PARAMS.sky_spread if floored else weak)
+    (none,) = [k for k in keylight.find_key_lights((rad, fa, fb), reg, (mu, sigma, None), replace(keylight.PARAMS, floor_max_extent_deg=-1.0, floor_min_elevation_deg=91.0))
                if k.method.startswith("clear-sky")]
     assert none.energy == pytest.approx(weak)
 
@@ -341,22 +304,22 @@ def test_a_compact_high_sun_s_patch_holds_at_most_its_fit_s_high_end(elev, cappe
     rad, fa, fb = sources.work_maps(ldr)
     reg = sources.region_features(rad, fa, fb)
     fit = clear_sky.fit_clear_sky(rad, fa == 0, fb > 0.5, reg.centre[0])
-    physical = keylight.SKY_CORRECTION * fit.sun_energy
-    strong = 3.0 * keylight.SKY_SPREAD * physical  # the trees: 3x the fit's high end
+    physical = keylight.PARAMS.sky_correction * fit.sun_energy
+    strong = 3.0 * keylight.PARAMS.sky_spread * physical  # the trees: 3x the fit's high end
     mu, sigma = np.log1p(np.array([strong]) / reg.held), np.full(1, 0.3)
-    (k,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma)
+    (k,) = keylight.find_key_lights((rad, fa, fb), reg, (mu, sigma, None))
     assert k.energy == pytest.approx(physical)  # the light: capped at the fit, as before
     assert (k.cap is not None) == capped
-    lr = keylight.cap_log_ratios(reg, mu, [k])
+    lr = sources.cap_log_ratios(reg, mu, [k])
     added = reg.added_energy(lr, [0])
-    assert added == pytest.approx(keylight.SKY_SPREAD * physical if capped else strong)
+    assert added == pytest.approx(keylight.PARAMS.sky_spread * physical if capped else strong)
     # the work map holds exactly what the reported ratios say: the clip level, plus the light and what the fill
     # keeps beyond it
     work = fill_with_keys(rad, reg, lr, [k])[1]
     om = sh.pixel_solid_angles(*work.shape[:2])
     gained = float((((work - rad) @ LUMINANCE_WEIGHTS) * om).sum())
     assert gained == pytest.approx(max(added, k.energy), rel=1e-6)
-    assert keylight.cap_log_ratios(reg, mu, [])[0] == mu[0]  # no key light: nothing capped
+    assert sources.cap_log_ratios(reg, mu, [])[0] == mu[0]  # no key light: nothing capped
 
 
 def test_a_sun_only_the_sky_admits_is_not_trusted():
@@ -370,28 +333,27 @@ def test_a_sun_only_the_sky_admits_is_not_trusted():
     # patch's clip level is then a small share of the scene, and the trees can weigh it at 5 %
     reg = sources.region_features(rad, fa, fb)
     mu, sigma = _share_mu(reg, rad, 0.05), np.full(reg.count, 0.3)
-    assert keylight.SUN_SHARE < 0.05 < keylight.KEY_SHARE and mu[0] > 0
-    (k,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma)
+    assert keylight.PARAMS.sun_share < 0.05 < keylight.PARAMS.key_share and mu[0] > 0
+    (k,) = keylight.find_key_lights((rad, fa, fb), reg, (mu, sigma, None))
     assert k.method.startswith("clear-sky") and k.cap is None
-    assert k.energy == pytest.approx(reg.added_energy(mu, [0])) and k.energy < k.physical / keylight.SKY_SPREAD
-    (strong,) = keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.2), sigma)  # the same sun, key share
-    assert strong.cap is not None and strong.energy >= strong.physical / keylight.SKY_SPREAD
+    assert k.energy == pytest.approx(reg.added_energy(mu, [0])) and k.energy < k.physical / keylight.PARAMS.sky_spread
+    (strong,) = keylight.find_key_lights((rad, fa, fb), reg, (_share_mu(reg, rad, 0.2), sigma, None))  # the same sun, key share
+    assert strong.cap is not None and strong.energy >= strong.physical / keylight.PARAMS.sky_spread
 
 
 def test_cap_log_ratios_scales_a_split_patch_by_one_factor():
     from types import SimpleNamespace
 
-    from panolight_core.estimators import keylight
 
     regions = SimpleNamespace(held=np.array([1.0, 2.0, 0.5]))
     lr = np.log1p(np.array([6.0, 6.0, 4.5]) / regions.held)  # excess 6 + 6 in the sun's two parts, 4.5 elsewhere
     sun = SimpleNamespace(cap=4.0, region=0, parts=(1,))
-    out = keylight.cap_log_ratios(regions, lr, [sun])
+    out = sources.cap_log_ratios(regions, lr, [sun])
     excess = np.expm1(out) * regions.held
     assert excess[:2] == pytest.approx([2.0, 2.0]) and excess[2] == pytest.approx(4.5)  # one factor: 4 / 12
-    assert keylight.cap_log_ratios(regions, lr, [SimpleNamespace(cap=20.0, region=0, parts=(1,))]) == pytest.approx(lr)
+    assert sources.cap_log_ratios(regions, lr, [SimpleNamespace(cap=20.0, region=0, parts=(1,))]) == pytest.approx(lr)
     hidden = SimpleNamespace(cap=1.0, region=-1, parts=())  # a hidden sun holds no region
-    assert keylight.cap_log_ratios(regions, lr, [hidden]) == pytest.approx(lr)
+    assert sources.cap_log_ratios(regions, lr, [hidden]) == pytest.approx(lr)
     assert np.expm1(lr) * regions.held == pytest.approx([6.0, 6.0, 4.5])  # the input is not changed
 
 
@@ -420,8 +382,8 @@ def test_a_clear_sky_sun_is_a_key_light_from_a_fifth_of_the_key_share(share, sun
     assert reg.count == 1
     i = 0
     mu = _share_mu(reg, rad, share, i)
-    assert keylight.SUN_SHARE <= 0.03 < keylight.KEY_SHARE and 0.01 < keylight.SUN_SHARE
-    keys = keylight.find_key_lights(rad, fa, fb, reg, mu, np.full(reg.count, 0.3))
+    assert keylight.PARAMS.sun_share <= 0.03 < keylight.PARAMS.key_share and 0.01 < keylight.PARAMS.sun_share
+    keys = keylight.find_key_lights((rad, fa, fb), reg, (mu, np.full(reg.count, 0.3), None))
     region_suns = [k for k in keys if k.region == i and k.method.startswith("clear-sky")]
     assert len(region_suns) == int(sun)
     if sun:  # at the patch's centroid, which the horizon's brightening pulls off the sun (docs/keylight.md)
@@ -434,8 +396,8 @@ def test_a_weak_region_in_a_grey_room_makes_no_light():
 
     rad, fa, fb = sources.work_maps(hdr_to_ldr(_lamps([(0.2, 0.5, 0.8)]), 0.0))
     reg = sources.region_features(rad, fa, fb)
-    assert keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.07), np.full(reg.count, 0.3)) == []
-    assert keylight.find_key_lights(rad, fa, fb, reg, _share_mu(reg, rad, 0.2), np.full(reg.count, 0.3))
+    assert keylight.find_key_lights((rad, fa, fb), reg, (_share_mu(reg, rad, 0.07), np.full(reg.count, 0.3), None)) == []
+    assert keylight.find_key_lights((rad, fa, fb), reg, (_share_mu(reg, rad, 0.2), np.full(reg.count, 0.3), None))
 
 
 def test_sun_strength_scales_the_key_lights_alone_and_keeps_the_regions_bookkeeping():
@@ -487,10 +449,10 @@ def test_a_noon_sun_comes_out_as_a_camera_shows_it_and_a_low_sun_stays_orange():
     o = keylight.camera_colour(7.0 * low, 5.0)  # any scale
     np.testing.assert_allclose(o, low / float(low @ LUMINANCE_WEIGHTS))
     assert o[0] > 1.4 and o[2] < 0.3
-    lo, hi = keylight.WHITE_RAMP_DEG
+    lo, hi = keylight.PARAMS.white_ramp_deg
     blue = [keylight.camera_colour(noon, e)[2] for e in (lo, (lo + hi) / 2, hi, 60.0)]
     assert blue[0] < blue[1] < blue[2] == pytest.approx(blue[3])
-    assert np.allclose(keylight.camera_colour(noon, 85.0, white=np.ones(3)), noon / float(noon @ LUMINANCE_WEIGHTS))
+    assert np.allclose(keylight.camera_colour(noon, 85.0, replace(keylight.PARAMS, camera_white=(1.0, 1.0, 1.0))), noon / float(noon @ LUMINANCE_WEIGHTS))
 
 
 def test_a_clear_sky_sun_light_takes_the_camera_s_colour_of_its_fit():
@@ -500,7 +462,7 @@ def test_a_clear_sky_sun_light_takes_the_camera_s_colour_of_its_fit():
     rad, fa, fb = sources.work_maps(ldr)
     reg = sources.region_features(rad, fa, fb)
     mu, sigma, reported = sources.load_source_model().predict(reg.features)
-    (k,) = keylight.find_key_lights(rad, fa, fb, reg, mu, sigma, reported)
+    (k,) = keylight.find_key_lights((rad, fa, fb), reg, (mu, sigma, reported))
     assert k.method.startswith("clear-sky fit")
     np.testing.assert_allclose(k.color, keylight.camera_colour(k.sky.sun_rgb, sh.elevation_deg(k.direction)))
     assert not np.allclose(k.color, k.sky.sun_rgb / k.sky.sun_energy)
@@ -527,7 +489,7 @@ def test_a_region_in_a_blue_sky_takes_white_not_the_sky_s_gradient():
     outer = (~region) & ~inner & (ang < 3.0 + 6 * 180.0 / h)
     diff = rad[inner].mean(0) - rad[outer].mean(0)
     assert diff[0] > diff[2] > 0  # the rings' difference is warm: the old rule's colour
-    np.testing.assert_allclose(keylight._ring_color(rad, frac_any, labels, 0, s, radius), np.ones(3))
+    np.testing.assert_allclose(keylight._ring_color(rad, frac_any, labels, 0, s, radius, keylight.PARAMS.shoulder), np.ones(3))
     grey = (0.3 + 0.3 * near)[..., None] * np.array([1.0, 1.0, 1.0]) + (0.3 * near)[..., None] * np.array([1.0, 0.55, 0.12])
-    col = keylight._ring_color(grey, frac_any, labels, 0, s, radius)
+    col = keylight._ring_color(grey, frac_any, labels, 0, s, radius, keylight.PARAMS.shoulder)
     assert col[0] > col[1] > col[2]

@@ -35,7 +35,7 @@ def test_a_masked_sun_is_located_and_weighed_from_its_sky():
     row = hidden_sun.located(hdr, -2.0, 20.0)
     assert row["found"] and row["angle_deg"] <= sun_search.REFINE_STEP_DEG
     # the model's own sky: the physics is exact, so the ratio is the real-sky correction alone
-    assert row["energy_ratio"] / keylight.SKY_CORRECTION == pytest.approx(1.0, rel=0.25)
+    assert row["energy_ratio"] / keylight.PARAMS.sky_correction == pytest.approx(1.0, rel=0.25)
     assert hidden_sun.located(_sky_hdr(with_sun=False)[0], -2.0, 20.0) is None  # no dominant source: not scored
 
 

@@ -22,8 +22,8 @@ def test_rules_choose_among_the_candidates():
     assert got["capped"] == [3.0, 3.0, 2.0]  # the sun's fit capped at the model's mean; the lamp at its mean
     assert got["physical"] == [8.0, 3.0, 8.0]
     # capped for the sun, decided for the lamp; the compact high sun not below its fit's 68 % low end
-    assert got["hybrid"] == [3.0, 1.0, 8.0 / keylight.SKY_SPREAD]
-    low = key(8.0, 2.0, 10.0, keylight.FLOOR_MIN_ELEVATION_DEG - 1.0)  # a low sun's haze: no floor
+    assert got["hybrid"] == [3.0, 1.0, 8.0 / keylight.PARAMS.sky_spread]
+    low = key(8.0, 2.0, 10.0, keylight.PARAMS.floor_min_elevation_deg - 1.0)  # a low sun's haze: no floor
     assert keylight_rules._energies("hybrid", [low]) == [2.0]
     strong = dict(high, learned=7.0)  # the floor only lifts: above it the capped energy stays
     assert keylight_rules._energies("hybrid", [strong]) == [7.0]
@@ -31,10 +31,11 @@ def test_rules_choose_among_the_candidates():
 
 def test_physics_is_trusted_on_a_compact_high_sun_only():
     trusted = keylight.physics_trusted
-    assert trusted(keylight.FLOOR_MAX_EXTENT_DEG, keylight.FLOOR_MIN_ELEVATION_DEG)
-    assert not trusted(keylight.FLOOR_MAX_EXTENT_DEG + 0.1, 45.0)
-    assert not trusted(5.0, keylight.FLOOR_MIN_ELEVATION_DEG - 0.1)
-    assert not trusted(5.0, 45.0, keylight_rules.NO_FLOOR) and trusted(100.0, 0.0, (180.0, 0.0))
+    assert trusted(keylight.PARAMS.floor_max_extent_deg, keylight.PARAMS.floor_min_elevation_deg)
+    assert not trusted(keylight.PARAMS.floor_max_extent_deg + 0.1, 45.0)
+    assert not trusted(5.0, keylight.PARAMS.floor_min_elevation_deg - 0.1)
+    assert not trusted(5.0, 45.0, keylight_rules.floor_params(keylight_rules.NO_FLOOR))
+    assert trusted(100.0, 0.0, keylight_rules.floor_params((180.0, 0.0)))
 
 
 def test_floor_option_parses_or_fails_clearly():
@@ -127,3 +128,51 @@ def test_a_scene_through_another_curve_is_scored_in_the_pictures_units():
     assert flat["rules"]["hybrid"][2] == pytest.approx(plain["rules"]["hybrid"][2], rel=0.02)
     steep = keylight_rules.score_scene(hdr, 0.0, model, curve=("contrast", 1.6))
     assert all(np.isfinite(v).all() for v in steep["rules"].values())
+
+
+def test_the_shipped_rule_is_the_cores_key_energy():
+    for physical in (None, 8.0, 0.5):
+        for trusted in (False, True):
+            if physical is None and trusted:
+                continue
+            assert keylight_rules.rule_energy("hybrid", physical, 3.0, 1.0, trusted) == \
+                keylight.key_energy(physical, 3.0, 1.0, trusted)
+
+
+def test_energy_rules_give_a_lamp_the_decided_energy_and_name_bad_rules():
+    from panolight_core.camera import hdr_to_ldr
+    from tests.panolight_core.estimators.test_keylight import _lamps
+
+    ldr = hdr_to_ldr(_lamps([(0.3, -0.2, -0.2)]), 0.0)  # below the horizon: no clear-sky fit, a lamp
+    maps = sources.work_maps(ldr)
+    reg = sources.region_features(*maps)
+    mu, sigma, _ = sources.load_source_model().predict(reg.features)
+    reported = np.maximum(mu - 1.0 * sigma ** 2, 0.0)  # a shrunk decision, below the model's mean
+    held = reg.held
+
+    def energies(rule):
+        return {k.region: k.energy for k in keylight_rules.find_under(rule, maps, reg, (mu, sigma, reported))}
+
+    hybrid, decided, capped = energies("hybrid"), energies("decided"), energies("capped")
+    shipped = keylight.find_key_lights(maps, reg, (mu, sigma, reported))
+    assert hybrid == {k.region: k.energy for k in shipped} and all(k.method == "per-source model" for k in shipped)
+    for i, e in hybrid.items():  # a lamp (no clear-sky fit): the decision's energy, not the model's mean
+        assert e == pytest.approx((math.exp(reported[i]) - 1.0) * held[i]) == pytest.approx(decided[i])
+        assert capped[i] == pytest.approx((math.exp(mu[i]) - 1.0) * held[i]) and capped[i] > e
+    with pytest.raises(ValueError, match="unknown key-light energy rule 'loud'.*hybrid"):
+        keylight_rules.find_under("loud", maps, reg, (mu, sigma, reported))
+
+
+def test_the_sky_rule_gives_a_clear_sky_sun_its_whole_fitted_energy():
+    """The study's "sky" rule (not shipped): the fit's energy uncapped; "hybrid" caps it."""
+    from panolight_core import metrics
+    from tests.panolight_core.estimators.test_keylight import _clear_sky_with_pole
+
+    ldr, s = _clear_sky_with_pole(pole_deg=0.0)
+    maps = sources.work_maps(ldr)
+    reg = sources.region_features(*maps)
+    prediction = sources.load_source_model().predict(reg.features)
+    (a,) = keylight.find_key_lights(maps, reg, prediction)
+    (b,) = keylight_rules.find_under("sky", maps, reg, prediction)
+    assert a.method.startswith("clear-sky fit") and metrics.angle_deg(b.direction, s) < 1.5
+    assert b.energy == pytest.approx(b.physical) and b.energy > a.energy  # the cap bites here

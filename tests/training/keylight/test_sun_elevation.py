@@ -30,7 +30,7 @@ def test_the_model_sky_s_own_sun_is_weighed_at_one_over_the_correction():
     rows = sun_elevation.score_scene(hdr, [0.0])
     (row,) = rows
     assert row["fit"] and row["clear"] and row["elevation_deg"] == pytest.approx(elev, abs=0.5)
-    assert row["true_over_physical"] * keylight.SKY_CORRECTION == pytest.approx(1.0, rel=0.1)
+    assert row["true_over_physical"] * keylight.PARAMS.sky_correction == pytest.approx(1.0, rel=0.1)
     bands = sun_elevation.summary([dict(row, scene="x")])
     assert [b["fits"] for b in bands] == [0, 0, 1, 0]
     assert bands[2]["median_true_over_physical"] == pytest.approx(row["true_over_physical"])

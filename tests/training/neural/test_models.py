@@ -6,7 +6,7 @@ from safetensors.torch import save_file
 
 from panolight_core import sh
 from panolight_core.estimators.nn.model import forward
-from panolight_core.estimators.nn.safetensors_np import load_safetensors
+from panolight_core.io.safetensors_np import load_safetensors
 from training.neural.models import LightingNet, load_config
 
 

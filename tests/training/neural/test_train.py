@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from panolight_core.estimators.nn.model import forward
-from panolight_core.estimators.nn.safetensors_np import load_safetensors
+from panolight_core.io.safetensors_np import load_safetensors
 from training.neural import train as T
 
 

@@ -38,7 +38,7 @@ def test_bad_weight_files_are_named(tmp_path):
     junk.write_bytes(b"\x10\x00\x00\x00\x00\x00\x00\x00{not json}......")
     with pytest.raises(PanoLightError, match="junk.safetensors"):
         E.load_model(junk)
-    from panolight_core.estimators.nn import safetensors_np  # a valid file that is not our network
+    from panolight_core.io import safetensors_np  # a valid file that is not our network
 
     header = json.dumps({"w": {"dtype": "F32", "shape": [1], "data_offsets": [0, 4]},
                          "__metadata__": {"config": json.dumps({"input_height": 8})}}).encode()
@@ -67,7 +67,7 @@ def _malformed_weights(tmp_path):
 
     from safetensors.numpy import save_file
 
-    from panolight_core.estimators.nn.safetensors_np import load_safetensors
+    from panolight_core.io.safetensors_np import load_safetensors
 
     weights, meta = load_safetensors(E.DEFAULT_WEIGHTS)
     made = {}

@@ -6,7 +6,7 @@ import torch.nn.functional as F
 from panolight_core.errors import PanoLightError
 from panolight_core.estimators.nn.ops import elu, linear, upsample_nearest2x
 from panolight_core.estimators.nn.prior import spectral_prior
-from panolight_core.estimators.nn.safetensors_np import load_safetensors
+from panolight_core.io.safetensors_np import load_safetensors
 
 
 def test_spectral_prior_numpy_and_torch_agree_and_are_safe(rng):
@@ -66,7 +66,7 @@ def test_malformed_safetensors_headers_get_one_line(tmp_path, header):
     import struct
 
     from panolight_core.errors import PanoLightError
-    from panolight_core.estimators.nn.safetensors_np import load_safetensors
+    from panolight_core.io.safetensors_np import load_safetensors
 
     path = tmp_path / "bad.safetensors"
     path.write_bytes(struct.pack("<Q", len(header)) + header + b"\0" * 8)

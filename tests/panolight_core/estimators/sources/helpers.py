@@ -17,8 +17,19 @@ def sun_ldr(h=128, direction=(0.3, 0.4, 0.866), radius_deg=3.0, sky=0.05):
 
 
 def fixed_ratio(ratio):
-    """A ``log_ratio_fn`` for ``sources.recover``: every region at energy ratio ``ratio``, no spread."""
+    """A per-region prediction function for ``sources.assemble``: every region at energy ratio ``ratio``, no spread."""
     def fn(reg):
         lr = np.full(reg.count, math.log(ratio))
         return lr, np.zeros(reg.count), lr
     return fn
+
+
+def recover_fixed(ldr, ratio, wide_concentration=None):
+    """``sources.assemble`` of ``ldr``'s regions with every region at ``ratio`` (``fixed_ratio``), the regions'
+    wide-profile exponent ``wide_concentration`` (None: the shipped one)."""
+    from panolight_core.estimators import sources
+
+    maps = sources.work_maps(ldr)
+    kw = {} if wide_concentration is None else {"wide_concentration": wide_concentration}
+    regions = sources.region_features(*maps, **kw)
+    return sources.assemble(maps, regions, fixed_ratio(ratio)(regions))

@@ -8,12 +8,12 @@ from panolight_core import sh
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import estimate, sources
 
-from .helpers import fixed_ratio, sun_ldr
+from .helpers import recover_fixed, sun_ldr
 
 
 def test_energy_bookkeeping_exact():
     ldr, _ = sun_ldr()
-    rec = sources.recover(ldr, log_ratio_fn=fixed_ratio(25.0))
+    rec = recover_fixed(ldr, 25.0)
     h, w = rec.frac.shape
     omega = sh.pixel_solid_angles(h, w)
     inside = rec.regions.labels == 0
@@ -27,7 +27,7 @@ def test_energy_bookkeeping_exact():
 def test_ratio_never_below_one_and_partial_channel_clipping_is_no_region():
     img = np.zeros((64, 128, 3), np.uint8)
     img[10:20, 10:20] = (40, 80, 255)  # a blue sky clipped in blue only: no energy is known to be missing
-    rec = sources.recover(img, log_ratio_fn=fixed_ratio(0.5))
+    rec = recover_fixed(img, 0.5)
     assert rec.regions.count == 0
     ldr, _ = sun_ldr(64)
     model = sources.load_source_model()

@@ -7,12 +7,12 @@ import pytest
 from panolight_core import metrics, sh
 from panolight_core.estimators import sources
 
-from .helpers import fixed_ratio, sun_ldr
+from .helpers import recover_fixed, sun_ldr
 
 
 def test_a_clipped_disk_is_one_region_with_its_centre():
     ldr, d = sun_ldr()
-    rec = sources.recover(ldr, log_ratio_fn=fixed_ratio(1.0))
+    rec = recover_fixed(ldr, 1.0)
     assert rec.regions.count == 1
     assert metrics.angle_deg(rec.regions.centre[0], d) < 1.0
     assert rec.regions.clipped_sr[0] == pytest.approx(2 * math.pi * (1 - math.cos(math.radians(3))), rel=0.15)
@@ -44,6 +44,6 @@ def test_wide_regions_follow_the_concentration_they_are_given():
     near = dirs @ d > np.cos(np.radians(8.0))  # the inner cells take a larger share when the profile peaks
     assert peaked.share[cells][near].sum() > 2.0 * even.share[cells][near].sum()
     # the parameter reaches the recovered map through ``recover``
-    a = sources.recover(ldr, log_ratio_fn=fixed_ratio(10.0))
-    b = sources.recover(ldr, log_ratio_fn=fixed_ratio(10.0), wide_concentration=3.0)
+    a = recover_fixed(ldr, 10.0)
+    b = recover_fixed(ldr, 10.0, wide_concentration=3.0)
     assert np.abs(a.work - b.work).max() > 0

@@ -46,7 +46,7 @@ def test_shipped_model_loads_without_torch_and_names_bad_files(tmp_path):
     assert model.features == sources.FEATURES and model.path.stat().st_size < 20e6
     with pytest.raises(PanoLightError, match="missing"):
         sources.load_source_model(tmp_path / "gone.safetensors")
-    from panolight_core.estimators.nn.safetensors_np import load_safetensors
+    from panolight_core.io.safetensors_np import load_safetensors
 
     tensors, meta = load_safetensors(model.path)
     from safetensors.numpy import save_file
