@@ -150,3 +150,74 @@ def test_every_dependency_the_setup_installs_is_pinned_in_the_constraints():
     if Path(sys.prefix).resolve() == (ROOT / ".venv").resolve():  # the venv setup.sh made holds exactly those
         stale = {n: (pins[n], version(n)) for n in wanted if version(n) != pins[n]}
         assert not stale, f"installed versions differ from scripts/constraints.txt: {stale}"
+
+
+# The core's layers, low to high (docs/development.md): a module imports its own layer and those below, never
+# one above, at module level or inside a function (where a tie running back up would hide).
+CORE_LAYERS = (
+    ("panolight_core.errors", "panolight_core.threads", "panolight_core._backend"),
+    ("panolight_core.sh",),
+    ("panolight_core.camera",),
+    ("panolight_core.io",),
+    ("panolight_core.estimators.highlights", "panolight_core.estimators.sky", "panolight_core.estimators.sun_search"),
+    ("panolight_core.estimators.sources",),
+    ("panolight_core.estimators.nn",),
+    ("panolight_core.estimators.keylight",),
+    ("panolight_core.estimators",),
+    ("panolight_core.lighting", "panolight_core.metrics", "panolight_core.synthetic"),
+    ("panolight_core.pipeline",),
+    ("panolight_core.data", "panolight_core.apps", "panolight_core.__main__"),
+    ("panolight_core",),
+)
+
+
+def _layer(name: str) -> int:
+    """The layer of a core module: that of the longest CORE_LAYERS prefix naming it."""
+    found = [(len(p), r) for r, prefixes in enumerate(CORE_LAYERS) for p in prefixes
+             if name == p or name.startswith(p + ".")]
+    return max(found)[1]
+
+
+def test_no_core_import_runs_back_up_a_layer():
+    modules = _modules()
+    up = sorted(f"{name} -> {imp}" for name, path in modules.items() if name.startswith("panolight_core")
+                for imp in _imports(name, path, modules)
+                if imp in modules and imp.startswith("panolight_core") and _layer(imp) > _layer(name))
+    assert not up, "\n".join(up)
+
+
+def test_no_core_function_takes_more_than_8_parameters():
+    """Shipped signatures hold what ships: a study's knobs live in training (its variants, KeyLightParams)."""
+    many = []
+    for path in (ROOT / "panolight_core").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                a = node.args
+                names = [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs]
+                n = len(names) + bool(a.vararg) + bool(a.kwarg) - (names[:1] in (["self"], ["cls"]))
+                if n > 8:
+                    many.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({n})")
+    assert not many, many
+
+
+def test_no_two_way_folder_tie_in_training():
+    """training/'s folders (subpackages, and the top level) depend one way: no folder imports a folder that
+    imports it back (the shared pieces live in training/common/)."""
+    modules = _modules()
+
+    def folder(name):
+        return name if modules[name].name == "__init__.py" else name.rpartition(".")[0]
+
+    edges = {(folder(name), folder(imp)) for name, path in modules.items() if name.startswith("training")
+             for imp in _imports(name, path, modules) if imp in modules and imp.startswith("training")}
+    two_way = sorted(f"{a} <-> {b}" for a, b in edges if a < b and (b, a) in edges)
+    assert not two_way, two_way
+
+
+def test_the_test_command_runs_the_linter_first():
+    script = (ROOT / "scripts" / "test.sh").read_text()
+    assert script.index("bin/ruff\" check") < script.index("-m pytest")
+    import tomllib
+
+    lint = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["ruff"]["lint"]
+    assert {"F", "I", "B"} <= set(lint["select"])

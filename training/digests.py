@@ -63,7 +63,7 @@ def _close(a, b) -> bool:
 def digests(folder: Path, evs, log=print) -> dict:
     """{"SCENE@EV": {"lighting": document without timings, "hdr": sha256, "hdr_sums": [[sum], [sum of squares]]}}
     over the folder's panoramas."""
-    from training.source_energy.fit import load_hdr, scene_files
+    from training.common.real_hdri import load_hdr, scene_files
 
     out = {}
     files = scene_files(folder)
@@ -81,7 +81,7 @@ def digests(folder: Path, evs, log=print) -> dict:
 
 
 def main(argv=None) -> int:
-    from training.source_energy.fit import DEFAULT_HDRI
+    from training.common.real_hdri import DEFAULT_HDRI
 
     ap = argparse.ArgumentParser(prog="python -m training.digests", description=__doc__.split("\n\n")[0])
     ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas")

@@ -24,16 +24,9 @@ from panolight_core.camera.resample import area_downsample
 from panolight_core.lighting.lights import key_light_range
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
+from training.common.real_hdri import clipped_truth, load_hdr, scene_files
+from training.common.study import fold_estimators, fold_models_option, nested_table, real_hdri_parser, save_study
 from training.keylight import turns
-from training.keylight.cv import (
-    clipped_truth,
-    fold_estimators,
-    fold_models_option,
-    nested_table,
-    real_hdri_parser,
-    save_study,
-)
-from training.source_energy.fit import load_hdr, scene_files
 
 QUALITY = 90
 

@@ -21,7 +21,6 @@ table then shows how far that lands from the shipped all-scene value.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
@@ -30,20 +29,21 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core import metrics
-from panolight_core.camera import TONE_CURVES, auto_exposure, hdr_to_ldr
+from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.estimators import keylight, register_source_model
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
-from training.source_energy.cv import fold_of, scene_folds
-from training.source_energy.fit import DEFAULT_HDRI, load_hdr, manifest, scene_files
-
-SRGB = ("srgb", None)  # EVALUATION.md's camera curve (``--curve``)
-
-
-def clipped_truth(folder: Path) -> set:
-    """Scene files whose own source is clipped (MANIFEST ``sun`` column): their energy is a lower bound."""
-    return {row["file"] for row in manifest(folder)
-            if row["sun"].startswith("clipped") or "lower bound" in row["sun"]}
+from training.common.folds import fold_of, scene_folds
+from training.common.real_hdri import clipped_truth, load_hdr, scene_files
+from training.common.study import (
+    SRGB,
+    curve_option,
+    fold_estimators,
+    fold_model_paths,
+    fold_models_option,
+    real_hdri_parser,
+    save_study,
+)
 
 
 def estimate_scene(hdr, ds: dict, ev: float, estimator: str, curve=SRGB):
@@ -122,90 +122,6 @@ def correction_cv(rows, files) -> dict:
     out["cv_within"] = 2 ** statistics.median(out["cv_abs_log2"]) if out["cv_abs_log2"] else None
     out["suns"] = len(logs)
     return out
-
-
-def save_study(result: dict, out: Path | None) -> None:
-    """Write a key-light study's result (summary and rows) as JSON to ``out``, when one is given."""
-    if out:
-        out.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
-        print(f"wrote {out}")
-
-
-def nested_table(head: list[str], summ: dict, cells) -> list[str]:
-    """A markdown table of a study's summary {ev: {label: stats}}: the ``head`` lines (header and alignment), then
-    one row per (ev, label), "| " + ``cells(ev, label, stats)`` + " |"."""
-    return head + [f"| {cells(ev, label, s)} |" for ev, per in summ.items() for label, s in per.items()]
-
-
-def real_hdri_parser(prog: str, doc: str) -> argparse.ArgumentParser:
-    """The options every key-light study over the real HDRs takes: --hdri and --evs."""
-    ap = argparse.ArgumentParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas (default: %(default)s)")
-    ap.add_argument("--evs", type=float, nargs="+", default=[-2.0, 0.0, 2.0], help="camera exposures (default: -2 0 2)")
-    return ap
-
-
-def parse_curve(text: str) -> tuple:
-    """``--curve`` NAME[:PARAM] -> (name, parameter or None), a name of ``camera.TONE_CURVES``."""
-    name, _, param = text.partition(":")
-    if name not in TONE_CURVES:
-        raise argparse.ArgumentTypeError(f"unknown tone curve {name!r}; choose one of {', '.join(TONE_CURVES)}")
-    if name == "srgb" and param:
-        raise argparse.ArgumentTypeError("the sRGB curve takes no parameter")
-    try:
-        value = float(param) if param else None
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--curve {text!r}: the parameter after ':' must be a number") from None
-    if value is not None and not value > 0:
-        raise argparse.ArgumentTypeError(f"--curve {text!r}: the parameter must be positive")
-    return name, value
-
-
-def curve_option(ap: argparse.ArgumentParser) -> None:
-    """``--curve``: the camera's tone curve for a study's JPEGs (EVALUATION.md's sRGB by default)."""
-    ap.add_argument("--curve", type=parse_curve, default=SRGB, metavar="NAME[:PARAM]",
-                    help="the camera's tone curve: " + "; ".join(
-                        f"'{n}'" + (f" (default {d:g})" if d is not None else "") + f": {what}"
-                        for n, (what, d) in TONE_CURVES.items())
-                    + ". EVALUATION.md's camera is 'srgb' (the default); e.g. --curve contrast:1.6")
-
-
-def fold_models_option(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("--fold-models", default=None, metavar="PATTERN",
-                    help="score each scene with the per-source model of its fold, PATTERN with {k} = 1..5 "
-                         "(made by 'python -m training.source_energy.fit ship --hold-out K/5 --out ...'), "
-                         "not the shipped one, which saw the scenes it was trained on")
-
-
-def fold_estimators(pattern: str, files, estimator: str = "keylight") -> dict:
-    """{scene file: the name of ``estimator`` ("keylight" or "sources") registered with the per-source model of its
-    fold} (``fold_model_paths``; the folds of ``training.source_energy.cv``): each scene scored by trees that never
-    saw it."""
-    label = {k: register_source_model(f"{estimator}-fold{k}", path, key_lights=estimator == "keylight")
-             for k, path in fold_model_paths(pattern).items()}
-    return {p: label[k] for p, k in fold_of(files).items()}
-
-
-def scene_models(pattern: str | None, files) -> dict:
-    """{scene file: the per-source model to score it by}: the model of its fold (``fold_model_paths``), which never
-    saw it, or the shipped model for every scene when ``pattern`` is None."""
-    from panolight_core.estimators.sources import load_source_model
-
-    if not pattern:
-        return dict.fromkeys(files, load_source_model())
-    models = {k: load_source_model(path) for k, path in fold_model_paths(pattern).items()}
-    return {p: models[k] for p, k in fold_of(files).items()}
-
-
-def fold_model_paths(pattern: str, folds: int = 5) -> dict:
-    """{K: path} of the fold models ``pattern`` names ({k} = 1..folds); SystemExit naming a missing one."""
-    if "{k}" not in pattern:
-        raise SystemExit(f"--fold-models {pattern!r}: the pattern needs {{k}} where the fold number goes")
-    paths = {k: Path(pattern.format(k=k)) for k in range(1, folds + 1)}
-    missing = [str(p) for p in paths.values() if not p.is_file()]
-    if missing:
-        raise SystemExit(f"--fold-models: no such model file: {', '.join(missing)}")
-    return paths
 
 
 PICTURE_CURVES = (SRGB, ("gamma", 2.2), ("shoulder", 4.0), ("contrast", 1.6))

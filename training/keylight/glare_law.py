@@ -37,8 +37,9 @@ from panolight_core.estimators.highlights import work_maps
 from panolight_core.estimators.keylight import with_key_lights
 from panolight_core.estimators.sources.features import cap_cells
 from panolight_core.estimators.sources.recovery import recover
-from training.keylight.cv import fold_models_option, real_hdri_parser, scene_models
-from training.source_energy.fit import load_hdr, region_targets, scene_files
+from training.common.real_hdri import load_hdr, scene_files
+from training.common.study import fold_models_option, real_hdri_parser, scene_models
+from training.source_energy.fit import region_targets
 
 HEIGHT = 512  # the ring is read at the training panoramas' resolution
 COMPACT_DEG = 12.0

@@ -39,8 +39,8 @@ import numpy as np
 from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.estimators import keylight, sources, sun_search
-from training.keylight.cv import clipped_truth, real_hdri_parser, save_study
-from training.source_energy.fit import load_hdr, scene_files
+from training.common.real_hdri import clipped_truth, load_hdr, scene_files
+from training.common.study import real_hdri_parser, save_study
 
 RIGHT_DEG = 20.0  # a hidden sun this close to the truth's dominant source is that source
 

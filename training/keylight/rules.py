@@ -44,9 +44,10 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators.sources.fill import cap_log_ratios, fill_with_keys
 from panolight_core.pipeline import fit_radiance
-from training.keylight.cv import (
+from training.common.folds import scene_folds
+from training.common.real_hdri import clipped_truth, load_hdr, scene_files
+from training.common.study import (
     SRGB,
-    clipped_truth,
     curve_option,
     fold_models_option,
     nested_table,
@@ -54,8 +55,6 @@ from training.keylight.cv import (
     save_study,
     scene_models,
 )
-from training.source_energy.cv import scene_folds
-from training.source_energy.fit import load_hdr, scene_files
 
 ENERGY_RULES = ("decided", "capped", "physical", "hybrid", "sky")
 SHIPPED_RULE = "hybrid"  # ``keylight.key_energy`` (tested equal to it)

@@ -31,10 +31,10 @@ from panolight_core.camera import hdr_to_ldr
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators import sky as clear_sky
-from training.keylight.cv import real_hdri_parser, save_study
+from training.common.folds import fold_of
+from training.common.real_hdri import scene_files
+from training.common.study import real_hdri_parser, save_study
 from training.keylight.sun_elevation import BANDS_DEG, score_manifest_suns
-from training.source_energy.cv import fold_of
-from training.source_energy.fit import scene_files
 
 CORE_DEG = 1.5  # the sun's disk and the aureole's core, where the sun's own energy is
 RING_DEG = (3.0, 6.0)  # the sky it sits on, whose mean is taken off the core

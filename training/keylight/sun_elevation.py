@@ -22,8 +22,8 @@ from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators import sky as clear_sky
-from training.keylight.cv import real_hdri_parser, save_study
-from training.source_energy.fit import load_hdr, manifest
+from training.common.real_hdri import load_hdr, manifest
+from training.common.study import real_hdri_parser, save_study
 
 BANDS_DEG = (0.0, 10.0, 20.0, 45.0, 90.0)  # the summary's elevation bands
 

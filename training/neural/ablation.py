@@ -18,7 +18,7 @@ import json
 import sys
 from pathlib import Path
 
-from training.source_energy.cv import parse_fold
+from training.common.folds import parse_fold
 
 VARIANTS = ("full", "only-photo", "no-photo", "only-dense")
 PAPER = {("full", False): 0.0229, ("only-photo", False): 0.0297, ("no-photo", False): 0.0334,

@@ -60,8 +60,9 @@ def main(argv=None) -> int:
         ap.error("give --weights NAME=PATH (a run trained with --hold-out), or --merge")
 
     from panolight_core.estimators import neural_estimator
-    from training.source_energy.cv import fold_files, score_scene
-    from training.source_energy.fit import load_hdr, scene_files
+    from training.common.folds import fold_files
+    from training.common.real_hdri import load_hdr, scene_files
+    from training.source_energy.cv import score_scene
 
     runs = [(name, path, held_out(path)) for name, path in args.weights]
     scenes, hdr = runs[0][2]["scenes"], Path(runs[0][2]["hdr"])

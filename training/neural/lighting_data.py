@@ -146,7 +146,7 @@ def prepare(out, *, synth=None, procedural: int = 0, hdr=None, height: int = 64,
             source_model=None, pool_hdr=None) -> Path:
     """Write the arrays of ``procedural`` procedural examples (seeds seed*10^7 + i) and of every sample
     of ``synth`` (a folder or a list of sample files; coupled + relit) and every panorama of ``hdr`` (a
-    list of .exr/.hdr files, relight_data.hdr_files; with ``hdr_copies`` that many augmented views of
+    list of .exr/.hdr files, common.real_hdri.hdr_files; with ``hdr_copies`` that many augmented views of
     each) to ``out`` (.npz, uncompressed, no pickles). guess, source_model: the network input's guess
     (NetInput). pool_hdr: real HDR panoramas whose lightings (relight_data.hdr_pool: 8 yaws, mirrored)
     relight the synthetic samples (Eq. 5, as the paper relights with Laval); default: 256 procedural

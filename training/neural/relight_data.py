@@ -21,6 +21,7 @@ from panolight_core import sh
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
 from panolight_core.errors import PanoLightError
 from panolight_core.lighting.relight import LDR_SCALE, relight, training_lighting
+from training.common.real_hdri import _is_public, hdr_files
 
 COLOR_TOKENS = ("rgb_rawlight", "_color", "color", "rgb")
 
@@ -110,29 +111,6 @@ def procedural_pool(count: int = 256, lmax: int = 2, seed: int = 10 ** 6, height
     from panolight_core.synthetic import environment
 
     return np.stack([sh.project(environment(seed + i, height)[0], lmax) for i in range(count)])
-
-
-def _is_public(path) -> bool:
-    """Whether a file or folder is (inside) Blender's studio-HDRI folder, the public evaluation set."""
-    from panolight_core.data import studio_hdri_dir
-
-    try:
-        public = studio_hdri_dir().resolve()
-    except PanoLightError:
-        return False
-    path = Path(path).resolve()
-    return path == public or public in path.parents
-
-
-def hdr_files(root) -> list[Path]:
-    """Every .exr/.hdr panorama under a folder, sorted. Refuses the public set (Blender's studio HDRIs)."""
-    root = Path(root).resolve()
-    if _is_public(root):
-        raise PanoLightError(f"{root}: these are Blender's studio HDRIs, the public evaluation set; never train on them")
-    files = sorted(p for p in root.rglob("*") if p.suffix.lower() in (".exr", ".hdr"))
-    if not files:
-        raise PanoLightError(f"{root}: no .exr or .hdr panoramas")
-    return files
 
 
 def hdr_pool(files, lmax: int = 2, yaws: int = 8, mirror: bool = True, height: int = 128) -> np.ndarray:

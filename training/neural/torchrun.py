@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from training.commands import add_train_arguments, run_train
+from training.neural.command import add_train_arguments, run_train
 
 
 def main(argv=None) -> int:

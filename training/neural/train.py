@@ -47,10 +47,10 @@ def _distributed():
 
 def held_out_scenes(hdr, fold) -> list[str]:
     """The scene names (file stems) of fold (K, N) of the real HDRs in folder ``hdr``: the assignment of
-    ``source_energy cv`` (training.source_energy.cv.scene_folds), so a network and the per-source model are
+    ``source_energy cv`` (training.common.folds.scene_folds), so a network and the per-source model are
     scored on the same held-out scenes."""
-    from training.source_energy.cv import fold_files
-    from training.source_energy.fit import scene_files
+    from training.common.folds import fold_files
+    from training.common.real_hdri import scene_files
 
     return sorted(f.stem for f in fold_files(scene_files(Path(hdr)), fold))
 
@@ -72,7 +72,7 @@ def _datasets(cfg, data, procedural, val_procedural, seed, cache, log, hdr=None,
 
         raise PanoLightError(f"{data}: no synthetic samples (write some with 'panolight synth --out {data}')")
     from panolight_core.errors import PanoLightError
-    from training.neural.relight_data import hdr_files
+    from training.common.real_hdri import hdr_files
 
     if relight_pool not in ("procedural", "hdr"):
         raise PanoLightError(f"relight pool {relight_pool!r}: choose procedural or hdr")

@@ -16,6 +16,7 @@ from panolight_core.estimators.sources.decision import choose_shrink, shrunk
 from panolight_core.estimators.sources.features import region_features
 from panolight_core.estimators.sources.regions import WIDE_CONCENTRATION
 from panolight_core.pipeline import fit_radiance
+from training.common.folds import scene_folds
 
 EVS = (-2.0, 0.0, 2.0)
 
@@ -113,39 +114,6 @@ def fold_variants(model: sources.SourceModel, shrinks=SHRINKS, quick: bool = Fal
             "power-law regions": lambda ldr: recover_variant(ldr, log_ratio_fn=power_law_log_ratio).work,
             **{variant_label(c): learned(c) for c in shrinks},
             **{f"learned (decision, wide regions q = {q:g})": decided(q) for q in WIDE_CONCENTRATIONS}}
-
-
-def parse_fold(text: str) -> tuple[int, int]:
-    """'K/N' (fold K of N, from 1) -> (K, N); an argparse type (ArgumentTypeError otherwise)."""
-    import argparse
-
-    try:
-        k, n = (int(v) for v in str(text).split("/"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a fold is K/N, e.g. 1/5; got {text!r}") from None
-    if not 1 <= k <= n or n < 2:
-        raise argparse.ArgumentTypeError(f"a fold K/N needs 1 <= K <= N and N >= 2; got {text!r}")
-    return k, n
-
-
-def scene_folds(count: int, folds: int = 5, seed: int = 0) -> list[np.ndarray]:
-    """Indices of ``count`` scenes (source_energy.scene_files order) in ``folds`` leave-scenes-out folds:
-    the assignment every cross-validation here uses (the per-source model's and the network's)."""
-    perm = np.random.default_rng(seed).permutation(count)
-    return [perm[i::folds] for i in range(folds)]
-
-
-def fold_of(files, folds: int = 5) -> dict:
-    """{file: K}: the fold (from 1) of each scene (source_energy.scene_files order): the model trained with
-    ``--hold-out K/N`` never saw it."""
-    return {files[i]: k for k, idx in enumerate(scene_folds(len(files), folds), 1) for i in idx}
-
-
-def fold_files(files, fold) -> list:
-    """The files (source_energy.scene_files order) of fold (K, N): the scenes a run with ``--hold-out K/N``
-    leaves out."""
-    k, n = fold
-    return [files[i] for i in sorted(scene_folds(len(files), n)[k - 1])]
 
 
 def cross_validate(files, X, y, w, g, args, fit, load_hdr):

@@ -28,11 +28,9 @@ and the learned one; the pooled table goes to docs/accuracy.md.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -41,43 +39,15 @@ from panolight_core import sh, threads
 from panolight_core.camera import auto_exposure, jpeg_roundtrip, lanczos_resize, tone_curve
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.camera.resample import area_downsample
-from panolight_core.errors import PanoLightError
 from panolight_core.estimators import sources
-from panolight_core.io import read_image
 from panolight_core.pipeline.settings import number
-from training.source_energy.cv import fold_files, parse_fold
+from training.common.folds import fold_files, parse_fold
+from training.common.real_hdri import DEFAULT_HDRI, load_hdr, scene_files
 
-DEFAULT_HDRI = Path(__file__).resolve().parents[3] / "shared" / "data" / "hdri"
 RESAVE = 0.0  # the share of training cameras saved again (``camera``, ``--resave``): 0.35 improved the cross-validation
 # at ev 0 and +2 at two seeds but weakened the real photos' key lights and over-lit the public city (docs/keylight.md)
 GBT = dict(n_estimators=250, max_depth=3, learning_rate=0.05, subsample=0.8, min_samples_leaf=15)
 SPREAD_GBT = dict(n_estimators=120, max_depth=2, learning_rate=0.05, subsample=0.8, min_samples_leaf=30)
-
-
-def manifest(folder) -> list[dict]:
-    """The rows of a real-HDR folder's MANIFEST.csv (file, size, kind, sun, ...), in its order."""
-    with open(Path(folder) / "MANIFEST.csv", newline="", encoding="utf-8") as f:
-        return list(csv.DictReader(f))
-
-
-def scene_files(folder=DEFAULT_HDRI) -> list[Path]:
-    """The HDR panoramas of a training folder (its MANIFEST.csv order when it has one)."""
-    from training.neural.relight_data import hdr_files
-
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise PanoLightError(f"{folder}: no such folder of HDR panoramas")
-    files = hdr_files(folder)  # refuses Blender's studio HDRIs (the public set)
-    if (folder / "MANIFEST.csv").is_file():
-        listed = [folder.resolve() / row["file"] for row in manifest(folder)]
-        files = [p for p in listed if p.is_file()] or files
-    return files
-
-
-def load_hdr(path) -> np.ndarray:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return np.maximum(read_image(path).astype(np.float64), 0.0)
 
 
 def camera(hdr: np.ndarray, rng: np.random.Generator, inject: float = 0.0, resave: float = 0.0):

@@ -3,7 +3,7 @@ per-region prediction: tried, not kept").
 
 The rows are the training table's (``fit.cached_table``: every scene's augmented cameras, one row per clipped
 region, its FEATURES and the natural log of true over held energy). Each regressor is fitted on four of the five
-scene folds (``cv.scene_folds``, the assignment of every cross-validation here) and predicts the fifth, so no
+scene folds (``common.folds.scene_folds``, the assignment of every cross-validation here) and predicts the fifth, so no
 scene is scored by a model that saw any of its cameras. Printed per group of rows: the weighted RMS and weighted
 mean of the log-ratio error (prediction - truth, natural log; rows weighted as the trees are trained,
 ``fit.sample_weight``):
@@ -29,8 +29,9 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core.estimators import sources
-from training.source_energy.cv import scene_folds
-from training.source_energy.fit import DEFAULT_HDRI, cached_table, fit_mean, sample_weight, scene_files
+from training.common.folds import scene_folds
+from training.common.real_hdri import DEFAULT_HDRI, scene_files
+from training.source_energy.fit import cached_table, fit_mean, sample_weight
 
 HIDDEN = 96
 EPOCHS = 25
@@ -79,7 +80,7 @@ def network_predict(net: dict, X: np.ndarray) -> np.ndarray:
 
 def out_of_fold(X, y, w, scene, folds, networks: int = 3, log=print) -> dict:
     """{"trees", "networks", "average": (n,) predictions}: each row predicted by models fitted on the rows of the
-    other folds' scenes. scene (n,): each row's scene index; folds: lists of scene indices (``cv.scene_folds``)."""
+    other folds' scenes. scene (n,): each row's scene index; folds: lists of scene indices (``common.folds.scene_folds``)."""
     out = {"trees": np.zeros_like(y), "networks": np.zeros_like(y)}
     t0 = time.perf_counter()
     for k, held in enumerate(folds, 1):

@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from panolight_core import sh
+from training.common.study import SRGB
 from training.keylight import cv
 
 from .test_hidden_sun import _sky_hdr, _write_hdr
@@ -13,7 +14,7 @@ def test_the_curve_picture_draws_each_camera_with_the_source_and_the_key_light(t
 
     hdr, s = _sky_hdr(with_sun=True)  # 256 x 512, a clear sky with its sun 40 degrees up
     path = _write_hdr(tmp_path, hdr)
-    rows = cv.curve_picture(path, tmp_path / "curves.png", 0.0, curves=(cv.SRGB, ("contrast", 1.6)), width=256)
+    rows = cv.curve_picture(path, tmp_path / "curves.png", 0.0, curves=(SRGB, ("contrast", 1.6)), width=256)
     assert [r["curve"] for r in rows] == [["srgb", None], ["contrast", 1.6]]
     assert all(0.0 <= r["angle_deg"] <= 180.0 and r["ratio"] >= 0.0 for r in rows)
     img = np.asarray(Image.open(tmp_path / "curves.png").convert("RGB")).astype(int)

@@ -86,7 +86,7 @@ def test_a_scored_sunny_scene():
 
 
 def test_fold_model_patterns_name_every_fold_or_fail_clearly(tmp_path):
-    from training.keylight.cv import fold_model_paths
+    from training.common.study import fold_model_paths
 
     for k in (1, 2, 3):
         (tmp_path / f"m_{k}.safetensors").write_bytes(b"")
@@ -100,7 +100,7 @@ def test_fold_model_patterns_name_every_fold_or_fail_clearly(tmp_path):
 def test_curve_option_names_a_camera_curve_or_fails_clearly():
     import argparse
 
-    from training.keylight.cv import SRGB, parse_curve
+    from training.common.study import SRGB, parse_curve
 
     assert parse_curve("srgb") == SRGB
     assert parse_curve("contrast:1.6") == ("contrast", 1.6)

@@ -52,8 +52,8 @@ def test_real_hdr_folders_become_coupled_examples_and_the_public_set_is_refused(
     from panolight_core.errors import PanoLightError
     from panolight_core.io import write_image
     from panolight_core.synthetic import environment
+    from training.common.real_hdri import hdr_files
     from training.neural.models import load_config
-    from training.neural.relight_data import hdr_files
     from training.neural.train import _datasets
 
     folder = tmp_path / "laval"
@@ -72,9 +72,9 @@ def test_real_hdr_folders_become_coupled_examples_and_the_public_set_is_refused(
 def test_augmented_views_and_held_out_scenes_never_reach_training(tmp_path):
     from panolight_core.io import read_image, write_image
     from panolight_core.synthetic import environment
+    from training.common.folds import scene_folds
     from training.neural.models import load_config
     from training.neural.train import _datasets, held_out_scenes
-    from training.source_energy.cv import scene_folds
 
     folder = tmp_path / "real"
     folder.mkdir()

@@ -115,7 +115,7 @@ def test_a_camera_saved_again_is_a_second_generation_and_none_draws_nothing_extr
 
 
 def test_each_scene_is_in_the_fold_whose_hold_out_model_never_saw_it():
-    from training.source_energy.cv import fold_files, fold_of
+    from training.common.folds import fold_files, fold_of
 
     files = [f"scene_{i:02d}.hdr" for i in range(23)]
     of = fold_of(files)

@@ -6,8 +6,8 @@ pytest.importorskip("torch")
 pytest.importorskip("sklearn")
 
 from panolight_core.estimators import sources  # noqa: E402
+from training.common.folds import scene_folds
 from training.source_energy import regressors  # noqa: E402
-from training.source_energy.cv import scene_folds  # noqa: E402
 from training.source_energy.fit import fit_mean  # noqa: E402
 
 
