@@ -53,8 +53,8 @@ def run_sheet(args) -> int:
 # ``python -m MODULE`` runs the same main (docs/development.md)
 TOOLS = {
     "source-energy": ("training.source_energy.fit", "train (ship) or cross-validate (cv) the per-source energy model"),
-    "source-regressors": ("training.source_energy.regressors", "the per-source trees against small networks, region "
-                          "by region, out of fold"),
+    "source-regressors": ("training.experiments.regressors", "experiment, not kept: the per-source trees against "
+                          "small networks, region by region, out of fold"),
     "accuracy-report": ("training.source_energy.report", "docs/accuracy.md and .png from eval.json and the "
                         "source-energy cross-validation"),
     "keylight-cv": ("training.keylight.cv", "the key light's direction and energy over the real HDRs, and the "
@@ -62,7 +62,7 @@ TOOLS = {
     "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
     "hidden-sun": ("training.keylight.hidden_sun", "a sun the photo does not show: located from the sky alone over "
                    "the real HDRs, and the suns the estimator invents"),
-    "glare-law": ("training.keylight.glare_law", "the glare law c E theta^-2 around clipped regions over the real "
+    "glare-law": ("training.experiments.glare_law", "experiment, not kept: the glare law c E theta^-2 around clipped regions over the real "
                   "HDRs, and the gates that could trust it"),
     "digests": ("training.digests", "digests of the shipped estimates over the real HDRs: prove a refactoring "
                 "changed nothing (--out, then --compare)"),

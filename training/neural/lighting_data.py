@@ -114,7 +114,7 @@ def hdr_example(path, index: int, height: int, lmax: int, seed: int, copy: int |
     hdr = np.maximum(read_image(path).astype(np.float64), 0.0)
     if copy is None:
         return _coupled(hdr, np.random.default_rng([seed, index, 3]), height, lmax, "hdr")
-    from training.source_energy.fit import camera
+    from training.source_energy.data import camera
 
     ldr, exposed = camera(hdr, np.random.default_rng([seed, index, 4, copy]))
     return _arrays(ldr, exposed, sh.project(exposed, lmax), height, "hdr", float("nan"))

@@ -6,6 +6,8 @@ import pytest
 
 from panolight_core.errors import PanoLightError
 from panolight_core.estimators import sources
+from training.common.real_hdri import scene_files
+from training.source_energy import data as sd
 from training.source_energy import fit as se
 
 
@@ -32,9 +34,9 @@ def test_training_data_refuses_the_public_set_and_a_missing_folder(tmp_path):
     from panolight_core.data import studio_hdri_dir
 
     with pytest.raises(PanoLightError, match="public evaluation set"):
-        se.scene_files(studio_hdri_dir())
+        scene_files(studio_hdri_dir())
     with pytest.raises(PanoLightError, match="no such folder"):
-        se.scene_files(tmp_path / "nothing")
+        scene_files(tmp_path / "nothing")
 
 
 def test_random_camera_rows_have_honest_targets(rng):
@@ -42,9 +44,9 @@ def test_random_camera_rows_have_honest_targets(rng):
     hdr = np.full((h, 2 * h, 3), 0.2)
     hdr[10:12, 30:32] = 2000.0  # a sun
     for _ in range(4):
-        ldr, truth = se.camera(hdr, rng)
+        ldr, truth = sd.camera(hdr, rng)
         assert ldr.dtype == np.uint8 and ldr.shape == truth.shape and truth.shape[0] in (h // 2, h, 2 * h)
-        x, y, share = se.region_rows(ldr, truth)
+        x, y, share = sd.region_rows(ldr, truth)
         assert x.shape == (y.size, len(sources.FEATURES)) and np.all(np.isfinite(x))
         assert np.all(y >= 0) and np.all((share >= 0) & (share <= 1 + 1e-9))
         if y.size:
@@ -78,7 +80,7 @@ def test_an_injected_source_adds_a_compact_disk_of_the_drawn_energy():
     om = sh.pixel_solid_angles(h, 2 * h)
     scene = float(((p @ LUMINANCE_WEIGHTS) * om).sum())
     for seed in range(6):
-        added = se.inject_source(p, np.random.default_rng(seed)) - p
+        added = sd.inject_source(p, np.random.default_rng(seed)) - p
         assert added.min() >= 0.0
         lum = added @ LUMINANCE_WEIGHTS
         energy = float((lum * om).sum())
@@ -88,9 +90,9 @@ def test_an_injected_source_adds_a_compact_disk_of_the_drawn_energy():
         assert float((lum * om)[t < 3.0].sum()) >= 0.85 * energy  # compact: the halo holds 10 % at most
     # the experiment is off by default: the same cameras as before, draw for draw
     hdr = np.random.default_rng(1).uniform(0.1, 2.0, (32, 64, 3))
-    a, b = se.camera(hdr, np.random.default_rng(3)), se.camera(hdr, np.random.default_rng(3), inject=0.0)
+    a, b = sd.camera(hdr, np.random.default_rng(3)), sd.camera(hdr, np.random.default_rng(3), inject=0.0)
     np.testing.assert_array_equal(a[0], b[0])
-    c = se.camera(hdr, np.random.default_rng(3), inject=1.0)
+    c = sd.camera(hdr, np.random.default_rng(3), inject=1.0)
     assert c[1].max() > 10 * b[1].max()
 
 
@@ -101,9 +103,9 @@ def test_a_camera_saved_again_is_a_second_generation_and_none_draws_nothing_extr
     hdr[40:56, 240:280] = 50.0  # a clipped source, so JPEG's ringing at its rim shows
     widths = []
     for seed in range(16):
-        first = se.camera(hdr, np.random.default_rng(seed))
-        np.testing.assert_array_equal(first[0], se.camera(hdr, np.random.default_rng(seed), resave=0.0)[0])
-        again = se.camera(hdr, np.random.default_rng(seed), resave=1.0)
+        first = sd.camera(hdr, np.random.default_rng(seed))
+        np.testing.assert_array_equal(first[0], sd.camera(hdr, np.random.default_rng(seed), resave=0.0)[0])
+        again = sd.camera(hdr, np.random.default_rng(seed), resave=1.0)
         np.testing.assert_array_equal(again[1], first[1])  # the same scene and exposure: only the picture differs
         if again[0].shape == first[0].shape:
             assert (again[0] != first[0]).any()  # saved again: not the same bytes
@@ -131,20 +133,20 @@ def test_one_cached_table_serves_every_model_and_is_built_again_for_other_camera
 
     calls = []
 
-    def fake_build(files, augment, seed, log=print, inject=0.0, resave=se.RESAVE):
+    def fake_build(files, augment, seed, log=print, inject=0.0, resave=sd.RESAVE):
         calls.append((tuple(files), augment, seed, resave))
         n = 6 * len(files)
         return (rng.normal(size=(n, len(sources.FEATURES))), rng.random(n), rng.random(n),
                 np.repeat(np.arange(len(files)), 6))
 
-    monkeypatch.setattr(se, "build_table", fake_build)
+    monkeypatch.setattr(sd, "build_table", fake_build)
     files = [tmp_path / "a.hdr", tmp_path / "b.hdr"]
-    first = se.cached_table(tmp_path / "t.npz", files, 16, 0, 0.0, log=lambda *_: None)
-    again = se.cached_table(tmp_path / "t.npz", files, 16, 0, 0.0, log=lambda *_: None)
+    first = sd.cached_table(tmp_path / "t.npz", files, 16, 0, 0.0, log=lambda *_: None)
+    again = sd.cached_table(tmp_path / "t.npz", files, 16, 0, 0.0, log=lambda *_: None)
     assert len(calls) == 1 and all(np.array_equal(u, v) for u, v in zip(first, again))
-    se.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None)  # another seed: other cameras
+    sd.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None)  # another seed: other cameras
     assert len(calls) == 2
-    se.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None, resave=0.35)  # pictures saved again
+    sd.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None, resave=0.35)  # pictures saved again
     assert len(calls) == 3 and calls[-1][-1] == 0.35
     names = sources.FEATURES[3:7]
     X = first[0][:, [sources.FEATURES.index(n) for n in names]]

@@ -1,4 +1,4 @@
-"""training.source_energy.regressors: out-of-fold by scene, networks held to their training range, the scores."""
+"""training.experiments.regressors: out-of-fold by scene, networks held to their training range, the scores."""
 import numpy as np
 import pytest
 
@@ -6,8 +6,8 @@ pytest.importorskip("torch")
 pytest.importorskip("sklearn")
 
 from panolight_core.estimators import sources  # noqa: E402
-from training.common.folds import scene_folds
-from training.source_energy import regressors  # noqa: E402
+from training.common.folds import scene_folds  # noqa: E402
+from training.experiments import regressors  # noqa: E402
 from training.source_energy.fit import fit_mean  # noqa: E402
 
 

@@ -1,7 +1,7 @@
 """The per-source model's trees against small networks, region by region, out of fold (docs/keylight.md, "A better
 per-region prediction: tried, not kept").
 
-The rows are the training table's (``fit.cached_table``: every scene's augmented cameras, one row per clipped
+The rows are the training table's (``data.cached_table``: every scene's augmented cameras, one row per clipped
 region, its FEATURES and the natural log of true over held energy). Each regressor is fitted on four of the five
 scene folds (``common.folds.scene_folds``, the assignment of every cross-validation here) and predicts the fifth, so no
 scene is scored by a model that saw any of its cameras. Printed per group of rows: the weighted RMS and weighted
@@ -14,7 +14,7 @@ mean of the log-ratio error (prediction - truth, natural log; rows weighted as t
   the training scenes cannot drive a network outside what it was fitted on;
 - **average**: the mean of the two.
 
-    python -m training.source_energy.regressors [--table runs/table_s0.npz] [--networks 3] [--out F.json]
+    python -m training.experiments.regressors [--table runs/table_s0.npz] [--networks 3] [--out F.json]
     panolight dev source-regressors ...                                              # the same
 
 About 3 minutes here with the table cached (the trees take most of it); building the table takes 1 minute more.
@@ -31,7 +31,8 @@ import numpy as np
 from panolight_core.estimators import sources
 from training.common.folds import scene_folds
 from training.common.real_hdri import DEFAULT_HDRI, scene_files
-from training.source_energy.fit import cached_table, fit_mean, sample_weight
+from training.source_energy.data import cached_table
+from training.source_energy.fit import fit_mean, sample_weight
 
 HIDDEN = 96
 EPOCHS = 25

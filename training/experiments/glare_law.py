@@ -16,7 +16,7 @@ sources that matter (over DOMINANT_SHARE of their scene) and reports, with it:
   against regions holding under SMALL_SHARE of their scene;
 - how many of the sources the trees weigh more than e^2 low pass them.
 
-    python -m training.keylight.glare_law --fold-models 'runs/folds/sources_{k}.safetensors' [--out F.json]
+    python -m training.experiments.glare_law --fold-models 'runs/folds/sources_{k}.safetensors' [--out F.json]
     panolight dev glare-law ...                                                        # the same
 
 About a minute here.
@@ -39,7 +39,7 @@ from panolight_core.estimators.sources.features import cap_cells
 from panolight_core.estimators.sources.recovery import recover
 from training.common.real_hdri import load_hdr, scene_files
 from training.common.study import fold_models_option, real_hdri_parser, scene_models
-from training.source_energy.fit import region_targets
+from training.source_energy.data import region_targets
 
 HEIGHT = 512  # the ring is read at the training panoramas' resolution
 COMPACT_DEG = 12.0
@@ -185,7 +185,7 @@ def _finite(row: dict) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = real_hdri_parser("python -m training.keylight.glare_law", __doc__)
+    ap = real_hdri_parser("python -m training.experiments.glare_law", __doc__)
     fold_models_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="also write the summary and every region's row as JSON")
     args = ap.parse_args(argv)

@@ -1,4 +1,4 @@
-"""training.keylight.glare_law: the ring of a synthetic point source's glare gives back its law, and a one-sided
+"""training.experiments.glare_law: the ring of a synthetic point source's glare gives back its law, and a one-sided
 excess (a lit wall) is not isotropic."""
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from panolight_core import sh
-from training.keylight import glare_law
+from training.experiments import glare_law
 
 H = glare_law.HEIGHT
 
