@@ -9,12 +9,15 @@ a few estimates, as numpy's SIMD sums vary with the arrays' memory alignment), o
 
     python -m training.digests --out runs/digests.json              # before the change
     python -m training.digests --compare runs/digests.json          # after it: bitwise equal, or which differ
+    panolight eval -o runs/eval && python -m training.digests --eval docs/eval/eval.json runs/eval/eval.json
+                                                                    # every number of panolight eval but its timings
 """
 from __future__ import annotations
 
 import argparse
 import hashlib
 import json
+import re
 import sys
 import time
 from pathlib import Path
@@ -36,6 +39,7 @@ def _without_timings(doc):
 
 
 RTOL = 1e-12  # "equal to rounding": the last bits of a float64
+_TIMING = re.compile(r"(^|_)(time|times|timings|seconds|speed|s|ms)(_|$)")  # eval.json's wall-clock keys
 
 
 def _hdr_digest(result, ldr) -> tuple[str, list]:
@@ -80,6 +84,18 @@ def digests(folder: Path, evs, log=print) -> dict:
     return out
 
 
+def eval_differences(before, after, path: str = "") -> list[str]:
+    """Where two ``panolight eval`` results (eval.json) differ beyond rounding (RTOL), wall-clock times left out
+    (``_TIMING``: keys naming times, seconds, milliseconds or speed)."""
+    if isinstance(before, dict) and isinstance(after, dict):
+        return [d for k in sorted(before.keys() | after.keys())
+                if not _TIMING.search(k)
+                for d in eval_differences(before.get(k), after.get(k), f"{path}/{k}")]
+    if isinstance(before, list) and isinstance(after, list) and len(before) == len(after):
+        return [d for i, (a, b) in enumerate(zip(before, after)) for d in eval_differences(a, b, f"{path}[{i}]")]
+    return [] if _close(before, after) else [f"{path}: {before!r} -> {after!r}"]
+
+
 def main(argv=None) -> int:
     from training.common.real_hdri import DEFAULT_HDRI
 
@@ -89,7 +105,15 @@ def main(argv=None) -> int:
     group = ap.add_mutually_exclusive_group(required=True)
     group.add_argument("--out", type=Path, help="write the digests here (JSON)")
     group.add_argument("--compare", type=Path, help="compare against digests written earlier")
+    group.add_argument("--eval", type=Path, nargs=2, metavar=("BEFORE", "AFTER"),
+                       help="compare two panolight eval results (eval.json) instead, timings left out")
     args = ap.parse_args(argv)
+    if args.eval:
+        differ = eval_differences(*(json.loads(f.read_text()) for f in args.eval))
+        for d in differ:
+            print(f"differs: {d}")
+        print(f"panolight eval: {'the same numbers' if not differ else f'{len(differ)} numbers differ'}", file=sys.stderr)
+        return 1 if differ else 0
     found = digests(args.hdri, args.evs, log=lambda m: print(m, file=sys.stderr))
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -30,7 +30,8 @@ from ..camera import linear
 from ..errors import PanoLightError
 from .highlights import recover_highlights
 
-WORK_HEIGHT = 64  # rows of the highlight work map; 64 and 128 score alike on synthetic scenes (training/synth/evaluate.py)
+ANALYTIC_WORK_HEIGHT = 64  # rows of the analytic estimator's work map (the per-source one's is highlights.WORK_HEIGHT,
+# 128); 64 and 128 score alike on synthetic scenes (training/synth/evaluate.py)
 
 
 @dataclass
@@ -76,7 +77,7 @@ def _exact_hdr(pixels: np.ndarray, lmax: int, name: str) -> Estimate:
 def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
     if pixels.dtype != np.uint8:
         return _exact_hdr(pixels, lmax, "analytic")
-    work = max(WORK_HEIGHT, 4 * (lmax + 1))
+    work = max(ANALYTIC_WORK_HEIGHT, 4 * (lmax + 1))
     recovered, blobs = recover_highlights(pixels, work)
     return Estimate(sh.project(recovered, lmax), "analytic",
                     {"input": "ldr", "work_height": work, "clipped_regions": blobs}, recovered)

@@ -36,7 +36,7 @@ def test_no_clipping_means_no_change(rng):
     """Without clipped pixels the analytic estimate is the projection of the area-averaged work map."""
     from panolight_core.camera import ldr_to_linear
     from panolight_core.camera.resample import area_downsample
-    from panolight_core.estimators import WORK_HEIGHT
+    from panolight_core.estimators import ANALYTIC_WORK_HEIGHT as WORK_HEIGHT
 
     for rows in (WORK_HEIGHT, 4 * WORK_HEIGHT):
         ldr = (rng.random((rows, 2 * rows, 3)) * 200).astype(np.uint8)

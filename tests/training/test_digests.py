@@ -1,0 +1,29 @@
+"""training.digests: the same code gives the same digests, a changed estimate is found, and eval results compare
+without their timings."""
+import numpy as np
+
+from panolight_core.io import write_image
+from training import digests
+
+
+def test_the_same_estimates_compare_equal_and_a_changed_one_does_not(tmp_path):
+    rng = np.random.default_rng(0)
+    for name in ("a", "b"):
+        img = rng.random((32, 64, 3)).astype(np.float32) * 0.5
+        img[4:6, 10:12] = 40.0  # a clipped sun at ev 0
+        write_image(tmp_path / f"{name}.exr", img)
+    first = digests.digests(tmp_path, [0.0], log=lambda *_: None)
+    again = digests.digests(tmp_path, [0.0], log=lambda *_: None)
+    assert first == again and set(first) == {"a@0", "b@0"}
+    assert first["a@0"]["lighting"]["coefficients"] and len(first["a@0"]["hdr"]) == 64
+    changed = dict(first["a@0"], hdr_sums=[[v * (1 + 1e-6) for v in row] for row in first["a@0"]["hdr_sums"]])
+    assert not digests._close(first["a@0"]["hdr_sums"], changed["hdr_sums"])
+    rounding = [[v * (1 + 1e-15) for v in row] for row in first["a@0"]["hdr_sums"]]
+    assert digests._close(first["a@0"]["hdr_sums"], rounding)
+
+
+def test_eval_results_compare_without_their_timings():
+    before = {"scenes": [{"m_rmse": 0.5, "time_ms": 3.0}], "speed": {"x": 1}}
+    assert digests.eval_differences(before, {"scenes": [{"m_rmse": 0.5, "time_ms": 9.0}], "speed": {"x": 2}}) == []
+    assert digests.eval_differences(before, {"scenes": [{"m_rmse": 0.51, "time_ms": 3.0}], "speed": {"x": 1}}) == \
+        ["/scenes[0]/m_rmse: 0.5 -> 0.51"]
