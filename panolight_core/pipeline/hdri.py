@@ -52,8 +52,9 @@ class HdrRows:
     """The rows of ``hdr_panorama`` times ``scale``: iterate for (first row, float32 (n, W, 3) block), about
     4 M pixels at a time, what a writer streams to disk so that a 16K panorama never exists as a full float
     copy; ``peak``: an upper bound of every value, known before the first block (the writer picks half or
-    float32 from it). The per-source path is planned once and computed block by block on every thread
-    (``threads.imap``: a few blocks ahead of the consumer); the others are computed whole, then cut."""
+    float32 from it). The per-source path is planned once (a few numbers per region and work cell, whatever
+    the number of clipped pixels) and computed block by block on every thread (``threads.imap``: a few blocks
+    ahead of the consumer), each block's clipped pixels found again; the others are computed whole, then cut."""
 
     def __init__(self, pixels: np.ndarray, est, scale: float = 1.0):
         self.pixels, self.scale = pixels, float(scale)
@@ -65,17 +66,12 @@ class HdrRows:
             self.blocks = row_blocks(H, W, max(1, H // h) if H % h == 0 else 1)
             reference = reference_clipped(pixels, h)  # the clipping the regions saw
 
-            def regions_pixels(rows):  # the per-source regions' pixels
-                c = clipped_pixels(pixels[rows[0]:rows[1]], rows[0], H, reference, all_channels=True)
-                ys, xs = np.nonzero(c)
-                return c, ys + rows[0], xs
+            def clipped_rows(r0, r1):  # the per-source regions' pixels of rows r0..r1
+                return clipped_pixels(pixels[r0:r1], r0, H, reference, all_channels=True)
 
-            found = threads.map_ordered(regions_pixels, self.blocks)
-            self.clipped = [c for c, _, _ in found]
-            ys = np.concatenate([y for _, y, _ in found])
-            xs = np.concatenate([x for _, _, x in found])
-            self.fill = FullResolutionFill((ys, xs), (H, W), np.maximum(rec.diffuse - rec.base, 0.0),
-                                           rec.regions.centre, rec.regions.shape_exponents(), rec.regions.labels,
+            self.clipped_rows = clipped_rows
+            self.fill = FullResolutionFill(clipped_rows, (H, W), np.maximum(rec.diffuse - rec.base, 0.0),
+                                           (rec.regions.centre, rec.regions.shape_exponents(), rec.regions.labels),
                                            rec.key_points())
             self._peak = float(SRGB8_TO_LINEAR[int(pixels.max(initial=0))]) + self.fill.peak()
         else:
@@ -107,7 +103,7 @@ class HdrRows:
             block = self.full[r0:r1]
         else:
             block = ldr_to_linear(self.pixels[r0:r1])
-            self.fill.apply(block, r0, self.clipped[k])
+            self.fill.apply(block, r0, self.clipped_rows(r0, r1))
         if self.scale != 1.0:
             with np.errstate(over="ignore", invalid="ignore"):
                 block = block * np.float32(self.scale)

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ... import sh
+from ... import sh, threads
 from ..highlights import CORE_RADIUS
 from .regions import Regions
 
@@ -75,53 +75,106 @@ def fill_full_resolution(linear: np.ndarray, clipped: np.ndarray, excess: np.nda
     its excess. points: key lights (unit direction, RGB energy), each added at its exact direction.
     """
     out = np.array(linear, dtype=np.float32, copy=True)
-    fill = FullResolutionFill(np.nonzero(clipped), clipped.shape, excess, centres, exponents, labels, points)
+    fill = FullResolutionFill(lambda r0, r1: clipped[r0:r1], clipped.shape, excess, (centres, exponents, labels),
+                              points)
     fill.apply(out, 0, clipped)
     return out
 
 
-class FullResolutionFill:
-    """``fill_full_resolution`` split into a plan, made from the clipped pixels' coordinates (ys, xs) of an
-    (H, W) panorama, and ``apply`` to any row block of the linearised panorama, in place."""
+FILL_CHUNK = 1 << 18  # clipped pixels weighed at a time (``FullResolutionFill``): ~40 MB of temporaries
 
-    def __init__(self, clipped_yx, shape, excess: np.ndarray, centres=(), exponents=(), labels=None, points=()):
+
+class FullResolutionFill:
+    """``fill_full_resolution`` split into a plan and ``apply`` to any row block of the linearised panorama, in
+    place. The plan keeps a few numbers per region and per work cell, never one per clipped pixel: a 16K photo
+    whose sun clipped millions of pixels costs no more than one that clipped none. ``clipped_rows(r0, r1)``
+    gives the (r1 - r0, W) bool mask of the clipped pixels of rows r0..r1 of the (H, W) = ``shape`` panorama;
+    the plan reads it by blocks of about FILL_CHUNK pixels, on every thread, and sums in the pixels' order (the
+    same numbers as one pass over them all). ``regions``: (centres (n, 3), exponents (n,), labels (h, w) or
+    None) of the per-source regions."""
+
+    def __init__(self, clipped_rows, shape, excess: np.ndarray, regions=((), (), None), points=()):
+        centres, exponents, labels = regions
         H, W = shape
         h, w = excess.shape[:2]
-        self.clipped_yx_cache = clipped_yx
+        self.clipped_rows = clipped_rows
         self.shape, self.work_shape = (H, W), (h, w)
         has = excess.max(axis=-1) > 0
-        self.pixels = None  # (ys, xs, add (n, 3) float32) for region pixels
+        self.region = None  # (energy (n, 3), 1 / norm (n,), centres (n, 3), exponents (n,), labels) of the regions
         self.cells = []  # (r0, r1, c0, c1, excess (3,) float32) of the other cells
         self.points = self._splats(points)  # (ys, xs, add (n, 3) float32) of the key lights
-        if not has.any():
-            return
-        in_region = np.zeros((h, w), bool) if labels is None else (labels >= 0) & (labels < len(centres))
-        if in_region.any():
+        self._top = 0.0  # the largest per-pixel addition of a region's pixels
+        counts = np.zeros(h * w, np.int64)  # clipped pixels per work cell
+        n = len(centres)
+        in_region = np.zeros((h, w), bool) if labels is None else (labels >= 0) & (labels < n)
+        if has.any() and in_region.any():
             cell_sr = sh.pixel_solid_angles(h, w)
-            n = len(centres)
             lab = labels[in_region]
             energy = np.stack([np.bincount(lab, (excess[..., c] * cell_sr)[in_region], n) for c in range(3)], -1)
-            ys, xs = clipped_yx
-            pl = labels[(ys * h) // H, (xs * w) // W]
-            keep = pl >= 0
-            ys, xs, pl = ys[keep], xs[keep], pl[keep]
-            if ys.size:
-                d = sh.grid.directions_at(ys, xs, H, W)
-                t = np.arccos(np.clip(np.einsum("ij,ij->i", d, np.asarray(centres, dtype=np.float64)[pl]), -1.0,
-                                      1.0))
-                wt = np.maximum(t, CORE_RADIUS) ** (-np.asarray(exponents, dtype=np.float64)[pl])
-                om = sh.row_solid_angles(H, W)[ys]
-                norm = np.bincount(pl, wt * om, n)
-                got = norm > 0
-                scale = np.where(got, 1.0 / np.maximum(norm, 1e-300), 0.0)
-                self.pixels = (ys, xs, (energy[pl] * (wt * scale[pl])[:, None]).astype(np.float32))
-                in_region &= got[np.maximum(labels, 0)]  # a region without a clipped pixel falls back to its cells
+            self.region = (energy, None, np.asarray(centres, dtype=np.float64),
+                           np.asarray(exponents, dtype=np.float64), labels)
+        norm, top_wt, seen = np.zeros(n), np.zeros(n), False
+        step = max(1, FILL_CHUNK // max(W, 1))
+        blocks = [(r, min(H, r + step)) for r in range(0, H, step)]
+        for (r0, _r1), (mask, found) in zip(blocks, threads.imap(self._plan_block, blocks)):
+            ys, xs = np.nonzero(mask)
+            counts += np.bincount(((ys + r0) * h // H) * w + xs * w // W, minlength=h * w)
+            if found is not None:  # the same sums, in the same order, as one bincount over every pixel
+                pl, wt_om, wt = found
+                seen = True
+                np.add.at(norm, pl, wt_om)
+                np.maximum.at(top_wt, pl, wt)
+        self._counts = counts
+        if self.region is not None and not seen:  # no clipped pixel in any region: nothing to weigh
+            self.region = None
+        elif self.region is not None:
+            energy = self.region[0]
+            got = norm > 0
+            scale = np.where(got, 1.0 / np.maximum(norm, 1e-300), 0.0)
+            self.region = (energy, scale, *self.region[2:])
+            if got.any():  # the largest addition: a region's energy x its largest weight x its scale
+                self._top = float(((energy * (top_wt * scale)[:, None]).astype(np.float32)).max())
+            in_region &= got[np.maximum(labels, 0)]  # a region without a clipped pixel falls back to its cells
+        if not has.any():
+            return
         ys_full = (np.arange(H) * h) // H  # work row of each full row
         xs_full = (np.arange(W) * w) // W
         row0, row1 = np.searchsorted(ys_full, np.arange(h)), np.searchsorted(ys_full, np.arange(h), side="right")
         col0, col1 = np.searchsorted(xs_full, np.arange(w)), np.searchsorted(xs_full, np.arange(w), side="right")
         for y, x in zip(*np.nonzero(has & ~in_region)):
             self.cells.append((row0[y], row1[y], col0[x], col1[x], excess[y, x].astype(np.float32)))
+
+    def _plan_block(self, rows):
+        """(clipped mask, (labels int32, weights x solid angles, weights) of the block's region pixels in row-major
+        order, or None) of rows r0..r1 (a few MB)."""
+        mask = self.clipped_rows(*rows)
+        if self.region is None:
+            return mask, None
+        ys, xs = np.nonzero(mask)
+        parts = [(pl.astype(np.int32), wt * om, wt) for _, _, pl, wt, om in self._weights(ys + rows[0], xs)]
+        if not parts:
+            return mask, None
+        return mask, tuple(np.concatenate(a) for a in zip(*parts))
+
+    def _weights(self, ys, xs):
+        """(ys, xs, labels, weights max(t, CORE_RADIUS)^-p, row solid angles) of those of the given clipped pixels
+        that lie in a region's cells, by chunks of FILL_CHUNK pixels (in their order), so that the temporaries stay a
+        few tens of MB however much of the panorama clipped."""
+        H, W = self.shape
+        h, w = self.work_shape
+        _, _, centres, exponents, labels = self.region
+        omega = sh.row_solid_angles(H, W)
+        for i in range(0, ys.size, FILL_CHUNK):
+            cy, cx = ys[i:i + FILL_CHUNK], xs[i:i + FILL_CHUNK]
+            pl = labels[(cy * h) // H, (cx * w) // W]
+            keep = pl >= 0
+            cy, cx, pl = cy[keep], cx[keep], pl[keep]
+            if not cy.size:
+                continue
+            d = sh.grid.directions_at(cy, cx, H, W)
+            t = np.arccos(np.clip(np.einsum("ij,ij->i", d, centres[pl]), -1.0, 1.0))
+            wt = np.maximum(t, CORE_RADIUS) ** (-exponents[pl])
+            yield cy, cx, pl, wt, omega[cy]
 
     def _splats(self, points):
         """Key lights (unit direction (3,), RGB energy (3,)) as pixel additions: each energy split over the
@@ -147,16 +200,14 @@ class FullResolutionFill:
 
     def peak(self) -> float:
         """An upper bound of the energy ``apply`` adds to any one pixel (per channel, linear units)."""
-        top = float(self.pixels[2].max()) if self.pixels is not None and self.pixels[2].size else 0.0
+        top = self._top
         if self.points is not None:
             top += float(self.points[2].sum(axis=0).max())
         if self.cells:
-            ys, xs = self.clipped_yx_cache
             (H, W), (h, w) = self.shape, self.work_shape
-            clipped = np.bincount((ys * h // H) * w + xs * w // W, minlength=h * w)
             for c_r0, c_r1, c0, c1, exc in self.cells:
                 n = (c_r1 - c_r0) * (c1 - c0)
-                k = clipped[(c_r0 * h // H) * w + c0 * w // W]  # the cell's clipped pixels (0: all share)
+                k = self._counts[(c_r0 * h // H) * w + c0 * w // W]  # the cell's clipped pixels (0: all share)
                 top = max(top, float(exc.max()) * (n / k if k else 1.0))
         return top
 
@@ -164,11 +215,15 @@ class FullResolutionFill:
         """Add the recovered energy to rows r0 .. r0 + len(block) of the panorama: ``block`` float32
         (n, W, 3) linear, in place; ``clipped_block`` (n, W) bool, those rows' clipped pixels."""
         r1 = r0 + block.shape[0]
-        for found in (self.pixels, self.points):
-            if found is not None:
-                ys, xs, add = found
-                sel = (ys >= r0) & (ys < r1)
-                np.add.at(block, (ys[sel] - r0, xs[sel]), add[sel])
+        if self.region is not None:
+            energy, scale = self.region[:2]
+            rows, cols = np.nonzero(clipped_block)
+            for ys, xs, pl, wt, _ in self._weights(rows + r0, cols):
+                np.add.at(block, (ys - r0, xs), (energy[pl] * (wt * scale[pl])[:, None]).astype(np.float32))
+        if self.points is not None:
+            ys, xs, add = self.points
+            sel = (ys >= r0) & (ys < r1)
+            np.add.at(block, (ys[sel] - r0, xs[sel]), add[sel])
         for c_r0, c_r1, c0, c1, exc in self.cells:
             if c_r1 <= r0 or c_r0 >= r1:
                 continue
@@ -184,11 +239,7 @@ class FullResolutionFill:
         r1 = r0 + clipped_block.shape[0]
         if c_r0 >= r0 and c_r1 <= r1:
             return clipped_block[c_r0 - r0:c_r1 - r0, c0:c1]
-        ys, xs = self.clipped_yx_cache
-        sel = (ys >= c_r0) & (ys < c_r1) & (xs >= c0) & (xs < c1)
-        cell = np.zeros((c_r1 - c_r0, c1 - c0), bool)
-        cell[ys[sel] - c_r0, xs[sel] - c0] = True
-        return cell
+        return np.asarray(self.clipped_rows(c_r0, c_r1))[:, c0:c1]  # a cell across two blocks: its rows again
 
 
 def key_deposits(keys, shape) -> np.ndarray:
