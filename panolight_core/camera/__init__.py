@@ -11,6 +11,7 @@ import io as _io
 
 import numpy as np
 
+from .codec import encode_srgb8
 from .color import SRGB8_TO_LINEAR, linear_to_srgb, luminance, srgb_to_linear
 
 MID_GREY = 0.18  # the linear value an auto-exposing camera puts its metered median at (EVALUATION.md's k), and the
@@ -75,8 +76,6 @@ def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None
 def jpeg_roundtrip(ldr: np.ndarray, quality: int) -> np.ndarray:
     """(H, W, 3) uint8 -> the same picture saved as a JPEG of that quality and decoded again."""
     from PIL import Image
-
-    from .codec import encode_srgb8
 
     with Image.open(_io.BytesIO(encode_srgb8(ldr, "jpeg", quality))) as im:
         return np.asarray(im.convert("RGB"))

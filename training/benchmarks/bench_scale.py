@@ -36,7 +36,7 @@ import sys, warnings
 import numpy as np
 from panolight_core.camera import hdr_to_ldr
 from panolight_core.camera.resample import area_downsample
-from panolight_core.data import studio_hdri
+from panolight_core.data import load_studio_hdri
 from panolight_core.io import read_image, write_srgb8
 warnings.simplefilter("ignore")
 out, width, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])

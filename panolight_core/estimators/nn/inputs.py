@@ -22,6 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...camera.color import linear_to_srgb
+from ...camera.resample import area_downsample
+from .. import sources
 from ..highlights import WORK_HEIGHT, recover_work_maps, work_maps
 
 CHANNELS = 7
@@ -62,9 +64,6 @@ def _source_excess(ldr: np.ndarray, height: int, source_model, maps=None) -> np.
     """(height, 2 height, 3) the per-source estimator's recovered excess over the plain linear map, area
     averaged from its own work map (which it computes at its own resolution) to the network's; maps:
     its work maps when the network's height is theirs (sources.recover)."""
-    from ...camera.resample import area_downsample
-    from .. import sources
-
     model = sources.load_source_model(source_model) if source_model else None
     rec = sources.recover(ldr, model, maps=maps)
     excess = np.maximum(rec.work - rec.base, 0.0)
