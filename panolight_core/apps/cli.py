@@ -7,6 +7,7 @@ render-mitsuba); the core never imports them by name.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import warnings
 from pathlib import Path
@@ -130,8 +131,8 @@ def run_batch(args) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PanoLightWarning)
         recorded = {**dataclasses.asdict(settings),  # what the outputs depend on (the resume key)
-                    **{k: (list(v) if isinstance(v, tuple) else v) for k, v in kwargs.items()
-                       if k not in ("overwrite", "max_megapixels")}}
+                    **{k: v for k, v in kwargs.items() if k not in ("overwrite", "max_megapixels")}}
+        recorded = json.loads(json.dumps(recorded))  # as the report stores it (tuples as lists): resume compares
         report = batch(inputs, Path(args.output), functools.partial(job, settings=settings, **kwargs), shard_spec,
                        args.quiet, settings=recorded, jobs=args.jobs or default_jobs())
     print(f"batch: {report['ok']} ok, {report['skipped']} up to date, {report['failed']} failed of "

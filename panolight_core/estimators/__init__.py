@@ -123,6 +123,21 @@ def with_key_strength(est: Estimate, strength: float) -> Estimate:
                               {**info, "key_light_strength": float(strength)})
 
 
+def with_pointed_sun(est: Estimate, direction, contrast: float | None = None) -> Estimate:
+    """``est`` with the artist's sun at ``direction`` (``pointed_sun.with_pointed_sun``), recorded in its info as
+    ``pointed_sun``. An estimate without a per-source recovery (an HDR input, whose sun is in its pixels, or
+    another estimator) is returned as it is."""
+    rec = est.recovery
+    if rec is None:
+        return est
+    from .pointed_sun import with_pointed_sun as point
+
+    info = {k: v for k, v in est.info.items() if k not in ("clipped_regions", "sun_search")}
+    info["pointed_sun"] = {"direction": [round(float(v), 6) for v in direction],
+                           **({"contrast": float(contrast)} if contrast is not None else {})}
+    return _recovery_estimate(point(rec, direction, contrast), est.lmax, est.estimator, info)
+
+
 def per_source_key_lights(pixels: np.ndarray, lmax: int) -> Estimate:
     return per_source(pixels, lmax, key_lights=True)
 

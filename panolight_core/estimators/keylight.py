@@ -401,3 +401,4 @@ def with_key_lights(rec, params: KeyLightParams = PARAMS):
     fits = {}
     keys = find_key_lights(rec.maps, rec.regions, (rec.mu, rec.sigma, rec.log_ratio), params, fits)
     return rec.with_keys(keys, sun_search_report(fits, keys, rec.regions, params))
+

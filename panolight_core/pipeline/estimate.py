@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import sh, threads
 from ..errors import PanoLightError
-from ..estimators import Estimate, estimate, with_key_strength
+from ..estimators import Estimate, estimate, with_key_strength, with_pointed_sun
 from ..estimators.highlights import CLIP_LEVEL
 from ..io.lighting import make_lighting
 from ..lighting.adaptive import LightingModel, fit_model
@@ -22,15 +22,19 @@ UNITS_LDR = "relative: 1 = the LDR camera's clip level (white)"
 
 
 def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model: str = "auto",
-               tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None, sun_strength: float = 1.0):
+               tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None, sun_strength: float = 1.0,
+               pointed_sun=None):
     """Panorama pixels (uint8 sRGB LDR or float linear HDR) -> (LightingModel, Estimate), unscaled and with
     the model's own deringing. lmax: None (auto for model "auto", 2 for "sh"), "auto" or an int.
-    deringing: None = the model's default ("auto" with lights, "none" for SH only). sun_strength: the
+    deringing: None = the model's default ("auto" with lights, "none" for SH only). pointed_sun: (unit direction,
+    lit/shadow contrast or None), the artist's sun (``estimators.with_pointed_sun``); sun_strength: the
     estimator's key lights times this (``estimators.with_key_strength``)."""
     check_choice("model", model, MODELS)
     lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
     threads.check_cancelled()
     est = estimate(pixels, DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax), estimator)
+    if pointed_sun is not None:
+        est = with_pointed_sun(est, *pointed_sun)
     est = with_key_strength(est, sun_strength)
     threads.check_cancelled()
     return fit_estimate(est, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
@@ -122,7 +126,9 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Re
     t1 = time.perf_counter()
     fitted, est = fit_pixels(pixels, lmax=settings.order, estimator=settings.estimator, model=settings.model,
                              tolerance=settings.tolerance, deringing=None if settings.window == "none" else "none",
-                             sun_strength=settings.sun_strength)
+                             sun_strength=settings.sun_strength,
+                             pointed_sun=None if settings.sun_direction is None else (settings.sun_direction,
+                                                                                     settings.sun_contrast))
     threads.check_cancelled()
     coeffs, window_info = fitted.coeffs, fitted.info["ringing"]["window"]
     if settings.window == "auto":
@@ -157,6 +163,10 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Re
     if settings.sun_strength != 1.0 and "key_light_strength" not in est.info:
         warnings.append(f"sun strength {settings.sun_strength:g} changes nothing: the estimate has no key light "
                         f"(a sun or lamp weighed in a clipped photo) to scale")
+    if settings.sun_direction is not None and "pointed_sun" not in est.info:
+        warnings.append("the sun's direction changes nothing: " + (
+            "an HDR input holds its own sun in its pixels" if hdr else
+            f"the {est.estimator} estimator weighs no key light (use --estimator keylight or sources)"))
     return Result(doc, model, est, tuple(warnings))
 
 

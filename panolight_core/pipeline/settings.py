@@ -40,7 +40,9 @@ class Settings:
     window: deringing (WINDOWS); window_width: of a fixed window (default 2 (lmax + 1)). exposure_ev:
     the lighting is scaled by 2^exposure_ev. sun_strength: the key lights (the suns and lamps the estimate
     weighed) times this, in every output alike; a raised light takes over its own region's fill first, nothing
-    else changes. Invalid values raise PanoLightError naming the setting."""
+    else changes. sun_direction: the artist's sun (x, y, z; CONVENTIONS.md frame, made unit), in place of any sun
+    the estimate found; sun_contrast: weigh it by the photo's lit / shadow ground contrast (> 1) instead of its sky
+    (``pointed_sun.with_pointed_sun``). Invalid values raise PanoLightError naming the setting."""
 
     estimator: str = "auto"
     model: str = "auto"
@@ -50,6 +52,8 @@ class Settings:
     window_width: float | None = None
     exposure_ev: float = 0.0
     sun_strength: float = 1.0
+    sun_direction: tuple | None = None  # the artist's sun: a direction (CONVENTIONS.md frame); made unit here
+    sun_contrast: float | None = None  # ... weighed by the photo's lit/shadow ground contrast instead of its sky
 
     def __post_init__(self):
         from ..estimators import resolve
@@ -64,6 +68,17 @@ class Settings:
             if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value)
                                           and lo <= value <= hi):
                 raise PanoLightError(f"{name} must be a number between {lo:g} and {hi:g}, got {value!r}")
+        if self.sun_direction is not None:
+            object.__setattr__(self, "sun_direction", unit_direction(self.sun_direction))
+        if self.sun_contrast is not None:
+            if self.sun_direction is None:
+                raise PanoLightError("sun_contrast weighs the sun the artist points at: give sun_direction too "
+                                     "(--sun AZ,EL or --sun-direction X,Y,Z)")
+            lo, hi = SUN_CONTRAST_RANGE
+            if not (isinstance(self.sun_contrast, (int, float)) and math.isfinite(self.sun_contrast)
+                    and lo < self.sun_contrast <= hi):
+                raise PanoLightError(f"sun_contrast must be a number above {lo:g} and at most {hi:g} (lit / shadow), "
+                                     f"got {self.sun_contrast!r}")
 
     @property
     def order(self) -> str:
@@ -90,6 +105,46 @@ def check_map_cost(order, height: int, option: str = "--resolution") -> None:
     raise PanoLightError(f"SH order {lmax} with {option} {2 * height}x{height} would take several GB of memory to "
                          f"reconstruct; lower {option} to {2 * fit_height}x{fit_height} or below, or the order to "
                          f"{max(0, fit_lmax)} or below")
+
+
+SUN_CONTRAST_RANGE = (1.0, 1000.0)  # lit / shadow of a white surface: above 1 (a shadow at all)
+
+
+def unit_direction(value, option: str = "sun_direction") -> tuple:
+    """(x, y, z) finite and not zero -> the unit direction (CONVENTIONS.md frame), else PanoLightError."""
+    try:
+        v = [float(x) for x in value]
+    except (TypeError, ValueError):
+        raise PanoLightError(f"{option} must be three numbers X,Y,Z, got {value!r}") from None
+    n = math.sqrt(sum(x * x for x in v)) if len(v) == 3 and all(math.isfinite(x) for x in v) else 0.0
+    if not n > 0:
+        raise PanoLightError(f"{option} must be three finite numbers X,Y,Z, not all zero, got {value!r}")
+    return tuple(x / n for x in v)
+
+
+def direction_from_az_el(az_deg: float, el_deg: float) -> tuple:
+    """The unit direction (CONVENTIONS.md frame) of azimuth ``az_deg`` (0 at the panorama's centre, +X; positive to
+    the right in the image, clockwise seen from above, as a compass bearing turns) and elevation ``el_deg`` above
+    the horizon."""
+    a, e = math.radians(az_deg), math.radians(el_deg)
+    return (math.cos(e) * math.cos(a), -math.cos(e) * math.sin(a), math.sin(e))
+
+
+def _xyz(text: str) -> tuple:
+    try:
+        return unit_direction([float(v) for v in text.split(",")], "--sun-direction")
+    except (ValueError, PanoLightError):
+        raise PanoLightError(f"--sun-direction must be three finite numbers X,Y,Z, not all zero, got {text!r}") from None
+
+
+def _az_el(text: str) -> tuple:
+    try:
+        az, el = (float(v) for v in text.split(","))
+    except ValueError:
+        raise PanoLightError(f"--sun must be two numbers AZ,EL in degrees, got {text!r}") from None
+    if not (math.isfinite(az) and math.isfinite(el) and -90.0 <= el <= 90.0):
+        raise PanoLightError(f"--sun AZ,EL needs finite degrees with -90 <= EL <= 90, got {text!r}")
+    return direction_from_az_el(az, el)
 
 
 def check_choice(name: str, value, table: dict) -> None:
@@ -169,6 +224,21 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                                  "estimate is sure of). When a key light's own evidence says it is stronger, the "
                                  "estimate prints a note with its 68 %% range: raise X toward that if the photo's "
                                  "shadows are harder than a render's")
+        where = parser.add_mutually_exclusive_group()
+        where.add_argument("--sun", type=argparse_type(_az_el), default=None, metavar="AZ,EL",
+                           help="the sun is there (degrees: azimuth 0 at the panorama's centre, positive to the right "
+                                "in the image; elevation above the horizon): for a sun the photo hides (trees, a "
+                                "retouched sky) or shows only by its shadows. It replaces the sun the estimate found, "
+                                "weighed by the clear sky's fit with the sun fixed there, or by --sun-contrast. A "
+                                "negative azimuth needs the = form: --sun=-40,5")
+        where.add_argument("--sun-direction", type=argparse_type(_xyz), default=None, metavar="X,Y,Z",
+                           help="the same as --sun, as a direction in the world frame (Z up, the panorama's centre "
+                                "+X; docs/CONVENTIONS.md)")
+        parser.add_argument("--sun-contrast", type=number("--sun-contrast", SUN_CONTRAST_RANGE[0] + 1e-9,
+                                                          SUN_CONTRAST_RANGE[1]), default=None, metavar="R",
+                            help="with --sun: weigh the sun so that a white surface facing it is R times as bright "
+                                 "lit as in its shadow (the photo's own sunlit / shadowed ground, e.g. 3.3), instead "
+                                 "of by the sky; the energy is taken out of the fill, so the total stays honest")
     parser.add_argument("--window", type=argparse_type(_window), default="none", metavar="KIND",
                         help="deringing: " + "; ".join(f"{n}{' (default)' if n == 'none' else ''}: {text}"
                                                        for n, (_, text) in WINDOWS.items()))
@@ -180,4 +250,6 @@ def from_args(args) -> Settings:
     """The Settings of parsed ``add_arguments`` options."""
     return Settings(estimator=args.estimator, model=args.model, lmax=args.lmax, tolerance=args.tolerance,
                     window=args.window, window_width=args.window_width, exposure_ev=args.exposure,
-                    sun_strength=getattr(args, "sun_strength", 1.0))
+                    sun_strength=getattr(args, "sun_strength", 1.0),
+                    sun_direction=getattr(args, "sun", None) or getattr(args, "sun_direction", None),
+                    sun_contrast=getattr(args, "sun_contrast", None))

@@ -37,6 +37,7 @@ class Recovery:
     diffuse: np.ndarray | None = None  # ``work`` without the key lights (what the SH part is fitted to)
     sun_search: dict | None = None  # keylight.sun_search_report: the search for a sun the photo does not show
     frac_any: np.ndarray | None = None  # the any-channel clipped fraction (h, 2h): with base and frac, the work maps
+    decided: np.ndarray | None = None  # the reported log ratios before any key light capped them (``with_keys``)
 
     def __post_init__(self):
         if self.diffuse is None:
@@ -52,9 +53,11 @@ class Recovery:
         in its fill only what its decided energy holds beyond the light's, and a trusted sun's regions at most the
         high end of its fit's 68 % range (``cap_log_ratios``: the reported log ratios say so); ``sun_search``: the
         account of the search for a sun the photo does not show (``keylight.sun_search_report``)."""
-        reported = cap_log_ratios(self.regions, self.log_ratio, keys)
+        decided = self.log_ratio if self.decided is None else self.decided  # the keys before these do not count
+        reported = cap_log_ratios(self.regions, decided, keys)
         diffuse, work = fill_with_keys(self.base, self.regions, reported, keys)
-        return replace(self, work=work, diffuse=diffuse, log_ratio=reported, keys=list(keys), sun_search=sun_search)
+        return replace(self, work=work, diffuse=diffuse, log_ratio=reported, keys=list(keys), sun_search=sun_search,
+                       decided=decided)
 
     def with_key_strength(self, strength: float) -> "Recovery":
         """This recovery with every key light's energy times ``strength`` (>= 0; an artist's setting: lighting.json

@@ -1,3 +1,4 @@
+import math
 import os
 import subprocess
 import sys
@@ -620,3 +621,33 @@ def test_an_sh_order_and_map_size_that_would_cost_gigabytes_are_refused_up_front
         assert not (tmp_path / command).exists()
     assert main(["estimate", str(src), "-o", str(tmp_path / "ok"), "-q", "--model", "sh", "--lmax", "43",
                  "--resolution", "4096x2048", "--outputs", "lighting"]) == 0
+
+
+def test_the_artist_points_at_the_sun_from_the_command_line(tmp_path, capsys):
+    """--sun AZ,EL / --sun-direction X,Y,Z (issue 46): one sun there, weighed by its sky or --sun-contrast; an HDR
+    input says it changes nothing; batch resumes with it."""
+    from panolight_core.pipeline.settings import direction_from_az_el
+    from tests.panolight_core.estimators.test_keylight import _retouched_sky
+
+    ldr, s, _ = _retouched_sky(paint=0.02)
+    src = tmp_path / "hidden.png"
+    from PIL import Image
+
+    Image.fromarray(ldr).save(src)
+    az = -math.degrees(math.atan2(s[1], s[0]))
+    el = math.degrees(math.asin(s[2]))
+    np.testing.assert_allclose(direction_from_az_el(az, el), s, atol=1e-12)
+    for argv, how in (([f"--sun={az},{el}"], "clear-sky fit"),
+                      (["--sun-direction", ",".join(map(str, s)), "--sun-contrast", "3"], "contrast 3")):
+        out = tmp_path / how.replace(" ", "_")
+        assert main(["estimate", str(src), "-o", str(out), "-q", *argv]) == 0
+        _, doc = read_lighting(out / "lighting.json")  # and valid against the schema
+        (sun,) = [light for light in doc["lights"] if light["source"].startswith("the artist's")]
+        assert how in sun["source"] and np.degrees(np.arccos(min(1.0, float(np.dot(sun["direction"], s))))) < 1e-4
+        assert doc["estimator"]["pointed_sun"]["direction"] == pytest.approx(list(s), abs=1e-6)
+    hdr = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    assert main(["estimate", str(hdr), "-o", str(tmp_path / "h"), "-q", "--sun", "10,20"]) == 0
+    assert "the sun's direction changes nothing: an HDR input holds its own sun" in capsys.readouterr().err
+    for _ in range(2):
+        assert main(["batch", str(src), "-o", str(tmp_path / "b"), "-q", f"--sun={az},{el}"]) == 0
+    assert '"skipped": 1' in (tmp_path / "b" / "batch_report.json").read_text()

@@ -493,3 +493,58 @@ def test_a_region_in_a_blue_sky_takes_white_not_the_sky_s_gradient():
     grey = (0.3 + 0.3 * near)[..., None] * np.array([1.0, 1.0, 1.0]) + (0.3 * near)[..., None] * np.array([1.0, 0.55, 0.12])
     col = keylight._ring_color(grey, frac_any, labels, 0, s, radius, keylight.PARAMS.shoulder)
     assert col[0] > col[1] > col[2]
+
+
+def test_the_artist_points_at_a_sun_the_photo_hides_and_its_sky_weighs_it():
+    """A building in front of the sun (issue 46): the pointed sun stands exactly where the artist says, weighed by
+    the clear-sky fit with the sun fixed there (x sky_correction, its 68 % range around it); no other sun."""
+    from panolight_core.estimators import keylight, pointed_sun
+    from panolight_core.estimators import sky as clear_sky
+
+    ldr, s, _ = _retouched_sky(paint=0.02)  # occluded: the estimate places no sun of its own there
+    rec = sources.recover(ldr)
+    pointed = pointed_sun.with_pointed_sun(rec, s)
+    (sun,) = [k for k in pointed.keys if k.method.startswith("the artist's")]
+    assert metrics.angle_deg(sun.direction, s) < 1e-9 and sun.region == -1
+    rad, fa, fb = rec.maps
+    fit = clear_sky.fit_clear_sky(rad, fa == 0, fb > 0.5, s)
+    assert sun.energy == pytest.approx(keylight.PARAMS.sky_correction * fit.sun_energy)
+    assert sun.energy_68[0] < sun.energy < sun.energy_68[1]
+    assert len([k for k in pointed.keys if k.method.startswith(("clear-sky", "hidden sun", "the artist's"))]) == 1
+    assert pointed.sun_search == {"searched": False, "why": "the artist gave the sun's direction"}
+
+
+@pytest.mark.parametrize("contrast", [1.5, 3.0, 10.0])
+def test_a_pointed_sun_weighed_by_the_ground_s_contrast_casts_that_shadow(contrast):
+    """With --sun-contrast R a white surface facing the sun is R times as bright lit as in its shadow: the sun
+    carries 1 - 1/R of its irradiance (EVALUATION.md's shadow contrast), the rest being the lighting without it."""
+    from panolight_core.estimators import pointed_sun
+
+    ldr, s, _ = _retouched_sky(paint=0.02)
+    rec = sources.recover(ldr)
+    pointed = pointed_sun.with_pointed_sun(rec, s, contrast)
+    (sun,) = pointed.keys
+    rest = float(sh.irradiance(sh.project(pointed.diffuse, 2), s[None])[0] @ LUMINANCE_WEIGHTS)
+    assert (sun.energy + rest) / rest == pytest.approx(contrast, rel=1e-9)
+
+
+def test_a_pointed_sun_in_a_clipped_patch_takes_its_energy_from_the_patch_and_a_sunless_sky_is_refused():
+    from panolight_core.errors import PanoLightError
+    from panolight_core.estimators import keylight, pointed_sun
+
+    ldr, s, _ = _retouched_sky(paint=4.0)  # the sun's patch clipped
+    rec = keylight.with_key_lights(sources.recover(ldr))
+    pointed = pointed_sun.with_pointed_sun(rec, s)
+    (sun,) = pointed.keys
+    assert sun.region >= 0 and sun.method.startswith("the artist's")
+    parts = [sun.region, *sun.parts]
+    decided = float((np.expm1(pointed.decided[parts]) * rec.regions.held[parts]).sum())
+    filled = float((np.expm1(pointed.log_ratio[parts]) * rec.regions.held[parts]).sum())
+    om = sh.pixel_solid_angles(*pointed.work.shape[:2])
+    added = float((((pointed.diffuse - pointed.base) @ LUMINANCE_WEIGHTS) * om).sum())
+    assert added == pytest.approx(max(filled - sun.energy, 0.0) + sum(
+        float(np.expm1(pointed.log_ratio[i]) * rec.regions.held[i]) for i in range(rec.regions.count) if i not in parts),
+        rel=1e-6)  # the region's fill gave up the sun's energy
+    assert decided >= filled
+    with pytest.raises(PanoLightError, match="below the horizon.*--sun-contrast"):
+        pointed_sun.with_pointed_sun(rec, np.array([0.6, 0.0, -0.8]))

@@ -1,0 +1,67 @@
+"""The artist's sun: a sun where the artist says it is (``--sun``, ``--sun-direction``), weighed by the clear sky
+with the sun fixed there or by the photo's lit / shadow ground (``--sun-contrast``), in place of any sun the
+estimate found (issue 46; docs/keylight.md "The artist's sun")."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import sh
+from ..camera.color import LUMINANCE_WEIGHTS
+from ..errors import PanoLightError
+from . import sky as clear_sky
+from .keylight import PARAMS, SUN_DIAMETER_DEG, KeyLight, KeyLightParams, camera_colour
+
+POINTED_CELLS = 1.0  # a pointed sun stands for the clipped region it lies in, or within this many work cells of
+
+
+def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyLightParams = PARAMS):
+    """A per-source recovery (with or without its key lights) with the artist's sun at unit ``direction``
+    (CONVENTIONS.md frame) in place of any sun the estimate found (one sun in the sky; lamps stay). Weighed by
+    the clear-sky fit of the visible sky with the sun fixed there (x sky_correction, its 68 % range the fit's, as a
+    found sun's), or, with ``contrast`` R (lit / shadow of a white surface facing it, the photo's own ground), so
+    that the sun carries 1 - 1/R of that surface's irradiance (EVALUATION.md's shadow contrast) against the rest of
+    the lighting to SH order 2. A sun in (or next to) a clipped region stands for it: its energy comes out of the
+    region's fill first, so the total stays honest; elsewhere (a sun the photo hides) it is added.
+    PanoLightError when the sky cannot weigh it (below the horizon, no clear sky): give ``contrast`` then."""
+    d = np.asarray(direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    rad, frac_any, frac_all = rec.maps
+    regions = rec.regions
+    h = rad.shape[0]
+    region = -1
+    if regions.count:
+        apart = np.arccos(np.clip(regions.centre @ d, -1.0, 1.0))
+        near = apart - np.sqrt(regions.clipped_sr / math.pi)
+        if near.min() <= POINTED_CELLS * math.pi / h:
+            region = int(np.argmin(near))
+    others = [k for k in rec.keys if not (k.method.startswith(("clear-sky", "hidden sun")) or
+                                          (region >= 0 and region in (k.region, *k.parts)))]
+    elevation = sh.elevation_deg(d)
+    fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, d) if d[2] > 0 else None
+    held = rec.with_keys(others)  # the lighting without a sun: what the pointed one is weighed against
+    if contrast is not None:
+        rest = float(sh.irradiance(sh.project(held.work, 2), d[None])[0] @ LUMINANCE_WEIGHTS)
+        excess = (float(np.expm1(held.log_ratio[region]) * regions.held[region]) if region >= 0 else 0.0)
+        energy = (contrast - 1.0) * max(rest - excess, 0.0)  # the sun took the region's whole fill
+        if energy < excess:  # ... or only part of it: E = (R - 1) (rest - E)
+            energy = (contrast - 1.0) * rest / contrast
+        lo, hi = energy / params.sky_spread, energy * params.sky_spread
+        color = camera_colour(fit.sun_rgb, elevation, params) if fit is not None and fit.clear else np.ones(3)
+        method = f"the artist's direction, weighed by the lit/shadow contrast {contrast:g}"
+        physical = None
+    else:
+        if fit is None or not fit.clear:
+            why = "it is below the horizon" if d[2] <= 0 else "no clear sky fits the photo with the sun there"
+            raise PanoLightError(f"the sun pointed at ({elevation:.1f} deg up) cannot be weighed by its sky ({why}): "
+                                 f"give --sun-contrast R, the photo's lit / shadowed ground (e.g. 3)")
+        physical = params.sky_correction * fit.sun_energy
+        energy, lo, hi = physical, physical / params.sky_spread, physical * params.sky_spread
+        color = camera_colour(fit.sun_rgb, elevation, params)
+        method = f"the artist's direction, weighed by its clear-sky fit (turbidity {fit.turbidity:g})"
+    sun = KeyLight(d, float(energy), np.asarray(color, dtype=np.float64), math.radians(SUN_DIAMETER_DEG),
+                   (float(lo), float(hi)), region, method, physical, fit, 0.0, learned=float(energy),
+                   decided=float(energy))
+    keys = [k for k in others if k.energy > 0] + ([sun] if energy > 0 else [])
+    return rec.with_keys(keys, {"searched": False, "why": "the artist gave the sun's direction"})
