@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import sys
 from pathlib import Path
 
@@ -44,7 +45,15 @@ def parse(argv, core):
                     help="scale PanoLight's sun lamps alone (the panel's Sun lamp strength; default 1: the "
                          "estimate's strength; lighting.json's energy_68 gives each key light's 68 %% range)")
     settings.add_arguments(ap, sun_strength=False)  # --sun-strength above: the panel's lamps
-    return ap.parse_args(argv)
+    ap.add_argument("--sun", type=settings.argparse_type(settings.parse_sun), default=None, metavar="AZ,EL",
+                    help="the sun is there (the panel's Sun is here; degrees, azimuth 0 at the panorama's centre, "
+                         "positive to the right; --sun=-40,5 for a negative azimuth), weighed by the clear sky")
+    ap.add_argument("--sun-contrast", type=settings.number("--sun-contrast", 1.0 + 1e-9, settings.SUN_CONTRAST_RANGE[1]),
+                    default=None, metavar="R", help="with --sun: weigh it by the photo's lit / shadow ground contrast")
+    args = ap.parse_args(argv)
+    if args.sun_contrast is not None and args.sun is None:
+        ap.error("--sun-contrast weighs the sun --sun points at: give --sun too")
+    return args
 
 
 def configure(scene, args, core) -> None:
@@ -57,6 +66,11 @@ def configure(scene, args, core) -> None:
     s.window, s.window_width, s.exposure = args.window, args.window_width or 0.0, args.exposure
     s.lighting_source = args.light_with.upper()
     s.sun_strength = args.sun_strength
+    s.sun_pointed = args.sun is not None
+    if args.sun is not None:  # the panel keeps angles: azimuth to the right in the image, elevation up
+        x, y, z = args.sun
+        s.sun_azimuth, s.sun_elevation = math.atan2(-y, x), math.asin(max(-1.0, min(1.0, z)))
+        s.sun_contrast = args.sun_contrast or 0.0
 
 
 def run(args, addon) -> None:

@@ -56,7 +56,7 @@ def _settings(context):
 
 
 FINITE_SETTINGS = ("background_strength", "lighting_strength", "sun_strength", "background_rotation",
-                   "lighting_rotation")  # panel properties a script or a typed expression can set to NaN / inf
+                   "lighting_rotation", "sun_azimuth", "sun_elevation", "sun_contrast")  # panel properties a script or a typed expression can set to NaN / inf
 
 
 def _checked(context):

@@ -35,6 +35,18 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                 description="Width of a fixed window (0: 2 (order + 1))")
     exposure: FloatProperty(name="Exposure (EV)", default=0.0, min=-_EV, max=_EV, soft_min=-10.0, soft_max=10.0,
                             description="Scale the estimated lighting by 2^EV")
+    sun_pointed: BoolProperty(name="Sun is here", default=False,
+                              description="Put the sun where you say (azimuth, elevation), in place of any sun the "
+                                          "estimate found: for a sun the photo hides or shows only by its shadows "
+                                          "(panolight estimate --sun)")
+    sun_azimuth: FloatProperty(name="Sun azimuth", subtype="ANGLE", default=0.0,
+                               description="0 at the panorama's centre, positive to the right in the image")
+    sun_elevation: FloatProperty(name="Sun elevation", subtype="ANGLE", default=0.7854, min=-1.5708, max=1.5708,
+                                 description="Above the horizon")
+    sun_contrast: FloatProperty(name="Lit / shadow", default=0.0, min=0.0, max=_settings.SUN_CONTRAST_RANGE[1],
+                                description="0: weigh the sun by the clear sky. Else the photo's lit / shadowed ground "
+                                            "contrast (e.g. 3): a white surface facing the sun is that many times as "
+                                            "bright lit as in its shadow (--sun-contrast)")
     # the world built from the estimate
     background_strength: FloatProperty(name="Background strength", default=1.0, min=0.0, soft_max=10.0)
     lighting_strength: FloatProperty(name="Lighting strength", default=1.0, min=0.0, soft_max=10.0)
@@ -60,9 +72,15 @@ class PanoLightSettings(bpy.types.PropertyGroup):
     def estimate_settings(self):
         """The core's pipeline.Settings of these properties (PanoLightError if invalid)."""
         lmax = None if self.lmax == "auto" and self.model == "auto" else self.lmax
+        import math
+
+        sun = None
+        if self.sun_pointed:
+            sun = _settings.direction_from_az_el(math.degrees(self.sun_azimuth), math.degrees(self.sun_elevation))
         return _settings.Settings(estimator=self.estimator, model=self.model, lmax=lmax, tolerance=self.tolerance,
                                   window=self.window, window_width=self.window_width or None,
-                                  exposure_ev=self.exposure)
+                                  exposure_ev=self.exposure, sun_direction=sun,
+                                  sun_contrast=(self.sun_contrast or None) if self.sun_pointed else None)
 
 
 def draw_panel(layout, context):
@@ -79,6 +97,10 @@ def draw_panel(layout, context):
     if s.window not in ("none", "auto"):
         box.prop(s, "window_width")
     box.prop(s, "exposure")
+    box.prop(s, "sun_pointed")
+    if s.sun_pointed:
+        for prop in ("sun_azimuth", "sun_elevation", "sun_contrast"):
+            box.prop(s, prop)
     box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
     box.label(text="Estimated" if store.has_lighting(world) else "Not estimated yet")
     box = layout.box()

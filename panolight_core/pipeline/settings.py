@@ -137,7 +137,7 @@ def _xyz(text: str) -> tuple:
         raise PanoLightError(f"--sun-direction must be three finite numbers X,Y,Z, not all zero, got {text!r}") from None
 
 
-def _az_el(text: str) -> tuple:
+def parse_sun(text: str) -> tuple:
     try:
         az, el = (float(v) for v in text.split(","))
     except ValueError:
@@ -225,7 +225,7 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                                  "estimate prints a note with its 68 %% range: raise X toward that if the photo's "
                                  "shadows are harder than a render's")
         where = parser.add_mutually_exclusive_group()
-        where.add_argument("--sun", type=argparse_type(_az_el), default=None, metavar="AZ,EL",
+        where.add_argument("--sun", type=argparse_type(parse_sun), default=None, metavar="AZ,EL",
                            help="the sun is there (degrees: azimuth 0 at the panorama's centre, positive to the right "
                                 "in the image; elevation above the horizon): for a sun the photo hides (trees, a "
                                 "retouched sky) or shows only by its shadows. It replaces the sun the estimate found, "

@@ -730,3 +730,55 @@ def test_blender_reads_every_file_with_the_clis_reader(tmp_path):
         with pytest.raises(RuntimeError, match=f"claim.jpg: .*{said}"):
             bpy.ops.panolight.load_panorama(filepath=str(tmp_path / "claim.jpg"))
         assert len(bpy.data.images) == n  # Blender never opened it
+
+
+def test_the_artist_points_at_the_sun_in_the_panel(tmp_path):
+    """The panel's "Sun is here" (panolight estimate --sun): one sun lamp where the artist says, weighed by the sky."""
+    from PIL import Image
+
+    from tests.panolight_core.estimators.test_keylight import _retouched_sky
+
+    ldr, s, _ = _retouched_sky(paint=0.02)  # the photo hides its sun behind a building
+    png = tmp_path / "hidden.png"
+    Image.fromarray(ldr).save(png)
+    assert bpy.ops.panolight.load_panorama(filepath=str(png)) == {"FINISHED"}
+    _configure()
+    p = bpy.context.scene.panolight
+    p.sun_pointed, p.sun_azimuth, p.sun_elevation = True, -math.atan2(s[1], s[0]), math.asin(s[2])
+    try:
+        assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+        doc = store.stored_lighting(bpy.context.scene.world)
+        (sun,) = [light for light in doc["lights"] if light["source"].startswith("the artist's")]
+        assert math.degrees(math.acos(min(1.0, float(np.dot(sun["direction"], s))))) < 1e-3
+        assert doc["estimator"]["pointed_sun"]
+        p.sun_contrast = float("nan")
+        with pytest.raises(RuntimeError, match="Lit / shadow is nan"):
+            bpy.ops.panolight.estimate_lighting()
+    finally:
+        p.sun_pointed, p.sun_contrast = False, 0.0
+
+
+def test_the_headless_script_points_at_the_sun(tmp_path):
+    from PIL import Image
+
+    from tests.panolight_core.estimators.test_keylight import _retouched_sky
+
+    ldr, s, _ = _retouched_sky(paint=0.02)
+    png = tmp_path / "hidden.png"
+    Image.fromarray(ldr).save(png)
+    az, el = -math.degrees(math.atan2(s[1], s[0])), math.degrees(math.asin(s[2]))
+    batch = ROOT / "blender_addon" / "batch.py"
+    code = ("import runpy, sys\n"
+            f"sys.argv = [{str(batch)!r}, '--', '--input', {str(png)!r}, '--sun={az},{el}', '--output-blend', "
+            f"{str(tmp_path / 'lit.blend')!r}]\n"
+            f"runpy.run_path({str(batch)!r}, run_name='__main__')\n"
+            "import bpy, json\n"
+            "from blender_addon import store\n"
+            "doc = store.stored_lighting(bpy.context.scene.world)\n"
+            "print('SOURCES', json.dumps([light['source'] for light in doc['lights']]))\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "the artist's direction" in r.stdout
+    r = subprocess.run([sys.executable, str(batch), "--", "--input", str(png), "--sun-contrast", "3"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and "give --sun too" in r.stderr
