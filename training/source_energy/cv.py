@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-import math
 import time
 from pathlib import Path
 
@@ -12,7 +11,6 @@ from panolight_core import metrics, sh
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
 from panolight_core.estimators import sources
 from panolight_core.estimators.highlights import recover_highlights
-from panolight_core.estimators.sources.decision import choose_shrink, shrunk
 from panolight_core.estimators.sources.features import region_features
 from panolight_core.estimators.sources.regions import WIDE_CONCENTRATION
 from panolight_core.pipeline import fit_radiance
@@ -52,13 +50,7 @@ def recover_variant(ldr, model=None, log_ratio_fn=None, wide_concentration: floa
     regions = region_features(*maps, wide_concentration=wide_concentration)
     if log_ratio_fn is not None:
         return sources.assemble(maps, regions, log_ratio_fn(regions))
-    mu, sigma, reported = (model or sources.load_source_model()).predict(regions.features)
-    decision = None
-    if regions.count:
-        c, expected = choose_shrink(maps[0], regions, mu, sigma)
-        reported = shrunk(mu, sigma, c)
-        decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
-    return sources.assemble(maps, regions, (mu, sigma, reported), decision)
+    return sources.assemble(maps, regions, *sources.decide(maps[0], regions, model or sources.load_source_model()))
 
 
 def power_law_log_ratio(regions):

@@ -114,13 +114,17 @@ def recover(ldr: np.ndarray, model: SourceModel | None = None, maps=None) -> Rec
     lights are a further step (``keylight.with_key_lights``)."""
     maps = work_maps(ldr, WORK_HEIGHT) if maps is None else maps
     regions = region_features(*maps)
-    mu, sigma, reported = (model or load_source_model()).predict(regions.features)
-    decision = None
-    if regions.count:
-        c, expected = choose_shrink(maps[0], regions, mu, sigma)
-        reported = shrunk(mu, sigma, c)
-        decision = {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
-    return assemble(maps, regions, (mu, sigma, reported), decision)
+    return assemble(maps, regions, *decide(maps[0], regions, model or load_source_model()))
+
+
+def decide(rad: np.ndarray, regions: Regions, model: SourceModel):
+    """(prediction (mu, sigma, reported), decision) of ``model`` for the ``regions`` of work map ``rad``: the
+    reported log ratios those of least expected error (``choose_shrink``); decision None without regions."""
+    mu, sigma, reported = model.predict(regions.features)
+    if not regions.count:
+        return (mu, sigma, reported), None
+    c, expected = choose_shrink(rad, regions, mu, sigma)
+    return (mu, sigma, shrunk(mu, sigma, c)), {"shrink": "none" if math.isinf(c) else c, "expected_error": expected}
 
 
 def assemble(maps, regions: Regions, prediction, decision: dict | None = None) -> Recovery:
