@@ -100,40 +100,35 @@ class FullResolutionFill:
         self.clipped_rows = clipped_rows
         self.shape, self.work_shape = (H, W), (h, w)
         has = excess.max(axis=-1) > 0
-        self.region = None  # (energy (n, 3), 1 / norm (n,), centres (n, 3), exponents (n,), labels) of the regions
         self.cells = []  # (r0, r1, c0, c1, excess (3,) float32) of the other cells
         self.points = self._splats(points)  # (ys, xs, add (n, 3) float32) of the key lights
         self._top = 0.0  # the largest per-pixel addition of a region's pixels
-        counts = np.zeros(h * w, np.int64)  # clipped pixels per work cell
         n = len(centres)
         in_region = np.zeros((h, w), bool) if labels is None else (labels >= 0) & (labels < n)
-        if has.any() and in_region.any():
-            cell_sr = sh.pixel_solid_angles(h, w)
-            lab = labels[in_region]
-            energy = np.stack([np.bincount(lab, (excess[..., c] * cell_sr)[in_region], n) for c in range(3)], -1)
-            self.region = (energy, None, np.asarray(centres, dtype=np.float64),
-                           np.asarray(exponents, dtype=np.float64), labels)
+        # what weighs a region's pixels (``_weights``), and then what each region adds per unit weight
+        self._geometry = None if not (has.any() and in_region.any()) else (
+            np.asarray(centres, dtype=np.float64), np.asarray(exponents, dtype=np.float64), labels)
+        self._energy = self._scale = None  # (n, 3) each region's energy; (n,) 1 / its pixels' weight x solid angle
+        counts = np.zeros(h * w, np.int64)  # clipped pixels per work cell
         norm, top_wt, seen = np.zeros(n), np.zeros(n), False
         step = max(1, FILL_CHUNK // max(W, 1))
         blocks = [(r, min(H, r + step)) for r in range(0, H, step)]
-        for (r0, _r1), (mask, found) in zip(blocks, threads.imap(self._plan_block, blocks)):
-            ys, xs = np.nonzero(mask)
-            counts += np.bincount(((ys + r0) * h // H) * w + xs * w // W, minlength=h * w)
+        for block_counts, found in threads.imap(self._plan_block, blocks):
+            counts += block_counts
             if found is not None:  # the same sums, in the same order, as one bincount over every pixel
                 pl, wt_om, wt = found
                 seen = True
                 np.add.at(norm, pl, wt_om)
                 np.maximum.at(top_wt, pl, wt)
         self._counts = counts
-        if self.region is not None and not seen:  # no clipped pixel in any region: nothing to weigh
-            self.region = None
-        elif self.region is not None:
-            energy = self.region[0]
+        if seen:
+            cell_sr = sh.pixel_solid_angles(h, w)
+            lab = labels[in_region]
+            self._energy = np.stack([np.bincount(lab, (excess[..., c] * cell_sr)[in_region], n) for c in range(3)], -1)
             got = norm > 0
-            scale = np.where(got, 1.0 / np.maximum(norm, 1e-300), 0.0)
-            self.region = (energy, scale, *self.region[2:])
+            self._scale = np.where(got, 1.0 / np.maximum(norm, 1e-300), 0.0)
             if got.any():  # the largest addition: a region's energy x its largest weight x its scale
-                self._top = float(((energy * (top_wt * scale)[:, None]).astype(np.float32)).max())
+                self._top = float(((self._energy * (top_wt * self._scale)[:, None]).astype(np.float32)).max())
             in_region &= got[np.maximum(labels, 0)]  # a region without a clipped pixel falls back to its cells
         if not has.any():
             return
@@ -145,16 +140,16 @@ class FullResolutionFill:
             self.cells.append((row0[y], row1[y], col0[x], col1[x], excess[y, x].astype(np.float32)))
 
     def _plan_block(self, rows):
-        """(clipped mask, (labels int32, weights x solid angles, weights) of the block's region pixels in row-major
-        order, or None) of rows r0..r1 (a few MB)."""
-        mask = self.clipped_rows(*rows)
-        if self.region is None:
-            return mask, None
-        ys, xs = np.nonzero(mask)
-        parts = [(pl.astype(np.int32), wt * om, wt) for _, _, pl, wt, om in self._weights(ys + rows[0], xs)]
-        if not parts:
-            return mask, None
-        return mask, tuple(np.concatenate(a) for a in zip(*parts))
+        """(clipped pixels per work cell (h w,), (labels int32, weights x solid angles, weights) of the block's
+        region pixels in row-major order, or None) of rows r0..r1 (a few MB)."""
+        (H, W), (h, w) = self.shape, self.work_shape
+        ys, xs = np.nonzero(self.clipped_rows(*rows))
+        ys += rows[0]
+        counts = np.bincount((ys * h // H) * w + xs * w // W, minlength=h * w)
+        if self._geometry is None:
+            return counts, None
+        parts = [(pl.astype(np.int32), wt * om, wt) for _, _, pl, wt, om in self._weights(ys, xs)]
+        return counts, (tuple(np.concatenate(a) for a in zip(*parts)) if parts else None)
 
     def _weights(self, ys, xs):
         """(ys, xs, labels, weights max(t, CORE_RADIUS)^-p, row solid angles) of those of the given clipped pixels
@@ -162,7 +157,7 @@ class FullResolutionFill:
         few tens of MB however much of the panorama clipped."""
         H, W = self.shape
         h, w = self.work_shape
-        _, _, centres, exponents, labels = self.region
+        centres, exponents, labels = self._geometry
         omega = sh.row_solid_angles(H, W)
         for i in range(0, ys.size, FILL_CHUNK):
             cy, cx = ys[i:i + FILL_CHUNK], xs[i:i + FILL_CHUNK]
@@ -215,11 +210,10 @@ class FullResolutionFill:
         """Add the recovered energy to rows r0 .. r0 + len(block) of the panorama: ``block`` float32
         (n, W, 3) linear, in place; ``clipped_block`` (n, W) bool, those rows' clipped pixels."""
         r1 = r0 + block.shape[0]
-        if self.region is not None:
-            energy, scale = self.region[:2]
+        if self._scale is not None:
             rows, cols = np.nonzero(clipped_block)
             for ys, xs, pl, wt, _ in self._weights(rows + r0, cols):
-                np.add.at(block, (ys - r0, xs), (energy[pl] * (wt * scale[pl])[:, None]).astype(np.float32))
+                np.add.at(block, (ys - r0, xs), (self._energy[pl] * (wt * self._scale[pl])[:, None]).astype(np.float32))
         if self.points is not None:
             ys, xs, add = self.points
             sel = (ys >= r0) & (ys < r1)
