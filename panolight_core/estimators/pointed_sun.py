@@ -40,14 +40,13 @@ def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyL
                                           (region >= 0 and region in (k.region, *k.parts)))]
     elevation = sh.elevation_deg(d)
     fit = clear_sky.fit_clear_sky(rad, frac_any == 0, frac_all > 0.5, d) if d[2] > 0 else None
-    held = rec.with_keys(others)  # the lighting without a sun: what the pointed one is weighed against
     if contrast is not None:
+        held = rec.with_keys(others)  # the lighting without a sun: what the pointed one is weighed against
         rest = float(sh.irradiance(sh.project(held.work, 2), d[None])[0] @ LUMINANCE_WEIGHTS)
         excess = (float(np.expm1(held.log_ratio[region]) * regions.held[region]) if region >= 0 else 0.0)
         energy = (contrast - 1.0) * max(rest - excess, 0.0)  # the sun took the region's whole fill
         if energy < excess:  # ... or only part of it: E = (R - 1) (rest - E)
             energy = (contrast - 1.0) * rest / contrast
-        lo, hi = energy / params.sky_spread, energy * params.sky_spread
         color = camera_colour(fit.sun_rgb, elevation, params) if fit is not None and fit.clear else np.ones(3)
         method = f"the artist's direction, weighed by the lit/shadow contrast {contrast:g}"
         physical = None
@@ -56,12 +55,11 @@ def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyL
             why = "it is below the horizon" if d[2] <= 0 else "no clear sky fits the photo with the sun there"
             raise PanoLightError(f"the sun pointed at ({elevation:.1f} deg up) cannot be weighed by its sky ({why}): "
                                  f"give --sun-contrast R, the photo's lit / shadowed ground (e.g. 3)")
-        physical = params.sky_correction * fit.sun_energy
-        energy, lo, hi = physical, physical / params.sky_spread, physical * params.sky_spread
+        physical = energy = params.sky_correction * fit.sun_energy
         color = camera_colour(fit.sun_rgb, elevation, params)
         method = f"the artist's direction, weighed by its clear-sky fit (turbidity {fit.turbidity:g})"
     sun = KeyLight(d, float(energy), np.asarray(color, dtype=np.float64), math.radians(SUN_DIAMETER_DEG),
-                   (float(lo), float(hi)), region, method, physical, fit, 0.0, learned=float(energy),
-                   decided=float(energy))
-    keys = [k for k in others if k.energy > 0] + ([sun] if energy > 0 else [])
+                   (energy / params.sky_spread, energy * params.sky_spread), region, method, physical, fit, 0.0,
+                   learned=float(energy), decided=float(energy))
+    keys = others + ([sun] if energy > 0 else [])  # the estimate's keys all carry energy
     return rec.with_keys(keys, {"searched": False, "why": "the artist gave the sun's direction"})
