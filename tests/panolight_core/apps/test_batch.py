@@ -242,28 +242,34 @@ def test_file_names_with_terminal_escapes_are_printed_escaped(tmp_path, capsys):
     assert "\x1b" not in err and "\x07" not in err and "evil\\x1b]0;pwned\\x07" in err
 
 
-def test_workers_die_with_a_killed_batch(tmp_path):
-    """kill -KILL of a running batch left its pool workers running as orphans, printing tracebacks."""
+def _start_batch(tmp_path, job_source: str, inputs: int, jobs: int):
+    """A batch process over ``inputs`` dummy files in tmp_path, running ``job_source``'s ``job`` in ``jobs``
+    workers into tmp_path/out, its stderr piped (a terminal's view of it)."""
     import os
-    import signal
     import subprocess
     import sys
-    import time
 
-    (tmp_path / "slowjob.py").write_text(
-        "import os, time\n"
-        "def job(src, dst):\n"
-        "    dst.mkdir(parents=True, exist_ok=True)\n"
-        "    (dst / 'pid').write_text(str(os.getpid()))\n"
-        "    time.sleep(60)\n")
-    for i in range(4):
-        (tmp_path / f"p{i}.png").write_bytes(b"x")
-    script = ("import sys; from pathlib import Path; import slowjob\n"
+    (tmp_path / "testjob.py").write_text(job_source)
+    for i in range(inputs):
+        (tmp_path / f"p{i:03d}.png").write_bytes(b"x")
+    script = ("import sys; from pathlib import Path; import testjob\n"
               "from panolight_core.apps.batch import run_batch\n"
               f"run_batch(sorted(Path({str(tmp_path)!r}).glob('p*.png')), Path({str(tmp_path / 'out')!r}), "
-              "slowjob.job, quiet=True, jobs=2)\n")
+              f"testjob.job, quiet=True, jobs={jobs})\n")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(Path(__file__).parents[3])])}
-    proc = subprocess.Popen([sys.executable, "-c", script], env=env, stderr=subprocess.PIPE)
+    return subprocess.Popen([sys.executable, "-c", script], env=env, stderr=subprocess.PIPE)
+
+
+def test_workers_die_with_a_killed_batch(tmp_path):
+    """kill -KILL of a running batch left its pool workers running as orphans, printing tracebacks."""
+    import signal
+    import time
+
+    proc = _start_batch(tmp_path, "import os, time\n"
+                                  "def job(src, dst):\n"
+                                  "    dst.mkdir(parents=True, exist_ok=True)\n"
+                                  "    (dst / 'pid').write_text(str(os.getpid()))\n"
+                                  "    time.sleep(60)\n", inputs=4, jobs=2)
     deadline = time.time() + 60
     while len(list((tmp_path / "out").glob("*/pid"))) < 2 and time.time() < deadline:
         time.sleep(0.1)
@@ -310,27 +316,15 @@ def test_the_report_names_the_plates_whose_key_light_needs_a_look(tmp_path):
 def test_a_killed_batch_leaves_a_clean_terminal(tmp_path):
     """SIGKILL of a batch whose workers were returning results: they printed BrokenPipeError tracebacks, and
     the resource tracker a 'leaked semaphore' warning, on the user's terminal."""
-    import os
     import signal
-    import subprocess
-    import sys
     import time
 
-    (tmp_path / "quickjob.py").write_text(
-        "import time\n"
-        "def job(src, dst):\n"
-        "    dst.mkdir(parents=True, exist_ok=True)\n"
-        "    (dst / 'done').write_text('x')\n"
-        "    time.sleep(0.02)\n"
-        "    return {}\n")
-    for i in range(400):
-        (tmp_path / f"p{i:03d}.png").write_bytes(b"x")
-    script = ("import sys; from pathlib import Path; import quickjob\n"
-              "from panolight_core.apps.batch import run_batch\n"
-              f"run_batch(sorted(Path({str(tmp_path)!r}).glob('p*.png')), Path({str(tmp_path / 'out')!r}), "
-              "quickjob.job, quiet=True, jobs=3)\n")
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(Path(__file__).parents[3])])}
-    proc = subprocess.Popen([sys.executable, "-c", script], env=env, stderr=subprocess.PIPE)
+    proc = _start_batch(tmp_path, "import time\n"
+                                  "def job(src, dst):\n"
+                                  "    dst.mkdir(parents=True, exist_ok=True)\n"
+                                  "    (dst / 'done').write_text('x')\n"
+                                  "    time.sleep(0.02)\n"
+                                  "    return {}\n", inputs=400, jobs=3)
     deadline = time.time() + 60
     while len(list((tmp_path / "out").glob("*/done"))) < 30 and time.time() < deadline:
         time.sleep(0.05)
