@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import threads
+from ..packed import PackedImage
 from ..sh.grid import pixel_coordinates
 from . import clipped_mask
 
@@ -11,13 +12,15 @@ from . import clipped_mask
 def area_downsample(img: np.ndarray, height: int, width: int | None = None) -> np.ndarray:
     """Area-average an (H, W, C) image to (height, width, C) float64 (as is if H <= height).
 
-    width defaults to 2 height (an equirect panorama).
+    width defaults to 2 height (an equirect panorama). img may be a ``packed.PackedImage``.
 
     Integer factors add strided slices (numpy reduces short strided axes slowly); other sizes use
     block means over rounded boundaries.
     """
     h, w = img.shape[:2]
     width = 2 * height if width is None else width
+    if isinstance(img, PackedImage):  # read by row blocks: the same sums in the same order
+        return np.asarray(img, np.float64) if h <= height else area_downsample_rows(img, height, _as_is, width)
     if h <= height:
         return img.astype(np.float64)
     if h % height == 0 and w % width == 0:
@@ -33,6 +36,10 @@ def area_downsample(img: np.ndarray, height: int, width: int | None = None) -> n
             out += c[:, :, i]
         return out / (fy * fx)
     return _area_blocks(img, height, width, None)
+
+
+def _as_is(block: np.ndarray) -> np.ndarray:
+    return block
 
 
 def _block_starts(n: int, blocks: int) -> np.ndarray:

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..camera.color import SRGB8_TO_LINEAR, srgb_to_linear
 from ..errors import ImageError, PanoLightWarning
+from ..packed import PackedImage, Packer
 from .checks import BLOCK_ROWS
 
 
@@ -104,10 +105,11 @@ class Opened:
         self.inp.seek_subimage(i, 0)
         return i, spec
 
-    def pixels(self, as_uint8: bool = False) -> np.ndarray:
+    def pixels(self, as_uint8: bool = False, packed: str | None = None):
         """(H, W, 3) upright: uint8 sRGB values (8-bit files, or 16-bit PNGs rounded, with ``as_uint8``),
         else float32 linear (8/16-bit files sRGB-decoded; HDR files as stored, integer channels as their
-        values)."""
+        values). packed: "rgbe" or "half" keeps float channels as a ``packed.PackedImage`` of that code
+        where every value fits it exactly (else float32, as without it)."""
         spec = self.spec
         if self.luminance_chroma:  # OpenImageIO's Python reader fails on these (or, elsewhere, misreads them)
             raise ImageError(self.path, "a luminance/chroma (Y, RY, BY) EXR, which needs the OpenEXR package to be "
@@ -123,19 +125,22 @@ class Opened:
             kind, out_dtype = "uint32", np.float32
         else:
             kind, out_dtype = "float", np.float32
-        out = np.empty((h, w, 3), out_dtype)
-        first, last = min(self.channels), max(self.channels)
-        pick = [c - first for c in self.channels]
-        for r0 in range(0, h, BLOCK_ROWS):
-            r1 = min(h, r0 + BLOCK_ROWS)
-            block = self.inp.read_scanlines(self.subimage, 0, spec.y + r0, spec.y + r1, 0, first, last + 1, kind)
-            if block is None or self.inp.has_error:
-                raise ImageError(self.path, f"cannot decode {self.fmt.upper()} pixels (corrupt or truncated file): "
-                                            f"{_clean(self.inp.geterror())}")
-            block = np.asarray(block).reshape(r1 - r0, w, last - first + 1)[..., pick]
-            out[r0:r1] = _from_16_bits(block, as_uint8) if kind == "uint16" else block
-        if self.fmt == "hdr":
-            _radiance_half_step(out)
+        blocks = self._blocks(kind, as_uint8)
+        if packed and kind == "float":
+            with Packer(h, w, packed) as sink:
+                for r0, block in blocks:
+                    if self.fmt == "hdr":
+                        _radiance_half_step(block)
+                    sink.put(r0, block)
+                out = sink.result()
+            if self.orientation not in (0, 1) and isinstance(out, PackedImage):
+                out = np.asarray(out)
+        else:
+            out = np.empty((h, w, 3), out_dtype)
+            for r0, block in blocks:
+                out[r0:r0 + len(block)] = block
+                if self.fmt == "hdr":
+                    _radiance_half_step(out[r0:r0 + len(block)])
         if self.inp.has_error:  # a warning the last block raised (libjpeg's "premature end", ...)
             raise ImageError(self.path, f"cannot decode {self.fmt.upper()} pixels (corrupt or truncated file): "
                                         f"{_clean(self.inp.geterror())}")
@@ -145,6 +150,22 @@ class Opened:
         if integer_ldr and out.dtype == np.uint8 and not as_uint8:
             out = SRGB8_TO_LINEAR[out]  # the table gather makes only its output
         return upright(out, self.orientation)
+
+    def _blocks(self, kind: str, as_uint8: bool):
+        """(first row, (n, W, 3) array of its own) of the chosen subimage, in order: OpenImageIO's ``kind``
+        ("uint8", "uint16" turned into 8-bit or linear float32, "uint32", "float"), colour channels only."""
+        spec = self.spec
+        h, w = spec.height, spec.width
+        first, last = min(self.channels), max(self.channels)
+        pick = [c - first for c in self.channels]
+        for r0 in range(0, h, BLOCK_ROWS):
+            r1 = min(h, r0 + BLOCK_ROWS)
+            block = self.inp.read_scanlines(self.subimage, 0, spec.y + r0, spec.y + r1, 0, first, last + 1, kind)
+            if block is None or self.inp.has_error:
+                raise ImageError(self.path, f"cannot decode {self.fmt.upper()} pixels (corrupt or truncated file): "
+                                            f"{_clean(self.inp.geterror())}")
+            block = np.asarray(block).reshape(r1 - r0, w, last - first + 1)[..., pick]
+            yield r0, (_from_16_bits(block, as_uint8) if kind == "uint16" else block)
 
 
 def _from_16_bits(block: np.ndarray, as_uint8: bool) -> np.ndarray:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import sh
+from ..packed import PackedImage
 from .lights import MAX_LIGHTS, extract_lights, light_coeffs, light_irradiance
 from .order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE, select_order
 
@@ -123,7 +124,8 @@ def fit_model(radiance: np.ndarray, *, lights: bool = True, lmax="auto", toleran
         if not found:
             info["lights"]["why_none"] = linfo.get("reason")
     else:
-        found, residual = [], np.asarray(radiance, dtype=np.float64)
+        found, residual = [], (radiance.astype(np.float64) if isinstance(radiance, PackedImage)
+                               else np.asarray(radiance, dtype=np.float64))
     auto = lmax == "auto"
     max_order = DEFAULT_MAX_ORDER
     order = max_order if auto else int(lmax)

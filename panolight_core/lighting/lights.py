@@ -32,6 +32,7 @@ from ..camera.color import LUMINANCE_WEIGHTS
 from ..camera.resample import area_downsample
 from ..estimators.highlights import component_at
 from ..estimators.sun_search import AT_THE_HORIZON
+from ..packed import PackedImage
 
 PEAK_RATIO = 50.0
 MAX_RADIUS_DEG = 10.0
@@ -92,7 +93,7 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
     exclude: (unit direction, angular radius in radians) pairs where no light is taken (a source an
     estimator already made a light of: one light per physical source).
     """
-    full = np.asarray(radiance)
+    full = radiance if isinstance(radiance, PackedImage) else np.asarray(radiance)
     rad = area_downsample(full, work_height)
     if not np.all(np.isfinite(rad)):
         raise ValueError("the radiance map contains NaN or Inf")

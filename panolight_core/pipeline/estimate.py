@@ -14,6 +14,7 @@ from ..estimators.highlights import CLIP_LEVEL
 from ..io.lighting import make_lighting
 from ..lighting.adaptive import LightingModel, fit_model
 from ..lighting.order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE
+from ..packed import PackedImage
 from ..sh.window import default_width
 from .settings import MODELS, Settings, check_choice
 
@@ -70,7 +71,8 @@ def input_warnings(pixels: np.ndarray) -> list[str]:
     all (all black), values no real radiance has (1e30, float max), or an LDR photo clipped white almost
     everywhere. pixels: (H, W, 3) uint8 sRGB or float linear. Reads the image by row blocks."""
     found = []
-    peak = max(float(pixels[r:r + 256].max()) for r in range(0, pixels.shape[0], 256))
+    peak = (pixels.peak() if isinstance(pixels, PackedImage) else
+            max(float(pixels[r:r + 256].max()) for r in range(0, pixels.shape[0], 256)))
     if (pixels.dtype == np.uint8 and peak == 0) or (pixels.dtype != np.uint8 and peak < BLACK):
         found.append(f"the panorama is black (brightest value {peak:g}): the lighting is zero")
     elif pixels.dtype != np.uint8 and peak > IMPLAUSIBLE:

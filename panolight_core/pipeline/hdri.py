@@ -17,6 +17,7 @@ from ..camera import ldr_to_linear
 from ..camera.color import SRGB8_TO_LINEAR
 from ..camera.resample import area_downsample, clipped_pixels, reference_clipped, row_blocks
 from ..estimators.sources import FullResolutionFill, fill_full_resolution
+from ..packed import PackedImage
 
 
 def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
@@ -74,14 +75,16 @@ class HdrRows:
                                            (rec.regions.centre, rec.regions.shape_exponents(), rec.regions.labels),
                                            rec.key_points())
             self._peak = float(SRGB8_TO_LINEAR[int(pixels.max(initial=0))]) + self.fill.peak()
-        else:
-            self.full = hdr_panorama(pixels, est)
+        else:  # an HDR input (perhaps a packed.PackedImage) is read block by block as it is
+            self.full = pixels if pixels.dtype != np.uint8 else hdr_panorama(pixels, est)
             self.blocks = row_blocks(*self.full.shape[:2])
             self._peak = None
 
     @property
     def peak(self) -> float:
         """An upper bound of every value (NaN and infinities aside)."""
+        if self._peak is None and isinstance(self.full, PackedImage):
+            self._peak = self.full.peak()
         if self._peak is None:
             self._peak = max((float(np.max(b, initial=0.0, where=np.isfinite(b)))
                               for b in (self.full[r0:r1] for r0, r1 in self.blocks)), default=0.0)

@@ -15,7 +15,7 @@ from ..camera.resample import area_downsample_rows
 from ..errors import PanoLightError, PanoLightWarning
 from ..io import ownership, read_image, write_image, write_srgb8
 from ..io.atomic import folder_lock
-from ..io.images import write_exr_rows
+from ..io.images import PACKED_ABOVE_MEGAPIXELS, write_exr_rows
 from ..io.lighting import write_lighting
 from ..io.staging import clean_stale, make_stage
 from ..lighting.lights import key_light_note
@@ -101,7 +101,8 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     t0 = time.perf_counter()
     logger.info("reading %s", src)
     budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
-    pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error", **budget)
+    pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error",
+                        packed_above=PACKED_ABOVE_MEGAPIXELS, **budget)
     t_read = time.perf_counter() - t0
     scaled = f", sun strength {settings.sun_strength:g}" if settings.sun_strength != 1.0 else ""
     logger.info(f"estimating ({settings.estimator}, model {settings.model}, lmax {settings.lmax or 'default'}{scaled}) "

@@ -9,7 +9,8 @@ Images are processed in row blocks so 8192 x 4096 inputs allocate no large tempo
 """
 from __future__ import annotations
 
-from .._backend import float_array
+from .._backend import _NUMPY, float_array
+from ..packed import PackedImage
 from .grid import grid_tables
 from .indexing import check_lmax, lmax_from_count
 
@@ -36,7 +37,8 @@ def _row_block(shape_lead, width, channels) -> int:
 def project(image, lmax: int, weights: str = "cell"):
     """SH coefficients of an equirect radiance map.
 
-    image: (H, W, C) or batched (..., H, W, C) linear radiance, numpy or torch (any float dtype).
+    image: (H, W, C) or batched (..., H, W, C) linear radiance, numpy or torch (any float dtype), or a
+      ``packed.PackedImage`` (read by row blocks, as its float32 or float64 array would be).
     weights: "cell" (default): the exact projection of the image taken as piecewise-constant
       radiance over its pixels' cells (exact pixel solid angles; a constant map gives exactly
       L_00 = sqrt(4 pi) * value at any size); "centre": basis at pixel centres times the exact
@@ -45,7 +47,7 @@ def project(image, lmax: int, weights: str = "cell"):
     Returns (..., K, C), K = (lmax+1)^2, same array kind and float dtype as the input.
     """
     lmax = check_lmax(lmax)
-    xp, img = float_array(image, "image")
+    xp, img = (_NUMPY, image) if isinstance(image, PackedImage) else float_array(image, "image")
     h, w, c = _check_image(img)
     tab = grid_tables(h, w, lmax, weights)
     lead = tuple(img.shape[:-3])

@@ -130,3 +130,28 @@ def test_run_estimate_refuses_to_replace_its_input(tmp_path, sunny):
     src = write_image(tmp_path / "hdr.exr", hdr)
     with pytest.raises(PanoLightError, match="would overwrite the input"):
         run_estimate(src, tmp_path)
+
+
+@pytest.mark.parametrize("model", ["auto", "sh"])
+def test_a_packed_panorama_gives_the_same_estimate_bit_for_bit(tmp_path, model):
+    """The CLI holds a large HDR packed (io.read_image's packed_above): every pass reads it by row blocks
+    (the SH projection, the lights' area means and peak directions, the float64 SH-only fit, hdr.exr's
+    rows), and every number is the float32 array's. Blender's sunset: a sun the lights model takes."""
+    from panolight_core.data import load_studio_hdri
+    from panolight_core.io import read_image
+    from panolight_core.packed import PackedImage
+
+    path = write_image(tmp_path / "sunset.hdr", load_studio_hdri("sunset").astype(np.float32))
+    plain, packed = read_image(path), read_image(path, packed_above=0.0)
+    assert isinstance(packed, PackedImage)
+    settings = Settings(model=model, exposure_ev=1.0)
+    a, b = estimate_lighting(plain, settings), estimate_lighting(packed, settings)
+    assert model == "sh" or a.model.lights
+    for doc in (a.document, b.document):
+        doc.pop("timings")
+        doc["model"].pop("fit_s")
+    assert a.document == b.document and a.warnings == b.warnings
+    blocks = [(list(a.hdr_blocks(plain)), a.hdr_blocks(plain).peak), (list(b.hdr_blocks(packed)), b.hdr_blocks(packed).peak)]
+    assert blocks[0][1] == blocks[1][1]
+    for (r0, x), (r1, y) in zip(blocks[0][0], blocks[1][0], strict=True):
+        assert r0 == r1 and np.array_equal(x.view(np.int32), y.view(np.int32))
