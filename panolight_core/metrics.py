@@ -108,9 +108,10 @@ def source_energy_ratio(truth: np.ndarray, estimate: np.ndarray, direction) -> f
     return s * cone_energy(q, direction) / e_true if e_true > 0 else math.inf
 
 
-def energy_within(ratios) -> float | None:
-    """EVALUATION.md's summary of energy ratios ``r`` (``source_energy_ratio``): "within 2^x", x the median of
-    |log2 r| over them (r floored at 1e-12: a vanished source counts as about 40 stops off, not infinitely); None for none."""
+def ratio_within(ratios) -> float | None:
+    """EVALUATION.md's summary of ratios to the truth (energy ratios ``r``, ``source_energy_ratio``; shadow
+    contrasts C_est / C_true, ``shadow_contrast``): "within 2^x", x the median of |log2| over them (floored at
+    1e-12: a vanished source counts as about 40 stops off, not infinitely); None for none."""
     lr = [abs(math.log2(max(float(r), 1e-12))) for r in ratios]
     return 2 ** statistics.median(lr) if lr else None
 
@@ -120,9 +121,9 @@ def energy_within(ratios) -> float | None:
 SUN_CONE_DEG = 3.0  # the true sun: pixels within this angle of the dominant direction, above their ring
 
 
-def true_sun_share(hdr: np.ndarray, direction) -> float:
+def true_sun_share(hdr: np.ndarray, direction, cone_deg: float = SUN_CONE_DEG) -> float:
     """Share of the irradiance facing ``direction`` that comes from the source there: the pixels within
-    SUN_CONE_DEG, less the median of the ring out to twice that (HDR ground truth)."""
+    ``cone_deg``, less the median of the ring out to twice that (HDR ground truth)."""
     h, w = hdr.shape[:2]
     dirs = sh.pixel_directions(h, w)
     omega = sh.pixel_solid_angles(h, w)
@@ -130,24 +131,54 @@ def true_sun_share(hdr: np.ndarray, direction) -> float:
     cos = dirs @ d
     ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
     lum = np.asarray(hdr, dtype=np.float64) @ LUMINANCE_WEIGHTS
-    ring = (ang > SUN_CONE_DEG) & (ang < 2 * SUN_CONE_DEG)
+    ring = (ang > cone_deg) & (ang < 2 * cone_deg)
     bg = float(np.median(lum[ring])) if ring.any() else 0.0
-    core = ang <= SUN_CONE_DEG
+    core = ang <= cone_deg
     sun = float((np.maximum(lum[core] - bg, 0.0) * omega[core] * np.maximum(cos[core], 0.0)).sum())
     total = float((lum * omega * np.maximum(cos, 0.0)).sum())
     return sun / total if total > 0 else 0.0
 
 
+def brightest_light(lights) -> dict | None:
+    """The light of largest luminous intensity (intensity x luminance of its colour); None for none."""
+    return max(lights, key=lambda light: light["intensity"] * float(np.asarray(light["color"]) @ LUMINANCE_WEIGHTS),
+               default=None)
+
+
 def model_sun_share(model, direction) -> float | None:
-    """Share of the model's irradiance facing ``direction`` carried by its first (brightest) light."""
-    if not model.lights:
+    """Share of the model's irradiance facing ``direction`` carried by its brightest light (0 without
+    lights; None where the model's irradiance there is not positive)."""
+    key = brightest_light(model.lights)
+    if key is None:
         return 0.0
     from .lighting.lights import light_irradiance
 
     n = np.asarray(direction, dtype=np.float64)[None]
-    sun = float(light_irradiance(model.lights[:1], n)[0] @ LUMINANCE_WEIGHTS)
+    sun = float(light_irradiance([key], n)[0] @ LUMINANCE_WEIGHTS)
     total = float(model.irradiance(n)[0] @ LUMINANCE_WEIGHTS)
     return sun / total if total > 0 else None
+
+
+MAX_CONTRAST = 1000.0  # a share of 0.999: an SH part ringing below zero where a light shines can push the
+# share to 1 or past it, which no lit/shadow pair shows
+
+
+def shadow_contrast(share: float | None) -> float:
+    """EVALUATION.md's lit/shadow contrast C = 1 / (1 - share) of a surface whose key light has ``share`` of
+    its irradiance (None, 0 or no light: 1, no shadow), at most MAX_CONTRAST."""
+    share = min(max(float(share or 0.0), 0.0), 1.0 - 1.0 / MAX_CONTRAST)
+    return 1.0 / (1.0 - share)
+
+
+def true_shadow_contrast(hdr: np.ndarray, direction) -> float:
+    """The truth's C facing its source at ``direction``: the pixels within SOURCE_CONE_DEG (5 degrees) less the
+    median of the ring from 5 to 10 degrees, over the whole sphere's (EVALUATION.md)."""
+    return shadow_contrast(true_sun_share(hdr, direction, SOURCE_CONE_DEG))
+
+
+def model_shadow_contrast(model, direction) -> float:
+    """A lighting model's C facing the TRUE ``direction``: its brightest light's share of its irradiance there."""
+    return shadow_contrast(model_sun_share(model, direction))
 
 
 def estimated_direction(coeffs: np.ndarray):

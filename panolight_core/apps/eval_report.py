@@ -86,21 +86,25 @@ def _markdown_dominant(result: dict) -> list[str]:
     if not rows:
         return []
     names = [n for n in s["estimators"] if any(r["estimator"] == n for r in rows)]
-    out = ["", "## The dominant source's energy (EVALUATION.md: r = 1 exact; scenes with a dominant compact source)", "",
-           "cells: energy ratio r on hdr.exr / direction error of the brightest explicit light in degrees", "",
+    out = ["", "## The dominant source's energy and shadow (EVALUATION.md; scenes with a dominant compact source)", "",
+           "cells: energy ratio r on hdr.exr (1 exact) / shadow contrast C estimated / true (lit over shadow of a "
+           "surface facing the true source) / direction error of the brightest explicit light in degrees", "",
            "| scene | ev | " + " | ".join(names) + " |", "|---|---:|" + "---:|" * len(names)]
     for scene in s["scenes"]:
         for ev in s["evs"]:
-            cells = [next((f"{r['energy_ratio']:.3g} / {_fmt(r['light_angle_deg'], 1)}" for r in rows
+            cells = [next((f"{r['energy_ratio']:.3g} / {_fmt(r.get('contrast'), 2)} of {_fmt(r.get('true_contrast'), 2)} / "
+                           f"{_fmt(r['light_angle_deg'], 1)}" for r in rows
                            if r["scene"] == scene and r["ev"] == ev and r["estimator"] == n), "n/a") for n in names]
             if any(c != "n/a" for c in cells):
                 out.append(f"| {scene} | {ev:+g} | " + " | ".join(cells) + " |")
-    out += ["", "| estimator | ev | scenes | median direction error | energy within | worst r |", "|---|---:|---:|---:|---:|---:|"]
+    out += ["", "| estimator | ev | scenes | median direction error | energy within | worst r | contrast within | "
+                "worst C / C_true |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for m in result["summary"].values():
         if m["estimator"] in names and m.get("dominant_energy_within") is not None:
             out.append(f"| {m['estimator']} | {m['ev']:+g} | {m['dominant_scenes']} | "
                        f"{_fmt(m['dominant_median_angle_deg'], 1)} | {m['dominant_energy_within']:.2f}x | "
-                       f"{m['dominant_energy_worst']:.3g} |")
+                       f"{m['dominant_energy_worst']:.3g} | {_fmt(m.get('dominant_contrast_within'), 2)}x | "
+                       f"{_fmt(m.get('dominant_contrast_worst'), 3)} |")
     return out
 
 

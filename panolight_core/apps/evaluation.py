@@ -5,8 +5,9 @@ For each scene and ev: ground truth = exact projection of the HDR (lmax 2); inpu
 JPEG inputs: without it sunset's naive m-RMSE is 0.3447, not 0.35). The baselines (ambient, naive) are
 scored as EVALUATION.md defines them (a projection); every other estimator as what ``panolight
 estimate`` writes by default, the whole model (explicit lights as disks + the auto-order SH, projected
-to lmax; ``adaptive.LightingModel.project``). Each row has m-RMSE, irr-RMSE, the dominant-light angle
-and the sun's share of the irradiance facing it (true and estimated; sun scenes), and the estimator's
+to lmax; ``adaptive.LightingModel.project``). Each row has m-RMSE, irr-RMSE, the dominant-light angle,
+the sun's share of the irradiance facing it (true and estimated; sun scenes), the shadow contrast C of a
+surface facing the dominant source (true and estimated: EVALUATION.md; scenes with one), and the estimator's
 time (median of ``repeats`` runs on the in-memory LDR, decode excluded: the decode-inclusive figure is
 in training/benchmarks/bench_estimate.py). The estimated light direction is the first light's peak
 direction, else the brightest direction of the model's radiance (256 x 128 grid); a constant estimate
@@ -43,6 +44,7 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
         true_dir = metrics.dominant_light_direction(hdr)
         true_share = metrics.true_sun_share(hdr, true_dir)
         dominant = metrics.dominant_source(hdr)["dominant"]  # EVALUATION.md: >= 15 % within 5 degrees
+        true_contrast = metrics.true_shadow_contrast(hdr, true_dir) if dominant else None
         for ev in evs:
             ldr = hdr_to_ldr(hdr, ev, jpeg_quality)
             for name in estimators:
@@ -53,11 +55,13 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                     if name not in BASELINES:  # what panolight estimate writes by default
                         model = fit_estimate(est, hdr_input=False)
                     times.append(time.perf_counter() - t)
-                if name in BASELINES:
+                if name in BASELINES:  # a projection: no light, no shadow (C = 1)
                     coeffs, share, d = est.coeffs, None, metrics.estimated_direction(est.coeffs)
+                    contrast = 1.0
                 else:
                     coeffs = model.project(lmax)
                     share = metrics.model_sun_share(model, true_dir) if scene in SUN_SCENES else None
+                    contrast = metrics.model_shadow_contrast(model, true_dir)
                     d = np.asarray(model.lights[0]["peak_direction"]) if model.lights else metrics.estimated_direction(coeffs)
                 hdri_m = ratio = None
                 if getattr(est, "recovery", None) is not None:  # hdr.exr, scored by its own exact projection
@@ -72,6 +76,7 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                              "light_angle_deg": None if d is None else metrics.angle_deg(true_dir, d),
                              "sun_share": share, "true_sun_share": true_share if scene in SUN_SCENES else None,
                              "dominant": bool(dominant), "energy_ratio": ratio,
+                             "contrast": contrast if dominant else None, "true_contrast": true_contrast,
                              "ms": 1e3 * statistics.median(times)})
             logger.info(f"{scene} ev {ev:+g}: " + ", ".join(
                 f"{r['estimator']} {r['m_rmse']:.3f}" for r in rows if r["scene"] == scene and r["ev"] == ev))
@@ -101,15 +106,20 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
 
 def _dominant_summary(rows: list[dict]) -> dict:
     """EVALUATION.md's dominant-source figures over the rows of scenes with one: the median direction
-    error, the energy ratio's median |log2 r| as "within 2^x", and the worst r (furthest from 1)."""
+    error, the energy ratio r and the shadow contrast's C_est / C_true each as "within 2^x" (the median
+    |log2|) and the worst (furthest from 1)."""
     dom = [r for r in rows if r.get("dominant")]
     ratios = [r["energy_ratio"] for r in dom if r.get("energy_ratio") is not None and r["energy_ratio"] > 0]
+    contrasts = [r["contrast"] / r["true_contrast"] for r in dom if r.get("contrast") is not None]
     angles = [r["light_angle_deg"] for r in dom if r.get("light_angle_deg") is not None]
-    logs = [abs(math.log2(v)) for v in ratios]
+
+    def worst(values):
+        return max(values, key=lambda v: abs(math.log2(v))) if values else None
+
     return {"dominant_scenes": len(dom),
             "dominant_median_angle_deg": float(np.median(angles)) if angles else None,
-            "dominant_energy_within": float(2 ** np.median(logs)) if logs else None,
-            "dominant_energy_worst": max(ratios, key=lambda v: abs(math.log2(v))) if ratios else None}
+            "dominant_energy_within": metrics.ratio_within(ratios), "dominant_energy_worst": worst(ratios),
+            "dominant_contrast_within": metrics.ratio_within(contrasts), "dominant_contrast_worst": worst(contrasts)}
 
 
 def run_adaptive(scenes=STUDIO_HDRIS) -> list[dict]:

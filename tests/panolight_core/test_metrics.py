@@ -108,6 +108,38 @@ def test_true_sun_share_of_a_disk_on_a_uniform_sky():
     assert metrics.true_sun_share(np.ones((h, w, 3)), up) == 0.0  # no source: nothing above its ring
 
 
+def test_shadow_contrast_of_a_disk_sun_and_of_a_model_with_one_light():
+    """EVALUATION.md's C = 1 / (1 - share). Truth: a 3 degree disk of 1 + R over a sky of 1, measured within 5
+    degrees less the ring from 5 to 10. A model of a constant sky L (SH) and one light of intensity I facing
+    the surface: irradiance pi L + I, so C = (pi L + I) / (pi L); no light gives 1, a light behind the surface
+    (cos < 0) gives 1, and the brightest light counts, whatever its place in the list."""
+    from panolight_core.lighting.adaptive import LightingModel
+
+    h, w = 512, 1024
+    d = sh.pixel_directions(h, w)
+    om = sh.pixel_solid_angles(h, w)
+    up = np.array([0.0, 0.6, 0.8])
+    disk = d @ up > math.cos(math.radians(3.0))
+    R = 500.0
+    sun = R * float((om * (d @ up))[disk].sum())
+    total = float((np.maximum(d @ up, 0.0) * om).sum()) + sun
+    hdr = np.ones((h, w, 3)) + R * disk[..., None]
+    assert metrics.true_shadow_contrast(hdr, up) == pytest.approx(1.0 / (1.0 - sun / total), rel=1e-6)
+    assert metrics.true_shadow_contrast(np.ones((h, w, 3)), up) == 1.0
+
+    L, intensity = 0.4, 3.0
+    coeffs = np.zeros((9, 3))
+    coeffs[0] = L * math.sqrt(4.0 * math.pi)
+    white = [1.0, 1.0, 1.0]
+    key = {"direction": list(up), "intensity": intensity, "color": white}
+    dim = {"direction": [1.0, 0.0, 0.0], "intensity": 0.5, "color": white}
+    expected = (math.pi * L + intensity) / (math.pi * L)  # the dim light at +x is at 90 degrees: no irradiance
+    assert metrics.model_shadow_contrast(LightingModel([dim, key], coeffs, {}), up) == pytest.approx(expected, rel=1e-9)
+    assert metrics.model_shadow_contrast(LightingModel([], coeffs, {}), up) == 1.0
+    assert metrics.model_shadow_contrast(LightingModel([key], coeffs, {}), -up) == 1.0
+    assert metrics.shadow_contrast(1.5) == pytest.approx(metrics.MAX_CONTRAST) and metrics.shadow_contrast(None) == 1.0
+
+
 def test_estimated_direction_is_the_sh_maximum_and_none_when_constant():
     c = np.zeros((9, 3))
     c[0] = 1.0
@@ -116,9 +148,9 @@ def test_estimated_direction_is_the_sh_maximum_and_none_when_constant():
     assert metrics.estimated_direction(c)[2] > 0.999
 
 
-def test_energy_within_is_two_to_the_median_distance_in_stops():
+def test_ratio_within_is_two_to_the_median_distance_in_stops():
     # |log2 r|: 1, 1, 0, 3 -> median 1 -> within 2x; a source that vanished (r 0) counts as r 1e-12, about 40 stops off
-    assert metrics.energy_within([2.0, 0.5, 1.0, 8.0]) == pytest.approx(2.0)
-    assert metrics.energy_within([0.0, 0.0, 1.0]) == pytest.approx(1e12)
-    assert metrics.energy_within(iter([4.0])) == pytest.approx(4.0)
-    assert metrics.energy_within([]) is None
+    assert metrics.ratio_within([2.0, 0.5, 1.0, 8.0]) == pytest.approx(2.0)
+    assert metrics.ratio_within([0.0, 0.0, 1.0]) == pytest.approx(1e12)
+    assert metrics.ratio_within(iter([4.0])) == pytest.approx(4.0)
+    assert metrics.ratio_within([]) is None

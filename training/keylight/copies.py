@@ -58,7 +58,7 @@ def summary(rows: list[dict]) -> dict:
             got = [r["copies"][i] for r in sel]
             out.setdefault(f"{ev:+g}", {})[label] = {
                 "scenes": len(got), "median_angle_deg": statistics.median(c["angle_deg"] for c in got),
-                "within": metrics.energy_within(c["ratio"] for c in got),
+                "within": metrics.ratio_within(c["ratio"] for c in got),
                 "no_key_light": sum(c["key"] is None for c in got), "same_as_the_jpeg": sum(c["same"] for c in got)}
     return out
 

@@ -4,7 +4,8 @@ clear-sky energy correction, cross-validated by scene.
 For every scene of ../shared/data/hdri with a dominant compact source, at each ev: the camera JPEG
 (EVALUATION.md, q90), the estimate (``estimate_lighting``, estimator ``keylight`` unless --estimator)
 and its ``hdr.exr`` panorama, scored by
-the direction of its brightest light and the energy ratio r within 5 degrees of the true source. Scenes
+the direction of its brightest light, the energy ratio r within 5 degrees of the true source and the shadow
+contrast C (lit over shadow of a surface facing the true source; per scene C_est and C_true). Scenes
 whose HDR clips its own source (MANIFEST ``sun``: "clipped" or "lower bound") are reported apart.
 
 SKY_CORRECTION (``panolight_core.estimators.keylight``) is the one number fitted here: the median of
@@ -53,8 +54,7 @@ def estimate_scene(hdr, ds: dict, ev: float, estimator: str, curve=SRGB):
     (ldr, result, key, angle_deg, r)."""
     ldr = hdr_to_ldr(hdr, ev, 90, curve=curve[0], curve_param=curve[1])
     res = estimate_lighting(ldr, Settings(estimator=estimator))
-    lights = res.model.lights
-    key = max(lights, key=lambda light: light["intensity"]) if lights else None
+    key = metrics.brightest_light(res.model.lights)
     angle = metrics.angle_deg(ds["direction"], key["peak_direction"]) if key else 180.0
     return ldr, res, key, angle, metrics.source_energy_ratio(hdr, res.hdr_panorama(ldr), ds["direction"])
 
@@ -66,6 +66,7 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight", cur
     ds = metrics.dominant_source(hdr)
     if not ds["dominant"]:
         return []
+    true_contrast = metrics.true_shadow_contrast(hdr, ds["direction"])
     rows = []
     for ev in evs:
         _, res, key, angle, ratio = estimate_scene(hdr, ds, ev, estimator, curve)
@@ -78,6 +79,7 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight", cur
             physical = sky_key.physical / keylight.PARAMS.sky_correction / (ds["energy"] * k)
         rows.append({"scene": path.stem, "ev": ev, "clipped_truth": clipped, "share": round(ds["share"], 4),
                      "angle_deg": round(angle, 3), "ratio": ratio,
+                     "contrast": metrics.model_shadow_contrast(res.model, ds["direction"]), "true_contrast": true_contrast,
                      "lights": len(res.model.lights), "key_method": key.get("source") if key else None,
                      "direction_68_deg": key.get("direction_68_deg") if key else None,
                      "physical_over_true": physical})
@@ -92,6 +94,9 @@ def summary(rows, ev) -> dict:
     return {"scenes": len(sel), "median_angle_deg": statistics.median(r["angle_deg"] for r in sel),
             "median_abs_log2_ratio": statistics.median(lr), "within": 2 ** statistics.median(lr),
             "worst_low": min(r["ratio"] for r in sel), "worst_high": max(r["ratio"] for r in sel),
+            # the shadow an artist sees (EVALUATION.md): C_est / C_true of a surface facing the true source
+            "contrast_within": metrics.ratio_within(r["contrast"] / r["true_contrast"] for r in sel),
+            "contrast_worst": max((r["contrast"] / r["true_contrast"] for r in sel), key=lambda v: abs(math.log2(v))),
             "no_light": sum(r["lights"] == 0 for r in sel),
             # how often the brightest light's direction is within the 68 % radius it reports (calibrated: 0.68)
             "direction_68_covers": _share([r["angle_deg"] <= r["direction_68_deg"] for r in sel
@@ -219,7 +224,8 @@ def main(argv=None) -> int:
         rows += got
         for r in got:
             print(f"[{i}/{len(files)}] {r['scene']:28s} ev {r['ev']:+g}{' (clipped truth)' if r['clipped_truth'] else ''}: "
-                  f"angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  lights {r['lights']}  {r['key_method'] or '-'}",
+                  f"angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  C {r['contrast']:5.2f} of {r['true_contrast']:5.2f}  "
+                  f"lights {r['lights']}  {r['key_method'] or '-'}",
                   flush=True)
     result = {"estimator": args.estimator, "fold_models": args.fold_models, "curve": list(args.curve),
               "summary": {f"{ev:+g}": summary(rows, ev) for ev in args.evs},

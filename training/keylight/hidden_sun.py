@@ -183,7 +183,7 @@ def summary(rows: list[dict], evs) -> dict:
         made = [r for r in ret if r["keylight"]["hidden_sun"]]
 
         def within(name, sel):
-            return metrics.energy_within(r[name]["ratio"] for r in sel)
+            return metrics.ratio_within(r[name]["ratio"] for r in sel)
 
         retouched_summary = {
             "scenes": len(ret), "hidden_suns": len(made),
@@ -199,7 +199,7 @@ def summary(rows: list[dict], evs) -> dict:
             "dominant_above_horizon": len(loc), "found": len(suns),
             "median_angle_deg": statistics.median(errs) if errs else None,
             "angle_68_deg": float(np.percentile(errs, 68)) if errs else None,
-            "energy_within": metrics.energy_within(r["energy_ratio"] for r in suns if r["energy_ratio"] > 0),
+            "energy_within": metrics.ratio_within(r["energy_ratio"] for r in suns if r["energy_ratio"] > 0),
             # how often the error is within the 68 % radius the search reports (calibrated: 0.68)
             "direction_68_covers": statistics.mean(r["angle_deg"] <= r["direction_68_deg"] for r in suns) if suns else None,
             "median_direction_68_deg": statistics.median(r["direction_68_deg"] for r in suns) if suns else None,

@@ -239,7 +239,7 @@ def summary(rows: list[dict], get) -> dict:
     dom = [get(r)[2] for r in rows if r["dominant"]]
     return {"scenes": len(rows), "m_rmse_median": statistics.median(m), "m_rmse_mean": statistics.mean(m),
             "irr_rmse_mean": statistics.mean(i), "dominant": len(dom),
-            "within": metrics.energy_within(dom),
+            "within": metrics.ratio_within(dom),
             "worst_low": min(dom) if dom else None, "worst_high": max(dom) if dom else None}
 
 

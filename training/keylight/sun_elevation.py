@@ -76,7 +76,7 @@ def summary(rows: list[dict]) -> list[dict]:
                and lo <= r["elevation_deg"] < hi]
         out.append({"band_deg": [lo, hi], "fits": len(sel),
                     "median_true_over_physical": statistics.median(sel) if sel else None,
-                    "within": metrics.energy_within(sel)})
+                    "within": metrics.ratio_within(sel)})
     return out
 
 

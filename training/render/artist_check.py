@@ -12,6 +12,7 @@ For each photo (default: every JPEG in ../shared/data/ldr; never trained or tune
   (``PHOTO_GROUND``: two patches picked by eye, one sunlit and one in a cast shadow, on the same material,
   linearised at full resolution through sRGB as the estimate linearises the photo; only building.jpg shows a
   clean one: its far sidewalk in the sun and in the wide shadow band beside it);
+- EVALUATION.md's shadow contrast C of a surface facing the key light (``metrics.model_shadow_contrast``);
 - the key light's direction against the visible sun (``SUNS``, ../shared/data/ldr/README.md), and its
   colour (the tunnel's sodium lamps must come out orange);
 - what the product tells the artist of the key light (``lighting.lights.key_light_note``) and, for a key light
@@ -31,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from panolight_core import metrics
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.lighting.lights import KEPT_BELOW, key_light_note, key_light_range
 
@@ -143,8 +145,10 @@ def check(photo: Path, estimators, spp: int, size=(320, 240), fov: float = 70.0,
                                   "sun_error_deg": err,
                                   "lights": len(model.lights), "colour": None if colour is None else colour.round(3).tolist(),
                                   "plane_ratio": ratio, "rendered_ratio": rendered, "composite": comp["composite"],
+                                  "facing_contrast": metrics.model_shadow_contrast(model, d),
                                   "background": bg, "seconds": time.perf_counter() - t})
         log(f"{photo.name} {name}: key {kind} {d.round(3)}, lit/shadow {ratio:.2f} (render {rendered:.2f}), "
+            f"facing the key {rows['estimates'][-1]['facing_contrast']:.2f}, "
             f"{time.perf_counter() - t:.0f} s")
     rows["thumbnail"] = linear
     return rows
@@ -167,9 +171,10 @@ def write(results, out: Path) -> Path:
              "casts a visible shadow when it is well above 1. *the photo's own ground*: the same ratio read off the photo, "
              "a sunlit patch of its ground over a patch of the same material in a cast shadow (through sRGB), where "
              "the photo shows one: what the sun gives where it reaches, which an object at the camera matches only "
-             "when the camera stands in the sun.", "",
+             "when the camera stands in the sun. *facing the key*: EVALUATION.md's shadow contrast C, lit over shadow of "
+             "a surface facing the key light (1: no shadow).", "",
              "| photo | estimator | key light | lights | colour of the key | lit/shadow (model) | lit/shadow (render) "
-             "| sun error |", "|---|---|---|---|---|---|---|---|"]
+             "| facing the key | sun error |", "|---|---|---|---|---|---|---|---|---|"]
     pictures = []
     for r in results:
         # the photo's own exposure (its linear values as they are), so the composite looks as the photo does
@@ -179,9 +184,9 @@ def write(results, out: Path) -> Path:
             err = "" if e["sun_error_deg"] is None else f"{e['sun_error_deg']:.1f}°"
             lines.append(f"| {r['photo']} | `{e['estimator']}` | {e['key']} {tuple(e['direction'])} | {e['lights']} | "
                          f"{'' if e['colour'] is None else tuple(e['colour'])} | {e['plane_ratio']:.2f} | "
-                         f"{e['rendered_ratio']:.2f} | {err} |")
+                         f"{e['rendered_ratio']:.2f} | {e['facing_contrast']:.2f} | {err} |")
         if r["photo_ratio"] is not None:
-            lines.append(f"| {r['photo']} | the photo's own ground | | | | {r['photo_ratio']:.2f} | | |")
+            lines.append(f"| {r['photo']} | the photo's own ground | | | | {r['photo_ratio']:.2f} | | | |")
         panels = []
         for label, img in tiles:
             tile = Image.fromarray(img)

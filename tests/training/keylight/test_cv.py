@@ -29,3 +29,23 @@ def test_the_curve_picture_draws_each_camera_with_the_source_and_the_key_light(t
     flat = np.where(d[..., 2:] > 0, 1.0, 0.1) * np.ones(3)  # an even sky over a dark ground: no compact source
     with pytest.raises(SystemExit, match="no dominant compact source"):
         cv.curve_picture(_write_hdr(tmp_path, flat), tmp_path / "x.png")
+
+
+def test_each_scene_row_has_the_shadow_contrast_and_the_summary_how_far_it_is(tmp_path):
+    """EVALUATION.md's shadow: C of a surface facing the true sun, estimated (the brightest light's share of
+    the model's irradiance there) and true (the HDR's 5 degrees less their ring), summarised as "within 2^x"."""
+    from panolight_core import metrics
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.pipeline import Settings, estimate_lighting
+    from training.common.real_hdri import load_hdr
+
+    path = _write_hdr(tmp_path, _sky_hdr(with_sun=True)[0])
+    (row,) = rows = cv.score_scene(path, [0.0], clipped=False)
+    hdr = load_hdr(path)
+    ds = metrics.dominant_source(hdr)
+    assert row["true_contrast"] == metrics.true_shadow_contrast(hdr, ds["direction"]) > 1.5
+    model = estimate_lighting(hdr_to_ldr(hdr, 0.0, 90), Settings()).model
+    assert row["contrast"] == metrics.model_shadow_contrast(model, ds["direction"]) > 1.0
+    summary = cv.summary(rows, 0.0)
+    ratio = row["contrast"] / row["true_contrast"]
+    assert summary["contrast_within"] == pytest.approx(2 ** abs(np.log2(ratio))) and summary["contrast_worst"] == ratio

@@ -34,6 +34,7 @@ def test_a_photo_with_a_sun_gets_a_sphere_with_a_shadow(tmp_path):
     report = A.write([result], tmp_path / "out")
     e = result["estimates"][0]
     assert e["key"] in ("sun", "area") and e["plane_ratio"] > 1.05 and np.isfinite(e["rendered_ratio"])
+    assert e["facing_contrast"] > 1.0 and f"| {e['facing_contrast']:.2f} |" in report.read_text()
     assert (tmp_path / "out" / "sunny.png").is_file() and "sunny.jpg" in report.read_text()
 
 
