@@ -292,10 +292,11 @@ def test_workers_die_with_a_killed_batch(tmp_path):
     assert b"Traceback" not in err, err.decode()
 
 
-def test_the_report_names_the_plates_whose_key_light_needs_a_look(tmp_path):
+def test_the_report_names_the_plates_whose_key_light_needs_a_look(tmp_path, capsys):
     """A render farm's report carries each input's key-light note (``lighting.lights.key_light_note``): a sun put
     back from the sky of a photo whose sun was retouched out; a grey panorama with no light at all; a lamp whose
-    key light is as strong as its evidence has nothing to say."""
+    key light is as strong as its evidence has nothing to say. The terminal says it too, one line per input
+    (issue 46: batch printed none of it)."""
     from panolight_core.camera import hdr_to_ldr
     from panolight_core.io import write_srgb8
     from tests.panolight_core.estimators.test_keylight import _lamps, _retouched_sky
@@ -311,6 +312,9 @@ def test_the_report_names_the_plates_whose_key_light_needs_a_look(tmp_path):
     assert results["retouched.png"]["key_light"].startswith("the photo shows no sun, so one was placed")
     assert results["grey.png"]["key_light"].startswith("no sun or lamp was weighed as a key light")
     assert "key_light" not in results["lamp.png"]
+    said = [line for line in capsys.readouterr().err.splitlines() if line.startswith("  key light: ")]
+    assert len(said) == 2 and {Path(line.split(": ")[1]).name for line in said} == {"retouched.png", "grey.png"}
+    assert any(line.endswith(results["grey.png"]["key_light"]) for line in said)
 
 
 def test_a_killed_batch_leaves_a_clean_terminal(tmp_path):
