@@ -50,6 +50,9 @@ def parse(argv, core):
                          "positive to the right; --sun=-40,5 for a negative azimuth), weighed by the clear sky")
     ap.add_argument("--sun-contrast", type=settings.number("--sun-contrast", 1.0 + 1e-9, settings.SUN_CONTRAST_RANGE[1]),
                     default=None, metavar="R", help="with --sun: weigh it by the photo's lit / shadow ground contrast")
+    ap.add_argument("--no-sun-metadata", dest="sun_metadata", action="store_false",
+                    help="ignore the photo's GPS position, UTC time and heading (by default they place a sun the "
+                         "photo does not place itself; the panel's Sun from the photo's metadata)")
     args = ap.parse_args(argv)
     if args.sun_contrast is not None and args.sun is None:
         ap.error("--sun-contrast weighs the sun --sun points at: give --sun too")
@@ -67,6 +70,7 @@ def configure(scene, args, core) -> None:
     s.lighting_source = args.light_with.upper()
     s.sun_strength = args.sun_strength
     s.sun_pointed = args.sun is not None
+    s.sun_metadata = args.sun_metadata
     if args.sun is not None:  # the panel keeps angles: azimuth to the right in the image, elevation up
         x, y, z = args.sun
         s.sun_azimuth, s.sun_elevation = math.atan2(-y, x), math.asin(max(-1.0, min(1.0, z)))

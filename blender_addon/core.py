@@ -15,7 +15,7 @@ else:  # a development checkout or a pip install: no bundled copy beside this fi
 
 # the core modules the add-on uses (and so the extension bundles, with what they import:
 # scripts/build_extension.py reads this list), relative to panolight_core
-CORE_MODULES = ("camera.resample", "errors", "estimators", "io.images", "io.lighting", "io.ownership",
+CORE_MODULES = ("camera.resample", "errors", "estimators", "io.capture", "io.images", "io.lighting", "io.ownership",
                 "lighting.lights", "lighting.order", "pipeline", "pipeline.hdri", "pipeline.settings", "sh", "threads")
 
 for _name in CORE_MODULES:

@@ -71,9 +71,18 @@ def _checked(context):
     return s
 
 
-def _fit(pixels, settings):
+def _fit(pixels, settings, capture=None):
     """Runs in a worker thread: numpy only, never bpy. Returns the core's pipeline.Result."""
-    return core.pipeline.estimate_lighting(pixels, settings)
+    return core.pipeline.estimate_lighting(pixels, settings, capture)
+
+
+def _capture(image, settings):
+    """The panorama file's capture metadata (GPS, UTC time, heading: io.capture) when the panel asks for the
+    sun from it and points at none; None otherwise, or for an image without a file."""
+    if settings.sun_direction is not None or not settings.sun_metadata or not image.filepath:
+        return None
+    path = Path(bpy.path.abspath(image.filepath))
+    return core.io.capture.read_capture(path) if path.is_file() else None
 
 
 def _read_panorama(image):
@@ -159,8 +168,9 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     def _inputs(self, context):
         world = context.scene.world
         settings = _checked(context).estimate_settings()  # invalid settings fail before any pixel is read
-        self._pixels = _read_panorama(store.stored_panorama(world))
-        return world, self._pixels, settings
+        panorama = store.stored_panorama(world)
+        self._pixels = _read_panorama(panorama)
+        return world, self._pixels, settings, _capture(panorama, settings)
 
     def _store(self, context, world, result):
         doc = result.document
@@ -180,15 +190,15 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
 
     @reports_errors
     def execute(self, context):
-        world, pixels, settings = self._inputs(context)
-        self._store(context, world, _fit(pixels, settings))
+        world, pixels, settings, capture = self._inputs(context)
+        self._store(context, world, _fit(pixels, settings, capture))
         return {"FINISHED"}
 
     @reports_errors
     def invoke(self, context, event):
         if bpy.app.background:
             return self.execute(context)
-        world, pixels, settings = self._inputs(context)
+        world, pixels, settings, capture = self._inputs(context)
         # the world's name, looked up again at the end: an undo while the estimate runs frees the datablock
         self._world_name = world.name
         self._stop = threading.Event()
@@ -197,7 +207,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
         def work():
             try:
                 with core.threads.cancellable(stop):  # Esc stops it at its next block, not only the modal
-                    self._result = _fit(pixels, settings)
+                    self._result = _fit(pixels, settings, capture)
             except Exception as exc:  # handed to modal, which reports it (or raises it, if it is a bug)
                 self._error = exc
 

@@ -47,6 +47,11 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                 description="0: weigh the sun by the clear sky. Else the photo's lit / shadowed ground "
                                             "contrast (e.g. 3): a white surface facing the sun is that many times as "
                                             "bright lit as in its shadow (--sun-contrast)")
+    sun_metadata: BoolProperty(name="Sun from the photo's metadata", default=True,
+                               description="A 360 photo that records its GPS position, UTC time and heading "
+                                           "(Theta, Insta360, Photo Sphere) gets its sun's direction from them where "
+                                           "the photo does not place a sun itself (hidden, veiled, a wide clipped "
+                                           "patch). 'Sun is here' overrides it")
     # the world built from the estimate
     background_strength: FloatProperty(name="Background strength", default=1.0, min=0.0, soft_max=10.0)
     lighting_strength: FloatProperty(name="Lighting strength", default=1.0, min=0.0, soft_max=10.0)
@@ -80,7 +85,8 @@ class PanoLightSettings(bpy.types.PropertyGroup):
         return _settings.Settings(estimator=self.estimator, model=self.model, lmax=lmax, tolerance=self.tolerance,
                                   window=self.window, window_width=self.window_width or None,
                                   exposure_ev=self.exposure, sun_direction=sun,
-                                  sun_contrast=(self.sun_contrast or None) if self.sun_pointed else None)
+                                  sun_contrast=(self.sun_contrast or None) if self.sun_pointed else None,
+                                  sun_metadata=self.sun_metadata)
 
 
 def draw_panel(layout, context):
@@ -101,6 +107,8 @@ def draw_panel(layout, context):
     if s.sun_pointed:
         for prop in ("sun_azimuth", "sun_elevation", "sun_contrast"):
             box.prop(s, prop)
+    else:
+        box.prop(s, "sun_metadata")
     box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
     box.label(text="Estimated" if store.has_lighting(world) else "Not estimated yet")
     box = layout.box()

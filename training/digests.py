@@ -85,7 +85,7 @@ def digests(folder: Path, evs, log=print) -> dict:
 
 
 def eval_differences(before, after, path: str = "") -> list[str]:
-    """Where two ``panolight eval`` results (eval.json) differ beyond rounding (RTOL), wall-clock times left out
+    """Where two results (``panolight eval``'s eval.json, a study's JSON) differ beyond rounding (RTOL), wall-clock times left out
     (``_TIMING``: keys naming times, seconds, milliseconds or speed)."""
     if isinstance(before, dict) and isinstance(after, dict):
         return [d for k in sorted(before.keys() | after.keys())
@@ -106,13 +106,14 @@ def main(argv=None) -> int:
     group.add_argument("--out", type=Path, help="write the digests here (JSON)")
     group.add_argument("--compare", type=Path, help="compare against digests written earlier")
     group.add_argument("--eval", type=Path, nargs=2, metavar=("BEFORE", "AFTER"),
-                       help="compare two panolight eval results (eval.json) instead, timings left out")
+                       help="compare two result files instead, timings left out: panolight eval's eval.json, or a "
+                            "study's JSON (keylight-cv's, the per-source CV's) made by two versions of the code")
     args = ap.parse_args(argv)
     if args.eval:
         differ = eval_differences(*(json.loads(f.read_text()) for f in args.eval))
         for d in differ:
             print(f"differs: {d}")
-        print(f"panolight eval: {'the same numbers' if not differ else f'{len(differ)} numbers differ'}", file=sys.stderr)
+        print(f"{args.eval[1].name}: {'the same numbers' if not differ else f'{len(differ)} numbers differ'}", file=sys.stderr)
         return 1 if differ else 0
     found = digests(args.hdri, args.evs, log=lambda m: print(m, file=sys.stderr))
     if args.out:

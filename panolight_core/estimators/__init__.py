@@ -20,7 +20,7 @@ LDR results are in units of the camera's clip level (1 = white); HDR results in 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 
 import numpy as np
@@ -123,19 +123,33 @@ def with_key_strength(est: Estimate, strength: float) -> Estimate:
                               {**info, "key_light_strength": float(strength)})
 
 
-def with_pointed_sun(est: Estimate, direction, contrast: float | None = None) -> Estimate:
-    """``est`` with the artist's sun at ``direction`` (``pointed_sun.with_pointed_sun``), recorded in its info as
-    ``pointed_sun``. An estimate without a per-source recovery (an HDR input, whose sun is in its pixels, or
-    another estimator) is returned as it is."""
+def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, origin: str | None = None) -> Estimate:
+    """``est`` with a sun at ``direction`` (``pointed_sun.with_pointed_sun``), recorded in its info as
+    ``pointed_sun`` with where the direction came from: the artist (``origin`` None), or the photo's own capture
+    metadata (``origin`` says which: ``pointed_sun.METADATA_DEFERS_DEG``): that one gives way to a sun the photo
+    itself places surely, and to a sky that cannot weigh it (recorded as ``sun_metadata``, unused, and why). An
+    estimate without a per-source recovery (an HDR input, whose sun is in its pixels, or another estimator) is
+    returned as it is."""
     rec = est.recovery
     if rec is None:
         return est
+    from .pointed_sun import photo_places_sun
     from .pointed_sun import with_pointed_sun as point
 
     info = {k: v for k, v in est.info.items() if k not in ("clipped_regions", "sun_search")}
-    info["pointed_sun"] = {"direction": [round(float(v), 6) for v in direction],
-                           **({"contrast": float(contrast)} if contrast is not None else {})}
-    return _recovery_estimate(point(rec, direction, contrast), est.lmax, est.estimator, info)
+    said = {"direction": [round(float(v), 6) for v in direction],
+            **({"contrast": float(contrast)} if contrast is not None else {}),
+            "from": "the artist" if origin is None else origin}
+    if origin is not None:
+        why = photo_places_sun(rec)
+        if why is None:
+            try:
+                return _recovery_estimate(point(rec, direction, contrast), est.lmax, est.estimator,
+                                          {**info, "pointed_sun": said})
+            except PanoLightError as exc:
+                why = str(exc).split(": give --sun-contrast")[0]
+        return replace(est, info={**est.info, "sun_metadata": {**said, "used": False, "why": why}})
+    return _recovery_estimate(point(rec, direction, contrast), est.lmax, est.estimator, {**info, "pointed_sun": said})
 
 
 def per_source_key_lights(pixels: np.ndarray, lmax: int) -> Estimate:

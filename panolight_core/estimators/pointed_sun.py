@@ -14,6 +14,20 @@ from . import sky as clear_sky
 from .keylight import PARAMS, SUN_DIAMETER_DEG, KeyLight, KeyLightParams, camera_colour
 
 POINTED_CELLS = 1.0  # a pointed sun stands for the clipped region it lies in, or within this many work cells of
+METADATA_DEFERS_DEG = 5.0  # a sun from the capture's metadata gives way to one the photo shows and places within this
+# (68 %): a compact clipped sun is placed within a degree or two, a phone's or 360 camera's compass heading seldom
+# better than 5-10 degrees
+
+
+def photo_places_sun(rec) -> str | None:
+    """Why the photo's own sun is surer than its metadata's (a clear-sky sun found in a clipped region and placed
+    within METADATA_DEFERS_DEG for 68 %), or None: no sun found, a hidden one put back from the sky alone, or a
+    wide patch (where the metadata's direction is the better evidence)."""
+    for k in rec.keys:
+        if k.method.startswith("clear-sky") and math.degrees(k.direction_68) <= METADATA_DEFERS_DEG:
+            return (f"the photo shows its sun, placed within {math.degrees(k.direction_68):.1f} deg (68 %): surer than "
+                    f"a compass heading")
+    return None
 
 
 def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyLightParams = PARAMS):

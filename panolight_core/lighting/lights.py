@@ -254,12 +254,17 @@ LOW_SUN_OVERSHOOT = 12  # that 3-degree sun's fit over its truth (pmndrs_sunset_
 def key_light_note(doc: dict, light: str = "light",
                    raise_with: str = "--sun-strength (Blender: Sun lamp strength; or its intensity in lighting.json)"
                    ) -> str:
-    """What an artist should know about the key light from lighting.json, in one line: a sun the photo does not
-    show that was placed from its clear sky (where, and how sure); where no key light (sun or lamp) was weighed at
+    """What an artist should know about the key light from lighting.json, in one line: a sun placed from the photo's
+    capture metadata (GPS, time, heading); a sun the photo does not show that was placed from its clear sky (where,
+    and how sure); where no key light (sun or lamp) was weighed at
     all, why the sky search placed no sun either (``sun_search.refused``), and whether any explicit light is left
     to cast a shadow; a key light given less than its own evidence says (a clear-sky sun capped so that a hazy sky
     does not get a blinding one: its 68 % range over the strength it was given, from KEPT_BELOW up, and what raises
     it: ``raise_with``); "" otherwise. ``light``: what the reader's tool calls a light (Blender: "lamp")."""
+    pointed = (doc.get("estimator") or {}).get("pointed_sun") or {}
+    if pointed.get("from", "the artist") != "the artist":
+        return (f"the sun was placed from {pointed['from']}: check its {light} against the photo's shadows (a camera's "
+                f"compass heading is seldom better than 5-10 deg; --sun AZ,EL sets it by hand)")
     search = (doc.get("estimator") or {}).get("sun_search") or {}
     if search.get("hidden_sun"):
         return (f"the photo shows no sun, so one was placed where its clear sky puts it ({search['elevation_deg']:.0f} "

@@ -11,12 +11,13 @@ from .. import sh, threads
 from ..errors import PanoLightError
 from ..estimators import Estimate, estimate, with_key_strength, with_pointed_sun
 from ..estimators.highlights import CLIP_LEVEL
+from ..estimators.solar import sun_position
 from ..io.lighting import make_lighting
 from ..lighting.adaptive import LightingModel, fit_model
 from ..lighting.order import DEFAULT_MAX_ORDER, DEFAULT_TOLERANCE
 from ..packed import PackedImage
 from ..sh.window import default_width
-from .settings import MODELS, Settings, check_choice
+from .settings import MODELS, Settings, check_choice, direction_from_az_el
 
 UNITS_HDR = "input radiance units"
 UNITS_LDR = "relative: 1 = the LDR camera's clip level (white)"
@@ -28,7 +29,8 @@ def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model:
     """Panorama pixels (uint8 sRGB LDR or float linear HDR) -> (LightingModel, Estimate), unscaled and with
     the model's own deringing. lmax: None (auto for model "auto", 2 for "sh"), "auto" or an int.
     deringing: None = the model's default ("auto" with lights, "none" for SH only). pointed_sun: (unit direction,
-    lit/shadow contrast or None), the artist's sun (``estimators.with_pointed_sun``); sun_strength: the
+    lit/shadow contrast or None[, where it came from: the photo's metadata]), a pointed sun
+    (``estimators.with_pointed_sun``); sun_strength: the
     estimator's key lights times this (``estimators.with_key_strength``)."""
     check_choice("model", model, MODELS)
     lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
@@ -121,16 +123,33 @@ class Result:
         return HdrRows(pixels, with_key_strength(self.estimate, sun_strength), self.scale)
 
 
-def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings()) -> Result:
+def capture_sun(capture) -> tuple | None:
+    """(unit direction in the panorama's frame, where it came from in words) of the sun when a photo was taken,
+    from its capture metadata (``io.capture.Capture``: GPS position, UTC time, heading of the panorama's centre;
+    ``solar.sun_position``), or None when any of the three is missing: nothing is guessed."""
+    if capture is None or capture.missing:
+        return None
+    azimuth, elevation = sun_position(capture.latitude, capture.longitude, capture.utc)
+    return (direction_from_az_el(azimuth - capture.heading, elevation),
+            f"the photo's metadata ({capture.describe()}): the sun {elevation:.1f} deg up, {azimuth:.1f} deg from "
+            f"north")
+
+
+def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), capture=None) -> Result:
     """Panorama pixels (uint8 sRGB LDR or float32 linear HDR, (H, W, 3), equirect, Blender world frame) ->
     Result: estimator, lighting model (lights + the SH order the scene needs, or a fixed recipe), the
-    requested deringing and exposure. Raises PanoLightError on bad settings or pixels."""
+    requested deringing and exposure. capture: the photo's ``io.capture.Capture`` (with ``settings.sun_metadata``
+    and no ``sun_direction``: the sun's direction where the photo does not place one). Raises PanoLightError on bad
+    settings or pixels."""
     t1 = time.perf_counter()
+    pointed = None
+    if settings.sun_direction is not None:
+        pointed = (settings.sun_direction, settings.sun_contrast)
+    elif settings.sun_metadata and (found := capture_sun(capture)) is not None:
+        pointed = (found[0], None, found[1])
     fitted, est = fit_pixels(pixels, lmax=settings.order, estimator=settings.estimator, model=settings.model,
                              tolerance=settings.tolerance, deringing=None if settings.window == "none" else "none",
-                             sun_strength=settings.sun_strength,
-                             pointed_sun=None if settings.sun_direction is None else (settings.sun_direction,
-                                                                                     settings.sun_contrast))
+                             sun_strength=settings.sun_strength, pointed_sun=pointed)
     threads.check_cancelled()
     coeffs, window_info = fitted.coeffs, fitted.info["ringing"]["window"]
     if settings.window == "auto":

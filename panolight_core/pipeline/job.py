@@ -15,6 +15,7 @@ from ..camera.resample import area_downsample_rows
 from ..errors import PanoLightError, PanoLightWarning
 from ..io import ownership, read_image, write_image, write_srgb8
 from ..io.atomic import folder_lock
+from ..io.capture import read_capture
 from ..io.images import PACKED_ABOVE_MEGAPIXELS, write_exr_rows
 from ..io.lighting import write_lighting
 from ..io.staging import clean_stale, make_stage
@@ -108,7 +109,9 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     logger.info(f"estimating ({settings.estimator}, model {settings.model}, lmax {settings.lmax or 'default'}{scaled}) "
                 f"on {pixels.shape[1]}x{pixels.shape[0]}")
     try:
-        result = estimate_lighting(pixels, settings)
+        capture = (read_capture(src) if pixels.dtype == np.uint8 and settings.sun_direction is None
+                   and settings.sun_metadata else None)
+        result = estimate_lighting(pixels, settings, capture)
     except PanoLightError as exc:
         raise PanoLightError(f"{src}: {exc}") from None
     for problem in result.warnings:

@@ -42,7 +42,9 @@ class Settings:
     weighed) times this, in every output alike; a raised light takes over its own region's fill first, nothing
     else changes. sun_direction: the artist's sun (x, y, z; CONVENTIONS.md frame, made unit), in place of any sun
     the estimate found; sun_contrast: weigh it by the photo's lit / shadow ground contrast (> 1) instead of its sky
-    (``pointed_sun.with_pointed_sun``). Invalid values raise PanoLightError naming the setting."""
+    (``pointed_sun.with_pointed_sun``). sun_metadata: where no direction is given, a photo whose metadata holds its
+    GPS position, UTC time and heading gets the sun's direction from them (``estimate.capture_sun``) where the photo
+    does not place a sun itself. Invalid values raise PanoLightError naming the setting."""
 
     estimator: str = "auto"
     model: str = "auto"
@@ -54,6 +56,7 @@ class Settings:
     sun_strength: float = 1.0
     sun_direction: tuple | None = None  # the artist's sun: a direction (CONVENTIONS.md frame); made unit here
     sun_contrast: float | None = None  # ... weighed by the photo's lit/shadow ground contrast instead of its sky
+    sun_metadata: bool = True  # the sun from the photo's GPS position, UTC time and heading, where it hides it
 
     def __post_init__(self):
         from ..estimators import resolve
@@ -239,6 +242,12 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                             help="with --sun: weigh the sun so that a white surface facing it is R times as bright "
                                  "lit as in its shadow (the photo's own sunlit / shadowed ground, e.g. 3.3), instead "
                                  "of by the sky; the energy is taken out of the fill, so the total stays honest")
+        parser.add_argument("--no-sun-metadata", dest="sun_metadata", action="store_false",
+                            help="ignore the photo's capture metadata. By default a 360 photo that records its GPS "
+                                 "position, UTC time and heading (XMP GPano:PoseHeadingDegrees; Theta, Insta360 and "
+                                 "Photo Sphere write it) gets its sun's direction from them wherever the photo does not "
+                                 "place a sun itself (hidden, veiled, or inside a wide clipped patch); --sun overrides "
+                                 "it, and lighting.json says which was used")
     parser.add_argument("--window", type=argparse_type(_window), default="none", metavar="KIND",
                         help="deringing: " + "; ".join(f"{n}{' (default)' if n == 'none' else ''}: {text}"
                                                        for n, (_, text) in WINDOWS.items()))
@@ -252,4 +261,4 @@ def from_args(args) -> Settings:
                     window=args.window, window_width=args.window_width, exposure_ev=args.exposure,
                     sun_strength=getattr(args, "sun_strength", 1.0),
                     sun_direction=getattr(args, "sun", None) or getattr(args, "sun_direction", None),
-                    sun_contrast=getattr(args, "sun_contrast", None))
+                    sun_contrast=getattr(args, "sun_contrast", None), sun_metadata=getattr(args, "sun_metadata", True))

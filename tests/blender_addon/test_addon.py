@@ -758,6 +758,32 @@ def test_the_artist_points_at_the_sun_in_the_panel(tmp_path):
         p.sun_pointed, p.sun_contrast = False, 0.0
 
 
+def test_the_panel_takes_a_hidden_sun_from_the_photo_s_metadata(tmp_path):
+    """A photo whose sun a building hides, with its GPS position, UTC time and heading: Estimate places the sun
+    where they put it (as panolight estimate does); unticking "Sun from the photo's metadata" leaves it out."""
+    from tests.panolight_core.estimators.test_keylight import _retouched_sky
+    from tests.panolight_core.io.test_capture import write_photo
+    from tests.panolight_core.pipeline.test_pipeline import _capture_for
+
+    ldr, s, _ = _retouched_sky(paint=0.02)
+    lat, lon, when, heading = _capture_for(s)
+    photo = write_photo(tmp_path / "hidden.jpg", ldr, gps=(lat, lon), gps_time=when, heading=round(heading, 4))
+    assert bpy.ops.panolight.load_panorama(filepath=str(photo)) == {"FINISHED"}
+    _configure()
+    p = bpy.context.scene.panolight
+    try:
+        assert p.sun_metadata and bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+        doc = store.stored_lighting(bpy.context.scene.world)
+        assert doc["estimator"]["pointed_sun"]["from"].startswith("the photo's metadata")
+        key = max(doc["lights"], key=lambda light: light["intensity"])
+        assert metrics.angle_deg(key["direction"], s) < 0.5
+        p.sun_metadata = False
+        assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+        assert "pointed_sun" not in store.stored_lighting(bpy.context.scene.world)["estimator"]
+    finally:
+        p.sun_metadata = True
+
+
 def test_the_headless_script_points_at_the_sun(tmp_path):
     from PIL import Image
 

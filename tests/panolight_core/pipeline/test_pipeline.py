@@ -155,3 +155,56 @@ def test_a_packed_panorama_gives_the_same_estimate_bit_for_bit(tmp_path, model):
     assert blocks[0][1] == blocks[1][1]
     for (r0, x), (r1, y) in zip(blocks[0][0], blocks[1][0], strict=True):
         assert r0 == r1 and np.array_equal(x.view(np.int32), y.view(np.int32))
+
+
+def _capture_for(direction):
+    """(lat, lon, UTC time, heading) whose sun (``solar.sun_position``) stands at unit ``direction`` of the
+    panorama: the time found by bisection on the morning's rising sun, the heading turning its azimuth there."""
+    from datetime import datetime, timedelta, timezone
+
+    from panolight_core.estimators.solar import sun_position
+
+    lat, lon = 48.8584, 2.2945
+    target = math.degrees(math.asin(direction[2]))
+    lo, hi = datetime(2024, 6, 21, 4, tzinfo=timezone.utc), datetime(2024, 6, 21, 11, tzinfo=timezone.utc)
+    for _ in range(60):
+        mid = lo + (hi - lo) / 2
+        lo, hi = (mid, hi) if sun_position(lat, lon, mid)[1] < target else (lo, mid)
+    when = lo.replace(microsecond=0) + timedelta(seconds=round(lo.microsecond / 1e6))
+    azimuth = sun_position(lat, lon, when)[0]
+    relative = math.degrees(math.atan2(-direction[1], direction[0]))  # settings.direction_from_az_el's azimuth
+    return lat, lon, when, (azimuth - relative) % 360.0
+
+
+def test_a_hidden_sun_is_placed_from_the_photo_s_metadata_and_a_visible_one_keeps_its_place(tmp_path):
+    """Issue 46: a photo whose sun a building hides, with its GPS position, UTC time and heading: the sun stands
+    where the metadata puts it (within 0.5 degrees of the truth: the solar position, not a guess), weighed by the
+    clear sky with the sun fixed there; lighting.json says where the direction came from, and the note asks the
+    artist to check it. --no-sun-metadata (sun_metadata False) leaves the photo's own estimate; a photo showing its
+    sun in a compact patch keeps its own sun over a metadata heading 20 degrees off."""
+    from panolight_core import metrics
+    from panolight_core.lighting.lights import key_light_note
+    from tests.panolight_core.estimators.test_keylight import _clear_sky_with_pole, _retouched_sky
+    from tests.panolight_core.io.test_capture import write_photo
+
+    ldr, s, _ = _retouched_sky(paint=0.02)
+    lat, lon, when, heading = _capture_for(s)
+    photo = write_photo(tmp_path / "hidden.jpg", ldr, gps=(lat, lon), gps_time=when, heading=round(heading, 4))
+    doc = run_estimate(photo, tmp_path / "out", outputs=("lighting",))
+    said = doc["estimator"]["pointed_sun"]
+    assert said["from"].startswith("the photo's metadata (GPS 48.8584 N 2.2945 E, 2024-06-21")
+    key = max(doc["lights"], key=lambda light: light["intensity"])
+    assert metrics.angle_deg(key["direction"], s) < 0.5 and key["source"].startswith("the artist's direction")
+    assert key_light_note(doc).startswith("the sun was placed from the photo's metadata")
+    plain = run_estimate(photo, tmp_path / "plain", Settings(sun_metadata=False), outputs=("lighting",))
+    assert "pointed_sun" not in plain["estimator"] and "sun_metadata" not in plain["estimator"]
+
+    ldr, s = _clear_sky_with_pole(pole_deg=0.0)
+    lat, lon, when, heading = _capture_for(s)
+    photo = write_photo(tmp_path / "shown.jpg", ldr, gps=(lat, lon), gps_time=when, heading=round(heading + 20.0, 4))
+    doc = run_estimate(photo, tmp_path / "shown", outputs=("lighting",))
+    assert "pointed_sun" not in doc["estimator"]
+    assert doc["estimator"]["sun_metadata"]["used"] is False
+    assert doc["estimator"]["sun_metadata"]["why"].startswith("the photo shows its sun")
+    key = max(doc["lights"], key=lambda light: light["intensity"])
+    assert metrics.angle_deg(key["direction"], s) < 2.0
