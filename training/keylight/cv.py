@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from panolight_core import metrics
+from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr
-from panolight_core.estimators import keylight, register_source_model
+from panolight_core.estimators import keylight, naive, register_source_model
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.common.folds import fold_of, scene_folds
@@ -67,9 +67,10 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight", cur
     if not ds["dominant"]:
         return []
     true_contrast = metrics.true_shadow_contrast(hdr, ds["direction"])
+    truth = sh.project(hdr, 2)
     rows = []
     for ev in evs:
-        _, res, key, angle, ratio = estimate_scene(hdr, ds, ev, estimator, curve)
+        ldr, res, key, angle, ratio = estimate_scene(hdr, ds, ev, estimator, curve)
         rec = res.estimate.recovery
         sky_key = next((k for k in (rec.keys if rec is not None else []) if k.method.startswith("clear-sky")), None)
         physical = None
@@ -80,6 +81,9 @@ def score_scene(path: Path, evs, clipped: bool, estimator: str = "keylight", cur
         rows.append({"scene": path.stem, "ev": ev, "clipped_truth": clipped, "share": round(ds["share"], 4),
                      "angle_deg": round(angle, 3), "ratio": ratio,
                      "contrast": metrics.model_shadow_contrast(res.model, ds["direction"]), "true_contrast": true_contrast,
+                     # EVALUATION.md's m-RMSE of the whole model (lights + SH at lmax 2), and naive's
+                     "m_rmse": metrics.m_rmse(truth, res.model.project(2)),
+                     "naive_m_rmse": metrics.m_rmse(truth, naive(ldr, 2).coeffs),
                      "lights": len(res.model.lights), "key_method": key.get("source") if key else None,
                      "direction_68_deg": key.get("direction_68_deg") if key else None,
                      "physical_over_true": physical})
@@ -97,6 +101,10 @@ def summary(rows, ev) -> dict:
             # the shadow an artist sees (EVALUATION.md): C_est / C_true of a surface facing the true source
             "contrast_within": metrics.ratio_within(r["contrast"] / r["true_contrast"] for r in sel),
             "contrast_worst": max((r["contrast"] / r["true_contrast"] for r in sel), key=lambda v: abs(math.log2(v))),
+            "m_rmse_over_naive_median": statistics.median(r["m_rmse"] / r["naive_m_rmse"] for r in sel),
+            "m_rmse_over_naive_mean": statistics.fmean(r["m_rmse"] / r["naive_m_rmse"] for r in sel),
+            # EVALUATION.md's blinding light: above both 2x naive and naive + 0.25
+            "blinding": sorted(r["scene"] for r in sel if r["m_rmse"] > max(2 * r["naive_m_rmse"], r["naive_m_rmse"] + 0.25)),
             "no_light": sum(r["lights"] == 0 for r in sel),
             # how often the brightest light's direction is within the 68 % radius it reports (calibrated: 0.68)
             "direction_68_covers": _share([r["angle_deg"] <= r["direction_68_deg"] for r in sel
@@ -139,8 +147,6 @@ def curve_picture(path: Path, out: Path, ev: float = 0.0, curves=PICTURE_CURVES,
     tinted red, the true source (yellow ring) and the estimate's brightest light (cyan cross), with the
     direction error and the energy ratio r. Returns the rows drawn (curve, angle_deg, ratio)."""
     from PIL import Image, ImageDraw
-
-    from panolight_core import sh
 
     hdr = load_hdr(path)
     ds = metrics.dominant_source(hdr)

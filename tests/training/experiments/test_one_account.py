@@ -1,0 +1,26 @@
+"""training.experiments.one_account: a clear-sky sun that takes its region's whole decided energy."""
+import numpy as np
+
+from panolight_core.estimators import keylight, sources
+from training.experiments.one_account import one_account
+
+
+def test_the_sun_takes_its_region_s_decided_energy_and_leaves_no_fill():
+    """A clear sky whose trees say more than the sky fit (their prediction raised by e^2): shipped, the light
+    carries its capped fit and the region keeps the rest as fill; in the experiment the light carries the decided
+    energy (capped at the fit's high end for a trusted sun) and its region's fill is empty. Outside it nothing
+    changes, and the shipped rule is back after the block."""
+    from tests.panolight_core.estimators.test_keylight import _clear_sky_with_pole
+
+    ldr, _ = _clear_sky_with_pole(0.0)
+    rec = sources.recover(ldr)
+    boosted = sources.assemble(rec.maps, rec.regions, (rec.mu + 2.0, rec.sigma, rec.log_ratio + 2.0), rec.decision)
+    shipped = keylight.with_key_lights(boosted)
+    with one_account():
+        whole = keylight.with_key_lights(boosted)
+    (a,), (b,) = shipped.keys, whole.keys
+    region = np.isin(boosted.regions.labels, [a.region, *a.parts])
+    assert a.trusted and a.energy < b.energy == min(b.decided, b.cap)
+    assert np.abs(shipped.diffuse - shipped.base)[region].sum() > 0 and np.abs(whole.diffuse - whole.base)[region].sum() == 0
+    np.testing.assert_array_equal(shipped.diffuse[~region], whole.diffuse[~region])
+    assert keylight.with_key_lights(boosted).keys[0].energy == a.energy
