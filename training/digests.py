@@ -96,6 +96,21 @@ def eval_differences(before, after, path: str = "") -> list[str]:
     return [] if _close(before, after) else [f"{path}: {before!r} -> {after!r}"]
 
 
+def model_differences(before: Path, after: Path) -> list[str]:
+    """Where two safetensors model files differ: a tensor's name, shape or bits, or a metadata entry (the order
+    of the header's keys aside, which the format leaves free)."""
+    from safetensors import safe_open
+
+    def read(path):
+        with safe_open(str(path), "np") as f:
+            return {k: f.get_tensor(k) for k in f.keys()}, dict(f.metadata() or {})
+
+    (ta, ma), (tb, mb) = read(before), read(after)
+    out = [f"tensor {k}" for k in sorted(ta.keys() | tb.keys())
+           if k not in ta or k not in tb or ta[k].dtype != tb[k].dtype or not np.array_equal(ta[k], tb[k])]
+    return out + [f"metadata {k}" for k in sorted(ma.keys() | mb.keys()) if ma.get(k) != mb.get(k)]
+
+
 def main(argv=None) -> int:
     from training.common.real_hdri import DEFAULT_HDRI
 
@@ -105,10 +120,20 @@ def main(argv=None) -> int:
     group = ap.add_mutually_exclusive_group(required=True)
     group.add_argument("--out", type=Path, help="write the digests here (JSON)")
     group.add_argument("--compare", type=Path, help="compare against digests written earlier")
+    group.add_argument("--models", type=Path, nargs=2, metavar=("BEFORE", "AFTER"),
+                       help="compare two safetensors models (tensors and metadata) instead: the same training made by "
+                            "two versions of the code")
     group.add_argument("--eval", type=Path, nargs=2, metavar=("BEFORE", "AFTER"),
                        help="compare two result files instead, timings left out: panolight eval's eval.json, or a "
                             "study's JSON (keylight-cv's, the per-source CV's) made by two versions of the code")
     args = ap.parse_args(argv)
+    if args.models:
+        differ = model_differences(*args.models)
+        for d in differ:
+            print(f"differs: {d}")
+        print(f"{args.models[1].name}: {'the same model' if not differ else f'{len(differ)} entries differ'}",
+              file=sys.stderr)
+        return 1 if differ else 0
     if args.eval:
         differ = eval_differences(*(json.loads(f.read_text()) for f in args.eval))
         for d in differ:

@@ -27,3 +27,18 @@ def test_eval_results_compare_without_their_timings():
     assert digests.eval_differences(before, {"scenes": [{"m_rmse": 0.5, "time_ms": 9.0}], "speed": {"x": 2}}) == []
     assert digests.eval_differences(before, {"scenes": [{"m_rmse": 0.51, "time_ms": 3.0}], "speed": {"x": 1}}) == \
         ["/scenes[0]/m_rmse: 0.5 -> 0.51"]
+
+
+def test_two_models_compare_by_their_tensors_and_metadata_not_their_header_order(tmp_path):
+    import numpy as np
+    from safetensors.numpy import save_file
+
+    from training.digests import model_differences
+
+    t = {"a": np.arange(4.0), "b": np.ones((2, 2), np.float32)}
+    save_file(t, str(tmp_path / "one.safetensors"), metadata={"x": "1", "y": "2"})
+    save_file(dict(reversed(list(t.items()))), str(tmp_path / "two.safetensors"), metadata={"y": "2", "x": "1"})
+    assert (tmp_path / "one.safetensors").read_bytes() != (tmp_path / "two.safetensors").read_bytes()
+    assert model_differences(tmp_path / "one.safetensors", tmp_path / "two.safetensors") == []
+    save_file({**t, "a": np.arange(4.0) + 1e-12}, str(tmp_path / "three.safetensors"), metadata={"x": "1", "y": "3"})
+    assert model_differences(tmp_path / "one.safetensors", tmp_path / "three.safetensors") == ["tensor a", "metadata y"]
