@@ -7,6 +7,9 @@ panolight.estimate_lighting()            estimate with the panel's settings (sce
                                           synchronous in background mode or from a script with execute
 panolight.build_environment()            SH radiance map + Light Path split + sun lamps
 panolight.export_lighting(filepath)      lighting.json and the radiance map as EXR beside it
+panolight.pick_sun()                     click the sun (or where a shadow points from) on the panorama in a 3D
+                                          viewport: the panel's Sun is here takes that direction, then the
+                                          estimate and the environment are made again
 """
 
 import functools
@@ -382,5 +385,75 @@ def _save_exr(scene, image, path):
         vs.view_transform, vs.look, vs.exposure, vs.gamma, settings.file_format, settings.color_depth = saved
 
 
+def panorama_angles(view_direction, background_rotation: float) -> tuple[float, float]:
+    """(azimuth, elevation) in radians, as the panel's Sun is here keeps them (azimuth 0 at the panorama's centre,
+    positive to the right in the image), of the panorama pixel a viewport shows in world ``view_direction``: the
+    world's Mapping node turns the lookup by ``background_rotation`` about Z (world.build_world)."""
+    x, y, z = (float(v) for v in view_direction)
+    c, s = np.cos(background_rotation), np.sin(background_rotation)
+    px, py = c * x - s * y, s * x + c * y
+    n = float(np.sqrt(px * px + py * py + z * z))
+    if not n > 0:
+        raise Error("no direction was picked")
+    return float(np.arctan2(-py, px)), float(np.arcsin(max(-1.0, min(1.0, z / n))))
+
+
+def point_sun(context, view_direction) -> None:
+    """The panel's Sun is here at the panorama pixel seen in world ``view_direction``, then Estimate lighting and
+    Build environment again (the lamp and the world follow); what Pick sun does with a click."""
+    s = _checked(context)
+    s.sun_azimuth, s.sun_elevation = panorama_angles(view_direction, s.background_rotation)
+    s.sun_pointed = True
+    if bpy.ops.panolight.estimate_lighting("EXEC_DEFAULT") == {"FINISHED"}:
+        bpy.ops.panolight.build_environment("EXEC_DEFAULT")
+
+
+class PANOLIGHT_OT_pick_sun(bpy.types.Operator):
+    """Click the sun on the panorama in a 3D viewport (or the point of the sky a shadow points away from): the
+    sun is put there and the lighting estimated again. Right-click or Esc cancels"""
+
+    bl_idname = "panolight.pick_sun"
+    bl_label = "Pick sun"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @reports_errors
+    def invoke(self, context, event):
+        store.stored_panorama(context.scene.world)  # "no panorama loaded: use Load panorama first"
+        _checked(context)
+        context.window_manager.modal_handler_add(self)
+        context.window.cursor_modal_set("EYEDROPPER")
+        self.report({"INFO"}, "PanoLight: click the sun on the panorama in a 3D viewport (right-click or Esc cancels)")
+        return {"RUNNING_MODAL"}
+
+    @reports_errors
+    def modal(self, context, event):
+        if event.type in ("RIGHTMOUSE", "ESC"):
+            context.window.cursor_modal_restore()
+            return {"CANCELLED"}
+        if event.type != "LEFTMOUSE" or event.value != "PRESS":
+            return {"PASS_THROUGH"}  # the view can still be turned and zoomed
+        found = _viewport_ray(context, event.mouse_x, event.mouse_y)
+        if found is None:
+            return {"PASS_THROUGH"}  # a click outside every 3D viewport (the panel, a menu)
+        context.window.cursor_modal_restore()
+        point_sun(context, found)
+        return {"FINISHED"}
+
+
+def _viewport_ray(context, mouse_x: int, mouse_y: int):
+    """The world direction under the mouse in the 3D viewport it is over (its main region), or None."""
+    from bpy_extras import view3d_utils
+
+    for area in context.screen.areas:
+        if area.type != "VIEW_3D":
+            continue
+        for region in area.regions:
+            if region.type == "WINDOW" and region.x <= mouse_x < region.x + region.width and \
+                    region.y <= mouse_y < region.y + region.height:
+                rv3d = area.spaces.active.region_3d
+                return view3d_utils.region_2d_to_vector_3d(region, rv3d, (mouse_x - region.x, mouse_y - region.y))
+    return None
+
+
 CLASSES = (PANOLIGHT_OT_load_panorama, PANOLIGHT_OT_estimate_lighting, PANOLIGHT_OT_build_environment,
-           PANOLIGHT_OT_export_lighting)
+           PANOLIGHT_OT_export_lighting, PANOLIGHT_OT_pick_sun)

@@ -103,7 +103,9 @@ def draw_panel(layout, context):
     if s.window not in ("none", "auto"):
         box.prop(s, "window_width")
     box.prop(s, "exposure")
-    box.prop(s, "sun_pointed")
+    row = box.row(align=True)
+    row.prop(s, "sun_pointed")
+    row.operator("panolight.pick_sun", icon="EYEDROPPER")
     if s.sun_pointed:
         for prop in ("sun_azimuth", "sun_elevation", "sun_contrast"):
             box.prop(s, prop)

@@ -758,6 +758,40 @@ def test_the_artist_points_at_the_sun_in_the_panel(tmp_path):
         p.sun_pointed, p.sun_contrast = False, 0.0
 
 
+def test_pick_sun_turns_a_click_into_the_sun_the_panorama_shows_there(tmp_path):
+    """Pick sun: a click in a 3D viewport is a world view direction; the world's background is turned by Background
+    rotation, so the picked pixel is that direction turned back. The panel's Sun is here takes it, and the estimate
+    and the environment are made again: the sun lamp stands where the photo's hidden sun is, turned with the world's
+    lighting rotation. (The click itself needs a window: the modal part is not run headless.)"""
+    from blender_addon import operators
+    from tests.panolight_core.estimators.test_keylight import _retouched_sky
+
+    ldr, s, _ = _retouched_sky(paint=0.02)
+    from PIL import Image
+
+    png = tmp_path / "hidden.png"
+    Image.fromarray(ldr).save(png)
+    assert bpy.ops.panolight.load_panorama(filepath=str(png)) == {"FINISHED"}
+    _configure()
+    p = bpy.context.scene.panolight
+    rotation = 0.7
+    c, si = math.cos(rotation), math.sin(rotation)
+    seen = np.array([c * s[0] + si * s[1], -si * s[0] + c * s[1], s[2]])  # where the background shows the sun
+    try:
+        p.background_rotation = p.lighting_rotation = rotation
+        az, el = operators.panorama_angles(seen, rotation)
+        assert az == pytest.approx(-math.atan2(s[1], s[0])) and el == pytest.approx(math.asin(s[2]))
+        operators.point_sun(bpy.context, seen * 3.0)
+        doc = store.stored_lighting(bpy.context.scene.world)
+        (sun,) = [light for light in doc["lights"] if light["source"].startswith("the artist's")]
+        assert metrics.angle_deg(sun["direction"], s) < 1e-3 and p.sun_pointed
+        lamp = next(o for o in bpy.data.objects if o.type == "LIGHT" and o.data.type == "SUN")
+        beam = np.asarray(lamp.matrix_world.to_3x3() @ __import__("mathutils").Vector((0.0, 0.0, 1.0)))
+        assert metrics.angle_deg(beam, seen) < 1e-3  # the lamp shines from where the background shows the sun
+    finally:
+        p.sun_pointed, p.background_rotation, p.lighting_rotation = False, 0.0, 0.0
+
+
 def test_the_panel_takes_a_hidden_sun_from_the_photo_s_metadata(tmp_path):
     """A photo whose sun a building hides, with its GPS position, UTC time and heading: Estimate places the sun
     where they put it (as panolight estimate does); unticking "Sun from the photo's metadata" leaves it out."""
