@@ -52,7 +52,19 @@ def test_the_readme_commands_are_the_ones_this_test_runs():
         assert any(kind in line for line in lines), kind
 
 
+def _setup_is_current() -> bool:
+    """Whether scripts/setup.sh's stamp in .venv matches pyproject.toml, setup.sh and constraints.txt: else the
+    README's setup line would reinstall the real .venv, linked here, from this test's temporary folder."""
+    import hashlib
+
+    want = hashlib.sha256(b"".join((ROOT / p).read_bytes() for p in ("pyproject.toml", "scripts/setup.sh",
+                                                                       "scripts/constraints.txt"))).hexdigest()[:16]
+    stamp = ROOT / ".venv" / ".panolight-setup-stamp"
+    return stamp.is_file() and stamp.read_text().strip() == want
+
+
 def test_every_readme_command_runs_as_written(tmp_path):
+    assert _setup_is_current(), "the .venv is older than pyproject.toml or scripts/: run 'bash scripts/setup.sh' first"
     for name in (".venv", "blender_addon", "scripts", "pyproject.toml"):
         (tmp_path / name).symlink_to(ROOT / name)
     script = "set -euo pipefail\n" + "".join(f"echo '+ {i}' >&2\n{tiny(line)}\n"

@@ -64,8 +64,8 @@ TOOLS = {
                    "the real HDRs, and the suns the estimator invents"),
     "glare-law": ("training.experiments.glare_law", "experiment, not kept: the glare law c E theta^-2 around clipped regions over the real "
                   "HDRs, and the gates that could trust it"),
-    "one-account": ("training.experiments.one_account", "experiment: a clear-sky sun takes its region's whole "
-                    "decided energy (issue 46), scored by the key-light cross-validation"),
+    "key-variants": ("training.experiments.key_variants", "experiment: what a key light carries (one account of its "
+                     "region, a sure sun at its belief; issue 46), scored by the key-light cross-validation"),
     "digests": ("training.digests", "digests of the shipped estimates over the real HDRs: prove a refactoring "
                 "changed nothing (--out, then --compare)"),
     "sky-table": ("training.keylight.sky_table", "tabulate Mitsuba's sunsky into models/sky.safetensors"),

@@ -574,7 +574,7 @@ def test_sun_lamp_strength_scales_the_lamps_alone_and_the_panel_shows_the_key_li
         def column(self, **_):
             return self
 
-        box = column
+        box = row = column
 
         def prop(self, _, name):
             self.props.append(name)

@@ -3,5 +3,6 @@ registration) with its notebook in docs/studies/keylight_tried.md. Nothing shipp
 
 - ``glare_law``: the glare law c E theta^-2 around compact clipped regions, and the gates that could trust it;
 - ``regressors``: the per-source trees against small networks, region by region, out of fold;
-- ``one_account``: a clear-sky sun that takes its region's whole decided energy (issue 46), scored by keylight-cv.
+- ``key_variants``: what a key light carries (one account of its region's energy, a sure sun at its belief; issue 46),
+  scored by keylight-cv.
 """

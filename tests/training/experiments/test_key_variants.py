@@ -1,8 +1,8 @@
-"""training.experiments.one_account: a clear-sky sun that takes its region's whole decided energy."""
+"""training.experiments.key_variants: what a key light carries, in two variants."""
 import numpy as np
 
 from panolight_core.estimators import keylight, sources
-from training.experiments.one_account import one_account
+from training.experiments.key_variants import belief, one_account
 
 
 def test_the_sun_takes_its_region_s_decided_energy_and_leaves_no_fill():
@@ -24,3 +24,19 @@ def test_the_sun_takes_its_region_s_decided_energy_and_leaves_no_fill():
     assert np.abs(shipped.diffuse - shipped.base)[region].sum() > 0 and np.abs(whole.diffuse - whole.base)[region].sum() == 0
     np.testing.assert_array_equal(shipped.diffuse[~region], whole.diffuse[~region])
     assert keylight.with_key_lights(boosted).keys[0].energy == a.energy
+
+
+def test_a_sure_sun_carries_its_fit_s_belief_and_others_stay():
+    """belief:DEG: a trusted clear-sky sun within DEG of its place carries its fit's belief (the median of its 68 %
+    range); a gate tighter than its 68 % radius leaves the shipped energy."""
+    from tests.panolight_core.estimators.test_keylight import _clear_sky_with_pole
+
+    ldr, _ = _clear_sky_with_pole(0.0)
+    rec = sources.recover(ldr)
+    (shipped,) = keylight.with_key_lights(rec).keys
+    with belief(90.0):
+        (sure,) = keylight.with_key_lights(rec).keys
+    with belief(0.0):
+        (kept,) = keylight.with_key_lights(rec).keys
+    assert shipped.trusted and sure.energy == shipped.physical == (sure.energy_68[0] * sure.energy_68[1]) ** 0.5
+    assert kept.energy == shipped.energy != sure.energy
