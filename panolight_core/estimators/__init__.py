@@ -229,9 +229,9 @@ _REGISTRY = {
 }
 BUILTIN = tuple(_REGISTRY)  # register_model and register_source_model add labels beside these
 DESCRIPTIONS = {name: (e.label, e.description) for name, e in _REGISTRY.items()}  # CLI help, Blender menus
-AUTO = "keylight"  # what ``auto`` means: cross-validated by scene over the 68 real HDRs with an un-clipped truth,
-# better than ``sources`` on the m-RMSE median at ev -2/0/+2 and mean at ev 0/+2 (level at -2), and on the
-# dominant source's energy at ev -2/0 (docs/keylight.md)
+AUTO = "keylight"  # what ``auto`` means: cross-validated by scene over the real HDRs, far better than ``sources``
+# on the dominant source's energy and its shadow; on the m-RMSE median better at ev -2 and level at 0 / +2 over
+# the 105 un-clipped of the 111, its means hurt by a few invented suns (docs/keylight.md, studies/keylight_111.md)
 
 
 def available() -> tuple[str, ...]:
