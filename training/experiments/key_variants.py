@@ -75,8 +75,11 @@ def variant(text: str):
 def main(argv=None) -> int:
     from training.keylight import cv
 
-    ap = argparse.ArgumentParser(add_help=False)
-    ap.add_argument("--variant", required=True)
+    ap = argparse.ArgumentParser(prog="python -m training.experiments.key_variants", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter,
+                                 epilog="Every other option is the key-light cross-validation's (python -m "
+                                        "training.keylight.cv --help): --fold-models, --evs, --out, ...")
+    ap.add_argument("--variant", required=True, metavar="NAME", help="one-account, or belief:DEG (e.g. belief:3)")
     args, rest = ap.parse_known_args(argv)
     with variant(args.variant):
         return cv.main(rest)
