@@ -2,7 +2,7 @@
 
 Inputs (regenerate them first):
     .venv/bin/panolight eval -o docs/eval                                   # public set -> docs/eval/eval.json
-    .venv/bin/python -m training.source_energy.fit cv --out docs/studies/source_energy_cv.json   # 5-fold CV over the 74
+    .venv/bin/python -m training.source_energy.fit cv --out docs/studies/source_energy_cv.json   # 5-fold CV over the real HDRs
 Then:
     .venv/bin/python -m training.source_energy.report [--estimator sources]
 
