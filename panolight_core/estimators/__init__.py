@@ -133,7 +133,7 @@ def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, or
     rec = est.recovery
     if rec is None:
         return est
-    from .pointed_sun import photo_places_sun
+    from .pointed_sun import SkyCannotWeigh, photo_places_sun
     from .pointed_sun import with_pointed_sun as point
 
     info = {k: v for k, v in est.info.items() if k not in ("clipped_regions", "sun_search")}
@@ -146,8 +146,8 @@ def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, or
             try:
                 return _recovery_estimate(point(rec, direction, contrast), est.lmax, est.estimator,
                                           {**info, "pointed_sun": said})
-            except PanoLightError as exc:
-                why = str(exc).split(": give --sun-contrast")[0]
+            except SkyCannotWeigh as exc:
+                why = f"no clear sky weighs a sun there: {exc.reason}"
         return replace(est, info={**est.info, "sun_metadata": {**said, "used": False, "why": why}})
     return _recovery_estimate(point(rec, direction, contrast), est.lmax, est.estimator, {**info, "pointed_sun": said})
 

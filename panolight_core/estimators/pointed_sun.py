@@ -19,6 +19,14 @@ METADATA_DEFERS_DEG = 5.0  # a sun from the capture's metadata gives way to one 
 # better than 5-10 degrees
 
 
+class SkyCannotWeigh(PanoLightError):
+    """A pointed sun that no clear sky weighs (below the horizon, overcast, indoors); ``reason`` says which."""
+
+    def __init__(self, message: str, reason: str):
+        super().__init__(message)
+        self.reason = reason
+
+
 def photo_places_sun(rec) -> str | None:
     """Why the photo's own sun is surer than its metadata's (a clear-sky sun found in a clipped region and placed
     within METADATA_DEFERS_DEG for 68 %), or None: no sun found, a hidden one put back from the sky alone, or a
@@ -67,8 +75,8 @@ def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyL
     else:
         if fit is None or not fit.clear:
             why = "it is below the horizon" if d[2] <= 0 else "no clear sky fits the photo with the sun there"
-            raise PanoLightError(f"the sun pointed at ({elevation:.1f} deg up) cannot be weighed by its sky ({why}): "
-                                 f"give --sun-contrast R, the photo's lit / shadowed ground (e.g. 3)")
+            raise SkyCannotWeigh(f"the sun pointed at ({elevation:.1f} deg up) cannot be weighed by its sky ({why}): "
+                                 f"give --sun-contrast R, the photo's lit / shadowed ground (e.g. 3)", why)
         physical = energy = params.sky_correction * fit.sun_energy
         color = camera_colour(fit.sun_rgb, elevation, params)
         method = f"the artist's direction, weighed by its clear-sky fit (turbidity {fit.turbidity:g})"

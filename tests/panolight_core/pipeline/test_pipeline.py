@@ -182,6 +182,8 @@ def test_a_hidden_sun_is_placed_from_the_photo_s_metadata_and_a_visible_one_keep
     clear sky with the sun fixed there; lighting.json says where the direction came from, and the note asks the
     artist to check it. --no-sun-metadata (sun_metadata False) leaves the photo's own estimate; a photo showing its
     sun in a compact patch keeps its own sun over a metadata heading 20 degrees off."""
+    from datetime import datetime, timezone
+
     from panolight_core import metrics
     from panolight_core.lighting.lights import key_light_note
     from tests.panolight_core.estimators.test_keylight import _clear_sky_with_pole, _retouched_sky
@@ -198,6 +200,12 @@ def test_a_hidden_sun_is_placed_from_the_photo_s_metadata_and_a_visible_one_keep
     assert key_light_note(doc).startswith("the sun was placed from the photo's metadata")
     plain = run_estimate(photo, tmp_path / "plain", Settings(sun_metadata=False), outputs=("lighting",))
     assert "pointed_sun" not in plain["estimator"] and "sun_metadata" not in plain["estimator"]
+    night = datetime(2024, 6, 21, 22, 30, tzinfo=timezone.utc)  # the sun below Paris's horizon: nothing added
+    photo = write_photo(tmp_path / "night.jpg", ldr, gps=(lat, lon), gps_time=night, heading=round(heading, 4))
+    doc = run_estimate(photo, tmp_path / "night", outputs=("lighting",))
+    assert "pointed_sun" not in doc["estimator"] and doc["estimator"]["sun_metadata"]["used"] is False
+    assert doc["estimator"]["sun_metadata"]["why"] == "no clear sky weighs a sun there: it is below the horizon"
+    assert doc["lights"] == plain["lights"]
 
     ldr, s = _clear_sky_with_pole(pole_deg=0.0)
     lat, lon, when, heading = _capture_for(s)
