@@ -10,6 +10,7 @@ the float32 array would have given it.
 """
 from __future__ import annotations
 
+import mmap
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
@@ -146,7 +147,11 @@ class Packer:
         if kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
         self.kind, self.filled, self.height = kind, 0, height
-        self.store = np.empty((height, width, 4 if kind == "rgbe" else 3), np.uint8 if kind == "rgbe" else np.float16)
+        shape = (height, width, 4 if kind == "rgbe" else 3)
+        dtype = np.dtype(np.uint8 if kind == "rgbe" else np.float16)
+        # in pages of its own, which a fall back to float32 gives back as it converts them (_release)
+        self._pages = mmap.mmap(-1, max(1, int(np.prod(shape)) * dtype.itemsize))
+        self.store = np.frombuffer(self._pages, dtype, int(np.prod(shape))).reshape(shape)
         self.plain = None
         self.workers = threads.count()
         self.pool = ThreadPoolExecutor(self.workers, thread_name_prefix="panolight-pack") if self.workers > 1 else None
@@ -196,8 +201,17 @@ class Packer:
             done = PackedImage(self.store, self.kind)
             for k in range(0, r0, 256):
                 self.plain[k:min(r0, k + 256)] = done[k:min(r0, k + 256)]
-            self.store = None
+                self._release(min(r0, k + 256))  # the codes and the float32 rows are never both held whole
+            self.store = done = None
             self.plain[r0:r0 + len(block)] = block
+
+    def _release(self, rows: int) -> None:
+        """Give the memory pages of the codes of the first ``rows`` rows back to the system (Linux, macOS)."""
+        if not hasattr(mmap, "MADV_DONTNEED"):
+            return
+        end = rows * self.store.strides[0] // mmap.PAGESIZE * mmap.PAGESIZE
+        if end > 0:
+            self._pages.madvise(mmap.MADV_DONTNEED, 0, end)
 
     def result(self):
         """The image: a PackedImage, or a float32 array (some block did not fit). Ends the threads."""

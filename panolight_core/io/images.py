@@ -50,9 +50,9 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     display-referred LDR). Other formats are unaffected.
     packed_above: return an HDR file of more than this many megapixels (read through OpenImageIO) as a
     ``packed.PackedImage`` (read by row blocks as float32) where its values fit exactly: a Radiance file's as
-    RGBE bytes, an EXR's as half floats (a 16K panorama in 0.54 or 0.8 GB instead of 1.6, for 2-3 s more
-    at 16K); other files, and values that do not fit, as float32 arrays. PACKED_ABOVE_MEGAPIXELS is the
-    CLI's choice.
+    RGBE bytes, an EXR's as half floats (a 16K panorama in 0.54 or 0.8 GB instead of 1.6; the whole estimate
+    of a 16K .hdr takes as long, of a half EXR 2-3 s more); other files, and values that do not fit, as
+    float32 arrays. PACKED_ABOVE_MEGAPIXELS is the CLI's choice.
     equirect: require a 2:1 image. nonfinite: "error" (default) refuses NaN/Inf pixels, "repair"
     sets NaN and -Inf to 0 and +Inf to the largest finite value, with a PanoLightWarning.
     negative: "clamp" (default) sets negative radiance to 0 with a PanoLightWarning, "error" refuses it.
