@@ -3,14 +3,16 @@
 A 16384 x 8192 float32 panorama is 1.6 GB: more than the whole estimate may use (docs/reliability.md).
 Its values usually fit a narrower code exactly: a Radiance file's are RGBE (a shared exponent, 4 bytes a
 pixel, 0.54 GB), a half-float EXR's are half floats (6 bytes, 0.8 GB). ``Packer`` builds a ``PackedImage``
-from float32 row blocks, checking that every block decodes to the same bits, and falls back to a plain
-float32 array at the first block that does not. Every pass over a ``PackedImage`` (SH projection, area
-averages, the written hdr.exr) decodes one row block at a time, so the estimate gets exactly the numbers
-the float32 array would have given it.
+from float32 row blocks, checking that every block decodes to the same bits; at the first block that does not,
+an image its file can give again by rows (an EXR of real float32 data) stays there (``RowFile``: read again at
+each pass, about twice the time), any other becomes a plain float32 array. Every pass over a ``PackedImage``
+(SH projection, area averages, the written hdr.exr) decodes one row block at a time, so the estimate gets
+exactly the numbers the float32 array would have given it.
 """
 from __future__ import annotations
 
 import mmap
+import threading
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
@@ -18,7 +20,7 @@ import numpy as np
 
 from . import threads
 
-KINDS = ("rgbe", "half")
+KINDS = ("rgbe", "half", "file")  # "file": RowFile, the rows read from the file again at each pass
 
 
 def rgbe_decode(rgbe: np.ndarray) -> np.ndarray:
@@ -72,9 +74,47 @@ def half_encode(block: np.ndarray) -> np.ndarray | None:
     return out.reshape(block.shape)
 
 
+class RowFile:
+    """The float32 rows of an image file, read again at each access: what an image too large to hold whose values
+    no code holds exactly becomes (a 16K float32 EXR). ``read_rows(r0, r1)`` gives the file's rows as they are;
+    ``repair`` ((the value +Inf becomes or None, whether negatives are clamped to 0)) and ``top`` (the largest
+    value after it) are set by the reader's validation pass, so every later pass sees what an array repaired in
+    place would hold. Reads are serialised (one open file)."""
+
+    nbytes = 0
+
+    def __init__(self, read_rows, height: int, width: int):
+        self._read, self.shape = read_rows, (height, width, 3)
+        self.repair: tuple | None = None
+        self.top: float | None = None
+        self._lock = threading.Lock()
+
+    def _rows(self, r0: int, r1: int) -> np.ndarray:
+        with self._lock:
+            block = np.array(self._read(r0, r1), dtype=np.float32)
+        if self.repair is not None:
+            posinf, clamp = self.repair
+            if posinf is not None:
+                np.nan_to_num(block, copy=False, nan=0.0, posinf=posinf, neginf=0.0)
+            if clamp:
+                np.maximum(block, 0.0, out=block)
+        return block
+
+    def __getitem__(self, key):
+        if isinstance(key, slice):
+            r0, r1, _ = key.indices(self.shape[0])
+            return self._rows(r0, max(r0, r1))
+        rows, cols = key  # gathered 256 rows at a time: only the rows holding them are read
+        out = np.empty((len(rows), 3), np.float32)
+        for c0 in np.unique(np.asarray(rows) // 256) * 256:
+            mine = (rows >= c0) & (rows < c0 + 256)
+            out[mine] = self._rows(int(c0), min(self.shape[0], int(c0) + 256))[rows[mine] - c0, cols[mine]]
+        return out
+
+
 class PackedImage:
-    """An (H, W, 3) linear image stored as RGBE bytes or half floats, read as ``dtype`` (float32, or float64
-    for an exact float64 pass) row blocks: ``img[r0:r1]`` (also ``img[..., r0:r1, :, :]``) and
+    """An (H, W, 3) linear image stored as RGBE bytes or half floats (or in its file: ``RowFile``), read as
+    ``dtype`` (float32, or float64 for an exact float64 pass) row blocks: ``img[r0:r1]`` (also ``img[..., r0:r1, :, :]``) and
     ``img[rows, cols]`` (integer index arrays) return plain arrays; ``np.asarray(img)`` decodes it whole
     (a full-size array: the passes that matter read by row blocks)."""
 
@@ -97,7 +137,7 @@ class PackedImage:
         return self.store.shape[0]
 
     def _decode(self, stored: np.ndarray) -> np.ndarray:
-        out = rgbe_decode(stored) if self.kind == "rgbe" else stored.astype(np.float32)
+        out = rgbe_decode(stored) if self.kind == "rgbe" else stored.astype(np.float32, copy=False)
         return out if self.dtype == np.float32 else out.astype(self.dtype)
 
     def astype(self, dtype, copy: bool = True) -> PackedImage:
@@ -117,8 +157,10 @@ class PackedImage:
 
     def peak(self) -> float:
         """The largest value (NaN aside), found from the codes: RGBE decodes only the pixels of the largest
-        exponent byte."""
-        if self.kind == "half":
+        exponent byte; a file's, from its validation pass."""
+        if self.kind == "file" and self.store.top is not None:
+            return self.store.top
+        if self.kind in ("half", "file"):
             return max((float(np.nanmax(self.store[r:r + 256], initial=0.0)) for r in range(0, len(self), 256)),
                        default=0.0)
         top = max((int(self.store[r:r + 256, :, 3].max()) for r in range(0, len(self), 256)), default=0)
@@ -140,13 +182,15 @@ class PackedImage:
 class Packer:
     """Builds an (height, width, 3) image from float32 row blocks given in order (``put``): a ``PackedImage``
     of ``kind`` while every block encodes exactly, else (from the first block that does not) a float32
-    array, which ``result`` then returns. Blocks are encoded on ``threads.count()`` threads while the
-    caller reads the next ones (at most that many blocks wait); ``close`` (or leaving a ``with``) ends them."""
+    array, or, given ``reread`` (rows r0, r1 of the file again: a format read by any rows), a ``RowFile``
+    (``done`` then says the rest need not be given), which ``result`` then returns. Blocks are encoded on
+    ``threads.count()`` threads while the caller reads the next ones (at most that many blocks wait); ``close``
+    (or leaving a ``with``) ends them."""
 
-    def __init__(self, height: int, width: int, kind: str):
-        if kind not in KINDS:
-            raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
-        self.kind, self.filled, self.height = kind, 0, height
+    def __init__(self, height: int, width: int, kind: str, reread=None):
+        if kind not in ("rgbe", "half"):
+            raise ValueError(f"kind must be rgbe or half, got {kind!r}")
+        self.kind, self.filled, self.height, self.reread, self.file = kind, 0, height, reread, None
         shape = (height, width, 4 if kind == "rgbe" else 3)
         dtype = np.dtype(np.uint8 if kind == "rgbe" else np.float16)
         # in pages of its own, which a fall back to float32 gives back as it converts them (_release)
@@ -171,10 +215,17 @@ class Packer:
             self.pool.shutdown(wait=True)
             self.pool = None
 
+    @property
+    def done(self) -> bool:
+        """Whether no more blocks are needed: the image is read from its file again (``RowFile``)."""
+        return self.file is not None
+
     def put(self, r0: int, block: np.ndarray) -> None:
         if r0 != self.filled:
             raise ValueError(f"blocks must come in order: expected row {self.filled}, got {r0}")
         self.filled += len(block)
+        if self.file is not None:
+            return
         if self.plain is not None:
             self.plain[r0:r0 + len(block)] = block
             return
@@ -191,7 +242,15 @@ class Packer:
         return r0, block, future.result()
 
     def _keep(self, r0: int, block: np.ndarray, code) -> None:
-        """Store one block's code, or (None: it does not fit) turn every row so far into float32."""
+        """Store one block's code, or (None: it does not fit) turn every row so far into float32, or leave the
+        image in its file (``reread``)."""
+        if self.file is not None:
+            return
+        if code is None and self.reread is not None:
+            self.file = RowFile(self.reread, self.height, self.store.shape[1])
+            self._release(self.height)
+            self.store = None
+            return
         if self.plain is not None:
             self.plain[r0:r0 + len(block)] = block
         elif code is not None:
@@ -218,6 +277,8 @@ class Packer:
         while self.pending:
             self._keep(*self._next())
         self.close()
+        if self.file is not None:
+            return PackedImage(self.file, "file")
         if self.filled != self.height:
             raise ValueError(f"{self.filled} of {self.height} rows were given")
         return self.plain if self.plain is not None else PackedImage(self.store, self.kind)

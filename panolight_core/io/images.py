@@ -51,8 +51,9 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     packed_above: return an HDR file of more than this many megapixels (read through OpenImageIO) as a
     ``packed.PackedImage`` (read by row blocks as float32) where its values fit exactly: a Radiance file's as
     RGBE bytes, an EXR's as half floats (a 16K panorama in 0.54 or 0.8 GB instead of 1.6; the whole estimate
-    of a 16K .hdr takes as long, of a half EXR 2-3 s more); other files, and values that do not fit, as
-    float32 arrays. PACKED_ABOVE_MEGAPIXELS is the CLI's choice.
+    of a 16K .hdr takes as long, of a half EXR 2-3 s more); an EXR whose values no code holds is left in its
+    file (``packed.RowFile``: read again by rows at each pass, about twice the time); other files as float32
+    arrays. PACKED_ABOVE_MEGAPIXELS is the CLI's choice.
     equirect: require a 2:1 image. nonfinite: "error" (default) refuses NaN/Inf pixels, "repair"
     sets NaN and -Inf to 0 and +Inf to the largest finite value, with a PanoLightWarning.
     negative: "clamp" (default) sets negative radiance to 0 with a PanoLightWarning, "error" refuses it.
@@ -74,8 +75,8 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
                             f"{' '.join(str(exc).split())}") from None
     if img.dtype == np.uint8:
         return np.ascontiguousarray(img)
-    if isinstance(img, PackedImage):  # RGBE holds only finite, non-negative values; half floats are checked in place
-        if img.kind == "half":
+    if isinstance(img, PackedImage):  # RGBE holds only finite, non-negative values; half floats are checked in place,
+        if img.kind in ("half", "file"):  # a file's rows are scanned and repaired as they are read again
             _sanitise(p, img.store, nonfinite, negative)
         return img
     return _sanitise(p, np.ascontiguousarray(img, dtype=np.float32), nonfinite, negative)

@@ -127,11 +127,14 @@ class Opened:
             kind, out_dtype = "float", np.float32
         blocks = self._blocks(kind, as_uint8)
         if packed and kind == "float":
-            with Packer(h, w, packed) as sink:
+            reread = self._reread(kind) if self.fmt == "exr" else None  # scanline and tiled EXRs: any rows
+            with Packer(h, w, packed, reread) as sink:
                 for r0, block in blocks:
                     if self.fmt == "hdr":
                         _radiance_half_step(block)
                     sink.put(r0, block)
+                    if sink.done:
+                        break
                 out = sink.result()
             if self.orientation not in (0, 1) and isinstance(out, PackedImage):
                 out = np.asarray(out)
@@ -150,6 +153,29 @@ class Opened:
         if integer_ldr and out.dtype == np.uint8 and not as_uint8:
             out = SRGB8_TO_LINEAR[out]  # the table gather makes only its output
         return upright(out, self.orientation)
+
+    def _reread(self, kind: str):
+        """rows(r0, r1) of this subimage's colour channels read again from the file by a reader of its own (what a
+        ``packed.RowFile`` reads at each pass); a read that fails then is reported as the first would have been."""
+        path, subimage, spec, pick_from = self.path, self.subimage, self.spec, self.channels
+        first, last = min(pick_from), max(pick_from)
+        pick = [c - first for c in pick_from]
+        state = {}
+
+        def rows(r0: int, r1: int) -> np.ndarray:
+            import OpenImageIO as oiio
+
+            if "inp" not in state:
+                state["inp"] = oiio.ImageInput.open(str(path))
+            inp = state["inp"]
+            block = None if inp is None else inp.read_scanlines(subimage, 0, spec.y + r0, spec.y + r1, 0, first,
+                                                                 last + 1, kind)
+            if block is None:
+                raise ImageError(path, "cannot read its pixels again (was the file changed or removed while it was "
+                                       "being estimated?)")
+            return np.asarray(block).reshape(r1 - r0, spec.width, last - first + 1)[..., pick]
+
+        return rows
 
     def _blocks(self, kind: str, as_uint8: bool):
         """(first row, (n, W, 3) array of its own) of the chosen subimage, in order: OpenImageIO's ``kind``

@@ -90,3 +90,33 @@ def test_a_packed_image_reads_like_its_float_array(rng):
     assert PackedImage(half_encode(values[..., :3] * 0 + 2.0), "half").peak() == 2.0
     with pytest.raises(TypeError, match="row slices"):
         image[:, 3:5]
+
+
+@pytest.mark.parametrize("n_threads", [1, 2])
+def test_a_packer_that_can_read_the_rows_again_leaves_the_image_in_its_file(rng, n_threads):
+    """Given ``reread``, the first block no code holds makes the image a RowFile (``done``: the rest need not be
+    read now; with threads, a block or two later), whose rows and gathers are the file's, repaired as its
+    validation decides."""
+    from panolight_core.packed import RowFile
+
+    values = rng.random((40, 16, 3), dtype=np.float32) + np.float32(0.1)
+    values[:8] = 0.5  # the first block fits half floats
+    reads = []
+
+    def reread(r0, r1):
+        reads.append((r0, r1))
+        return values[r0:r1].copy()
+
+    with threads.limited(n_threads), Packer(40, 16, "half", reread) as packer:
+        for r0 in range(0, 40, 8):
+            packer.put(r0, values[r0:r0 + 8].copy())
+            if packer.done:
+                break
+        image = packer.result()
+    assert r0 == (8 if n_threads == 1 else 24) and image.kind == "file" and isinstance(image.store, RowFile) and image.nbytes == 0
+    np.testing.assert_array_equal(np.asarray(image), values)
+    rows, cols = np.array([39, 0, 300 // 8]), np.array([1, 15, 2])
+    np.testing.assert_array_equal(image[rows, cols], values[rows, cols])
+    image.store.repair, image.store.top = (7.0, True), 1.5
+    values[3, 3] = [np.inf, -1.0, np.nan]
+    assert image[3:4][0, 3].tolist() == [7.0, 0.0, 0.0] and image.peak() == 1.5 and reads

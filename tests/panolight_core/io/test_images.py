@@ -434,8 +434,9 @@ def test_png_alpha_is_not_a_lighting_weight(tmp_path, alpha):
 
 def test_large_hdr_files_are_kept_packed_with_their_exact_values(tmp_path, pano, monkeypatch):
     """Above ``packed_above`` megapixels a Radiance file is held as RGBE bytes (4 per pixel), a half EXR
-    as half floats (6), each read back as the float32 array would be; values a code cannot hold stay
-    float32 (issue 43: a 16K .hdr of black pixels peaked at 1.95 GB as float32)."""
+    as half floats (6), each read back as the float32 array would be; an EXR whose values no code holds is
+    left in its file and read again by rows at each pass (issue 43: a 16K .hdr of black pixels peaked at 1.95
+    GB as float32, and a float32 EXR's pixels alone are 1.6 GB)."""
     from panolight_core.io import read_oiio
     from panolight_core.packed import PackedImage
 
@@ -443,23 +444,23 @@ def test_large_hdr_files_are_kept_packed_with_their_exact_values(tmp_path, pano,
     big = np.repeat(np.repeat(pano, 8, axis=0), 8, axis=1)  # 128 x 256
     cases = {"hdr": (write_image(tmp_path / "a.hdr", big), "rgbe", 4),
              "half": (write_image(tmp_path / "a.exr", big, half=True), "half", 6),
-             "float": (write_image(tmp_path / "b.exr", big), None, 12)}
+             "float": (write_image(tmp_path / "b.exr", big), "file", 0)}
     for path, kind, per_pixel in cases.values():
         plain = read_image(path)
         packed = read_image(path, packed_above=0.0)
         assert read_image(path, packed_above=1.0).__class__ is np.ndarray  # 32 K pixels: not above 1 MP
-        if kind is None:
-            assert isinstance(packed, np.ndarray) and packed.dtype == np.float32
-        else:
-            assert isinstance(packed, PackedImage) and packed.kind == kind
+        assert isinstance(packed, PackedImage) and packed.kind == kind
         assert packed.nbytes == big.shape[0] * big.shape[1] * per_pixel
         np.testing.assert_array_equal(np.asarray(packed).view(np.int32), plain.view(np.int32))
 
 
-def test_a_packed_half_exr_is_checked_and_repaired_like_the_float_one(tmp_path, pano):
-    bad = pano.astype(np.float16).astype(np.float32)
+@pytest.mark.parametrize("half", [True, False])
+def test_a_packed_exr_is_checked_and_repaired_like_the_float_array(tmp_path, pano, half):
+    """Half floats are repaired in place; a float32 EXR left in its file is scanned once, and every later read
+    applies the same repairs (NaN and -Inf to 0, +Inf to the largest finite value, negatives to 0)."""
+    bad = pano.astype(np.float16).astype(np.float32) if half else pano + np.float32(1e-4)
     bad[0, 0, 0], bad[1, 1], bad[2, 2, 1], bad[4, 4, 2] = np.nan, np.inf, -np.inf, -0.5
-    p = write_image(tmp_path / "bad.exr", bad, half=True)
+    p = write_image(tmp_path / "bad.exr", bad, half=half)
     with pytest.raises(ImageError, match="3 pixel.*NaN or Inf"):
         read_image(p, packed_above=0.0)
     with pytest.warns(PanoLightWarning) as caught:
@@ -468,6 +469,8 @@ def test_a_packed_half_exr_is_checked_and_repaired_like_the_float_one(tmp_path, 
     assert "replaced NaN/Inf in 3 pixel" in said and "clamped negative radiance to 0 in 1 pixel" in said
     with pytest.warns(PanoLightWarning):
         plain = read_image(p, nonfinite="repair")
-    assert fixed.kind == "half"
+    assert fixed.kind == ("half" if half else "file")
     np.testing.assert_array_equal(np.asarray(fixed), plain)
-    assert fixed[1:2].max() == bad[np.isfinite(bad)].max() and fixed[4:5].min() == 0.0
+    assert fixed[1:2].max() == bad[np.isfinite(bad)].max() == fixed.peak() and fixed[4:5].min() == 0.0
+    rows, cols = np.array([0, 1, 4, 9]), np.array([0, 1, 4, 3])
+    np.testing.assert_array_equal(fixed[rows, cols], plain[rows, cols])
