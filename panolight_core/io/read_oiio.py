@@ -156,23 +156,34 @@ class Opened:
 
     def _reread(self, kind: str):
         """rows(r0, r1) of this subimage's colour channels read again from the file by a reader of its own (what a
-        ``packed.RowFile`` reads at each pass); a read that fails then is reported as the first would have been."""
+        ``packed.RowFile`` reads at each pass); a file changed or removed since the first read is refused in one
+        line, never read as another picture."""
+        import os
+
         path, subimage, spec, pick_from = self.path, self.subimage, self.spec, self.channels
         first, last = min(pick_from), max(pick_from)
         pick = [c - first for c in pick_from]
         state = {}
+        stat = os.stat(path)
+        seen = (stat.st_size, stat.st_mtime_ns, stat.st_ino)
 
         def rows(r0: int, r1: int) -> np.ndarray:
             import OpenImageIO as oiio
 
+            try:
+                now = os.stat(path)
+            except OSError:
+                now = None
+            if now is None or (now.st_size, now.st_mtime_ns, now.st_ino) != seen:
+                raise ImageError(path, "was changed or removed while it was being estimated (a panorama this large "
+                                       "is read from its file at each pass): estimate it again")
             if "inp" not in state:
                 state["inp"] = oiio.ImageInput.open(str(path))
             inp = state["inp"]
             block = None if inp is None else inp.read_scanlines(subimage, 0, spec.y + r0, spec.y + r1, 0, first,
                                                                  last + 1, kind)
             if block is None:
-                raise ImageError(path, "cannot read its pixels again (was the file changed or removed while it was "
-                                       "being estimated?)")
+                raise ImageError(path, f"cannot read its pixels again: {_clean(oiio.geterror())}")
             return np.asarray(block).reshape(r1 - r0, spec.width, last - first + 1)[..., pick]
 
         return rows

@@ -474,3 +474,17 @@ def test_a_packed_exr_is_checked_and_repaired_like_the_float_array(tmp_path, pan
     assert fixed[1:2].max() == bad[np.isfinite(bad)].max() == fixed.peak() and fixed[4:5].min() == 0.0
     rows, cols = np.array([0, 1, 4, 9]), np.array([0, 1, 4, 3])
     np.testing.assert_array_equal(fixed[rows, cols], plain[rows, cols])
+
+
+def test_a_file_read_again_at_each_pass_is_refused_once_changed(tmp_path, pano):
+    """A float32 EXR left in its file (packed_above): rewritten between two passes, it is refused in one line
+    naming it, never read as another picture."""
+    import os
+
+    p = write_image(tmp_path / "big.exr", pano + np.float32(1e-4))
+    img = read_image(p, packed_above=0.0)
+    assert img.kind == "file" and np.isfinite(img[0:4]).all()
+    write_image(p, pano * 2 + np.float32(1e-4))
+    os.utime(p, ns=(1, 1))  # and a different time, whatever the clock's resolution
+    with pytest.raises(ImageError, match="big.exr: was changed or removed while it was being estimated"):
+        img[0:4]
