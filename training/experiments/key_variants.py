@@ -7,7 +7,8 @@
   as its fill is. The region's energy, and so the work map, are unchanged.
 - ``belief:DEG``: a trusted clear-sky sun placed within DEG degrees (its direction's 68 % radius) carries its fit's
   belief (the median of its 68 % range, x sky_correction), not the cautious capped energy; its region's fill
-  gives way to it as for any light.
+  gives way to it as for any light. ``belief:DEG:any``: any clear-sky sun so placed, low suns (under the trusted
+  elevation) and wide patches included.
 
     python -m training.experiments.key_variants --variant one-account --fold-models 'runs/folds/sources_{k}.safetensors' --out runs/one.json
     python -m training.experiments.key_variants --variant belief:3 --fold-models ... --out runs/belief3.json
@@ -42,14 +43,15 @@ def one_account():
 
 
 @contextlib.contextmanager
-def belief(within_deg: float):
-    """``keylight.find_key_lights`` as ``belief:DEG`` weighs a sure sun, for the ``with`` block."""
+def belief(within_deg: float, untrusted: bool = False):
+    """``keylight.find_key_lights`` as ``belief:DEG`` (``untrusted``: ``belief:DEG:any``) weighs a sure sun, for the
+    ``with`` block."""
     shipped = keylight.find_key_lights
 
     def sure(maps, regions, prediction, params=keylight.PARAMS, fits=None):
         keys = shipped(maps, regions, prediction, params, fits)
-        return [replace(k, energy=k.physical) if (k.method.startswith("clear-sky") and k.trusted and k.physical
-                                                  and math.degrees(k.direction_68) <= within_deg) else k
+        return [replace(k, energy=k.physical) if (k.method.startswith("clear-sky") and (k.trusted or untrusted)
+                                                  and k.physical and math.degrees(k.direction_68) <= within_deg) else k
                 for k in keys]
 
     keylight.find_key_lights = sure
@@ -65,11 +67,13 @@ def variant(text: str):
     if name == "one-account" and not arg:
         return one_account()
     if name == "belief":
+        deg, _, scope = arg.partition(":")
         try:
-            return belief(float(arg))
+            if scope in ("", "any"):
+                return belief(float(deg), scope == "any")
         except ValueError:
             pass
-    raise SystemExit(f"--variant must be one-account or belief:DEG (e.g. belief:3), got {text!r}")
+    raise SystemExit(f"--variant must be one-account, belief:DEG or belief:DEG:any (e.g. belief:3), got {text!r}")
 
 
 def main(argv=None) -> int:
@@ -79,7 +83,8 @@ def main(argv=None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter,
                                  epilog="Every other option is the key-light cross-validation's (python -m "
                                         "training.keylight.cv --help): --fold-models, --evs, --out, ...")
-    ap.add_argument("--variant", required=True, metavar="NAME", help="one-account, or belief:DEG (e.g. belief:3)")
+    ap.add_argument("--variant", required=True, metavar="NAME",
+                    help="one-account, belief:DEG or belief:DEG:any (e.g. belief:3)")
     args, rest = ap.parse_known_args(argv)
     with variant(args.variant):
         return cv.main(rest)
