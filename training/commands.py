@@ -59,6 +59,8 @@ TOOLS = {
                         "source-energy cross-validation"),
     "keylight-cv": ("training.keylight.cv", "the key light's direction and energy over the real HDRs, and the "
                     "clear-sky correction cross-validated"),
+    "captures": ("training.keylight.captures", "better captures (EVALUATION.md): an HDR clipped at +2/+4/+6 stops "
+                 "against one JPEG, scored by the dominant source, its shadow and m-RMSE"),
     "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
     "hidden-sun": ("training.keylight.hidden_sun", "a sun the photo does not show: located from the sky alone over "
                    "the real HDRs, and the suns the estimator invents"),

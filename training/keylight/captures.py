@@ -1,0 +1,123 @@
+"""Better captures (EVALUATION.md "Better captures"): what an HDR that clips its own source gives today, against
+one JPEG. The baseline issue 45's restoration is to beat.
+
+For every scene of ../shared/data/hdri with a dominant compact source and an un-clipped truth: the truth at the
+ev-0 camera's exposure (the factor that puts its median luminance at 0.18: the JPEG's white is then 1), and
+- the camera JPEG at ev 0 (q90), estimated as ``panolight estimate`` does (``keylight``);
+- the same truth clipped per channel at 2^k (k = 2, 4, 6 stops over the JPEG's white), as a float HDR file
+  that clips its sun holds it, estimated as an HDR input (its exact projection, the lights the model takes).
+Each is scored against the truth: m-RMSE at lmax 2 over the JPEG's naive projection's and over the clipped
+file's own projection, the dominant source's energy ratio r (on the estimate's hdr.exr), the shadow contrast
+C (EVALUATION.md) and the brightest light's direction error.
+
+    python -m training.keylight.captures [--stops 2 4 6] [--out docs/studies/captures.json]
+"""
+from __future__ import annotations
+
+import math
+import statistics
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from panolight_core import metrics, sh
+from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
+from panolight_core.pipeline.estimate import estimate_lighting
+from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, scene_files
+from training.common.study import save_study
+
+
+def score(truth: np.ndarray, ds: dict, pixels: np.ndarray) -> dict:
+    """One capture's estimate (``estimate_lighting`` of uint8 or float ``pixels``) scored against ``truth`` (the
+    HDR at the camera's exposure) and its dominant source ``ds``."""
+    res = estimate_lighting(pixels)
+    key = metrics.brightest_light(res.model.lights)
+    gt = sh.project(truth, 2)
+    return {"m_rmse": metrics.m_rmse(gt, res.model.project(2)),
+            "own_projection_m_rmse": metrics.m_rmse(gt, sh.project(ldr_to_linear(pixels) if pixels.dtype == np.uint8
+                                                                   else pixels, 2)),
+            "ratio": metrics.source_energy_ratio(truth, res.hdr_panorama(pixels), ds["direction"]),
+            "contrast": metrics.model_shadow_contrast(res.model, ds["direction"]),
+            "angle_deg": metrics.angle_deg(ds["direction"], key["peak_direction"]) if key else 180.0}
+
+
+def scene_rows(path: Path, stops) -> list[dict]:
+    """The captures of one scene (none without a dominant source): the ev-0 JPEG, then the HDR clipped at each
+    2^stops, each with the scene's true contrast."""
+    hdr = load_hdr(path)
+    ds = metrics.dominant_source(hdr)
+    if not ds["dominant"]:
+        return []
+    truth = hdr * auto_exposure(hdr, 0.0)
+    true_c = metrics.true_shadow_contrast(hdr, ds["direction"])
+    captures = [("JPEG", hdr_to_ldr(hdr, 0.0, 90))] + [
+        (f"HDR clipped at +{s:g} stops", np.minimum(truth, 2.0 ** s).astype(np.float32)) for s in stops]
+    rows = []
+    for name, pixels in captures:
+        row = {"scene": path.stem, "capture": name, "true_contrast": true_c, **score(truth, ds, pixels)}
+        rows.append(row)
+    jpeg = rows[0]["own_projection_m_rmse"]  # the JPEG's naive projection: the EVALUATION.md baseline
+    for row in rows:
+        row["m_rmse_over_naive"] = row["m_rmse"] / jpeg
+        row["m_rmse_over_own"] = row["m_rmse"] / row["own_projection_m_rmse"]
+    return rows
+
+
+def summary(rows: list[dict]) -> dict:
+    """Per capture: scenes, direction median, energy and contrast "within 2^x" and worst, m-RMSE over the
+    JPEG's naive projection and over the capture's own, medians."""
+    out = {}
+    for name in dict.fromkeys(r["capture"] for r in rows):
+        sel = [r for r in rows if r["capture"] == name]
+        ratios = [r["ratio"] for r in sel]
+        contrasts = [r["contrast"] / r["true_contrast"] for r in sel]
+        out[name] = {"scenes": len(sel), "median_angle_deg": statistics.median(r["angle_deg"] for r in sel),
+                     "energy_within": metrics.ratio_within(ratios),
+                     "energy_worst": max(ratios, key=lambda v: abs(math.log2(max(v, 1e-12)))),
+                     "contrast_within": metrics.ratio_within(contrasts),
+                     "contrast_worst": max(contrasts, key=lambda v: abs(math.log2(v))),
+                     "m_rmse_over_naive_median": statistics.median(r["m_rmse_over_naive"] for r in sel),
+                     "m_rmse_over_own_median": statistics.median(r["m_rmse_over_own"] for r in sel)}
+    return out
+
+
+def table(summ: dict) -> list[str]:
+    lines = ["| capture | scenes | direction median | energy within | worst r | contrast within | worst C / C_true | "
+             "m-RMSE / naive JPEG | m-RMSE / own projection |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, s in summ.items():
+        lines.append(f"| {name} | {s['scenes']} | {s['median_angle_deg']:.1f} deg | {s['energy_within']:.2f}x | "
+                     f"{s['energy_worst']:.3g} | {s['contrast_within']:.2f}x | {s['contrast_worst']:.3g} | "
+                     f"{s['m_rmse_over_naive_median']:.3f} | {s['m_rmse_over_own_median']:.3f} |")
+    return lines
+
+
+def main(argv=None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m training.keylight.captures", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas (default: %(default)s)")
+    ap.add_argument("--stops", type=float, nargs="+", default=[2.0, 4.0, 6.0],
+                    help="clip the HDR at 2^STOPS times the JPEG's white (default: 2 4 6)")
+    ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
+    args = ap.parse_args(argv)
+    files = scene_files(args.hdri)
+    clipped = clipped_truth(args.hdri)
+    rows = []
+    for i, path in enumerate(files, 1):
+        if path.name in clipped:
+            continue  # a truth that clips its own source is a lower bound, never a target
+        got = scene_rows(path, args.stops)
+        rows += got
+        for r in got:
+            print(f"[{i}/{len(files)}] {r['scene']:28s} {r['capture']:24s} angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  "
+                  f"C {r['contrast']:6.2f} of {r['true_contrast']:6.2f}  m/naive {r['m_rmse_over_naive']:.3f}", flush=True)
+    summ = summary(rows)
+    print("\n".join(table(summ)))
+    save_study({"stops": args.stops, "summary": summ, "rows": rows}, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
