@@ -10,7 +10,7 @@ Each is scored against the truth: m-RMSE at lmax 2 over the JPEG's naive project
 file's own projection, the dominant source's energy ratio r (on the estimate's hdr.exr), the shadow contrast
 C (EVALUATION.md) and the brightest light's direction error.
 
-    python -m training.keylight.captures [--stops 2 4 6] [--out docs/studies/captures.json]
+    python -m training.keylight.captures [--stops 2 4 6] [--as-ldr] [--fold-models PATTERN] [--out docs/studies/captures.json]
 """
 from __future__ import annotations
 
@@ -23,39 +23,49 @@ import numpy as np
 
 from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
+from panolight_core.camera.color import linear_to_srgb
 from panolight_core.pipeline.estimate import estimate_lighting
+from panolight_core.pipeline.settings import Settings
 from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, scene_files
-from training.common.study import save_study
+from training.common.study import fold_estimators, fold_models_option, save_study
 
 
-def score(truth: np.ndarray, ds: dict, pixels: np.ndarray) -> dict:
-    """One capture's estimate (``estimate_lighting`` of uint8 or float ``pixels``) scored against ``truth`` (the
-    HDR at the camera's exposure) and its dominant source ``ds``."""
-    res = estimate_lighting(pixels)
+def score(truth: np.ndarray, ds: dict, pixels: np.ndarray, scale: float = 1.0, estimator: str = "auto") -> dict:
+    """One capture's estimate (``estimate_lighting`` of uint8 or float ``pixels`` by ``estimator``, its units times
+    ``scale`` in the truth's) scored against ``truth`` (the HDR at the camera's exposure) and its dominant source
+    ``ds``."""
+    res = estimate_lighting(pixels, Settings(estimator=estimator))
     key = metrics.brightest_light(res.model.lights)
     gt = sh.project(truth, 2)
-    return {"m_rmse": metrics.m_rmse(gt, res.model.project(2)),
-            "own_projection_m_rmse": metrics.m_rmse(gt, sh.project(ldr_to_linear(pixels) if pixels.dtype == np.uint8
-                                                                   else pixels, 2)),
-            "ratio": metrics.source_energy_ratio(truth, res.hdr_panorama(pixels), ds["direction"]),
+    own = ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
+    return {"m_rmse": metrics.m_rmse(gt, scale * res.model.project(2)),
+            "own_projection_m_rmse": metrics.m_rmse(gt, scale * sh.project(own, 2)),
+            "ratio": metrics.source_energy_ratio(truth, scale * res.hdr_panorama(pixels), ds["direction"]),
             "contrast": metrics.model_shadow_contrast(res.model, ds["direction"]),
             "angle_deg": metrics.angle_deg(ds["direction"], key["peak_direction"]) if key else 180.0}
 
 
-def scene_rows(path: Path, stops) -> list[dict]:
+def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto") -> list[dict]:
     """The captures of one scene (none without a dominant source): the ev-0 JPEG, then the HDR clipped at each
-    2^stops, each with the scene's true contrast."""
+    2^stops (with ``as_ldr`` also that file through the LDR path, its ceiling the white: a restoration tried by
+    the machinery as it is), each with the scene's true contrast."""
     hdr = load_hdr(path)
     ds = metrics.dominant_source(hdr)
     if not ds["dominant"]:
         return []
     truth = hdr * auto_exposure(hdr, 0.0)
     true_c = metrics.true_shadow_contrast(hdr, ds["direction"])
-    captures = [("JPEG", hdr_to_ldr(hdr, 0.0, 90))] + [
-        (f"HDR clipped at +{s:g} stops", np.minimum(truth, 2.0 ** s).astype(np.float32)) for s in stops]
+    captures = [("JPEG", hdr_to_ldr(hdr, 0.0, 90), 1.0)]
+    for s in stops:
+        clipped = np.minimum(truth, 2.0 ** s)
+        captures.append((f"HDR clipped at +{s:g} stops", clipped.astype(np.float32), 1.0))
+        if as_ldr:  # the same file through the LDR path: its ceiling made the white of an 8-bit sRGB picture
+            ldr = np.round(linear_to_srgb(clipped / 2.0 ** s) * 255.0).astype(np.uint8)
+            captures.append((f"HDR clipped at +{s:g} stops, as an 8-bit picture", ldr, 2.0 ** s))
     rows = []
-    for name, pixels in captures:
-        row = {"scene": path.stem, "capture": name, "true_contrast": true_c, **score(truth, ds, pixels)}
+    for name, pixels, scale in captures:
+        row = {"scene": path.stem, "capture": name, "true_contrast": true_c,
+               **score(truth, ds, pixels, scale, estimator)}
         rows.append(row)
     jpeg = rows[0]["own_projection_m_rmse"]  # the JPEG's naive projection: the EVALUATION.md baseline
     for row in rows:
@@ -100,22 +110,27 @@ def main(argv=None) -> int:
     ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas (default: %(default)s)")
     ap.add_argument("--stops", type=float, nargs="+", default=[2.0, 4.0, 6.0],
                     help="clip the HDR at 2^STOPS times the JPEG's white (default: 2 4 6)")
+    ap.add_argument("--as-ldr", action="store_true",
+                    help="also estimate each clipped file through the LDR path, its ceiling the white of an 8-bit "
+                         "sRGB picture (the per-source and key-light machinery as they are)")
+    fold_models_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
+    estimator_of = fold_estimators(args.fold_models, files) if args.fold_models else {p: "auto" for p in files}
     clipped = clipped_truth(args.hdri)
     rows = []
     for i, path in enumerate(files, 1):
         if path.name in clipped:
             continue  # a truth that clips its own source is a lower bound, never a target
-        got = scene_rows(path, args.stops)
+        got = scene_rows(path, args.stops, args.as_ldr, estimator_of[path])
         rows += got
         for r in got:
             print(f"[{i}/{len(files)}] {r['scene']:28s} {r['capture']:24s} angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  "
                   f"C {r['contrast']:6.2f} of {r['true_contrast']:6.2f}  m/naive {r['m_rmse_over_naive']:.3f}", flush=True)
     summ = summary(rows)
     print("\n".join(table(summ)))
-    save_study({"stops": args.stops, "summary": summ, "rows": rows}, args.out)
+    save_study({"stops": args.stops, "fold_models": args.fold_models, "summary": summ, "rows": rows}, args.out)
     return 0
 
 

@@ -1,4 +1,5 @@
 """training.keylight.captures: an HDR that clips its own sun, against one JPEG."""
+import numpy as np
 import pytest
 
 from training.keylight import captures
@@ -19,3 +20,13 @@ def test_a_clipped_hdr_is_scored_as_today_s_estimate_takes_it(tmp_path):
     summ = captures.summary(rows)
     assert set(summ) == {r["capture"] for r in rows} and all(s["scenes"] == 1 for s in summ.values())
     assert captures.table(summ)[2].startswith("| JPEG | 1 |")
+
+
+def test_a_clipped_hdr_through_the_ldr_path_gets_back_its_sun(tmp_path):
+    """--as-ldr: the file clipped at +2 stops made an 8-bit picture whose white is its ceiling, estimated as a
+    photo and scaled back: the per-source recovery weighs the sun the plateau cut, which the file taken as it is
+    lacks."""
+    hdr, _ = _sky_hdr(with_sun=True)
+    rows = {r["capture"]: r for r in captures.scene_rows(_write_hdr(tmp_path, hdr), [2.0], as_ldr=True)}
+    raw, ldr = rows["HDR clipped at +2 stops"], rows["HDR clipped at +2 stops, as an 8-bit picture"]
+    assert abs(np.log2(ldr["ratio"])) < abs(np.log2(raw["ratio"])) and ldr["m_rmse"] < raw["m_rmse"]
