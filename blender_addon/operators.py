@@ -301,7 +301,8 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         Estimate lighting, that would be another estimate: refused, so the stored lighting is never
         replaced behind the user's back."""
         pixels = _read_panorama(panorama)
-        result = _fit(pixels, _checked(context).estimate_settings())
+        settings = _checked(context).estimate_settings()
+        result = _fit(pixels, settings, _capture(panorama, settings))  # the photo's metadata sun, as Estimate had it
         if not same_lighting(result.document, doc):
             raise Error("the panel's settings changed since Estimate lighting, so the HDRI would belong to "
                         "another estimate: run Estimate lighting again (or restore the settings)")

@@ -811,11 +811,14 @@ def test_the_panel_takes_a_hidden_sun_from_the_photo_s_metadata(tmp_path):
         assert doc["estimator"]["pointed_sun"]["from"].startswith("the photo's metadata")
         key = max(doc["lights"], key=lambda light: light["intensity"])
         assert metrics.angle_deg(key["direction"], s) < 0.5
+        p.lighting_source = "HDRI"  # the HDRI is made by estimating again: with the same metadata sun
+        assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+        p.lighting_source = "SH"
         p.sun_metadata = False
         assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
         assert "pointed_sun" not in store.stored_lighting(bpy.context.scene.world)["estimator"]
     finally:
-        p.sun_metadata = True
+        p.sun_metadata, p.lighting_source = True, "SH"
 
 
 def test_the_headless_script_points_at_the_sun(tmp_path):
