@@ -1,5 +1,6 @@
 """training.experiments.key_variants: what a key light carries, in two variants."""
 import numpy as np
+import pytest
 
 from panolight_core.estimators import keylight, sources
 from training.experiments.key_variants import belief, one_account
@@ -20,10 +21,11 @@ def test_the_sun_takes_its_region_s_decided_energy_and_leaves_no_fill():
         whole = keylight.with_key_lights(boosted)
     (a,), (b,) = shipped.keys, whole.keys
     region = np.isin(boosted.regions.labels, [a.region, *a.parts])
+    # (two runs of the same estimate may differ in the last bit: numpy's SIMD sums, docs/development.md)
     assert a.trusted and a.energy < b.energy == min(b.decided, b.cap)
     assert np.abs(shipped.diffuse - shipped.base)[region].sum() > 0 and np.abs(whole.diffuse - whole.base)[region].sum() == 0
-    np.testing.assert_array_equal(shipped.diffuse[~region], whole.diffuse[~region])
-    assert keylight.with_key_lights(boosted).keys[0].energy == a.energy
+    np.testing.assert_allclose(shipped.diffuse[~region], whole.diffuse[~region], rtol=1e-12)
+    assert keylight.with_key_lights(boosted).keys[0].energy == pytest.approx(a.energy, rel=1e-12)
 
 
 def test_a_sure_sun_carries_its_fit_s_belief_and_others_stay():
@@ -38,5 +40,6 @@ def test_a_sure_sun_carries_its_fit_s_belief_and_others_stay():
         (sure,) = keylight.with_key_lights(rec).keys
     with belief(0.0):
         (kept,) = keylight.with_key_lights(rec).keys
-    assert shipped.trusted and sure.energy == shipped.physical == (sure.energy_68[0] * sure.energy_68[1]) ** 0.5
-    assert kept.energy == shipped.energy != sure.energy
+    assert shipped.trusted and sure.energy == pytest.approx(shipped.physical, rel=1e-12)
+    assert sure.energy == pytest.approx((sure.energy_68[0] * sure.energy_68[1]) ** 0.5, rel=1e-12)
+    assert kept.energy == pytest.approx(shipped.energy, rel=1e-12) and abs(kept.energy / sure.energy - 1) > 1e-3
