@@ -43,9 +43,11 @@ def test_each_scene_row_has_the_shadow_contrast_and_the_summary_how_far_it_is(tm
     (row,) = rows = cv.score_scene(path, [0.0], clipped=False)
     hdr = load_hdr(path)
     ds = metrics.dominant_source(hdr)
-    assert row["true_contrast"] == metrics.true_shadow_contrast(hdr, ds["direction"]) > 1.5
+    assert row["true_contrast"] == pytest.approx(metrics.true_shadow_contrast(hdr, ds["direction"]), rel=1e-12)
+    assert row["true_contrast"] > 1.5
     model = estimate_lighting(hdr_to_ldr(hdr, 0.0, 90), Settings()).model
-    assert row["contrast"] == metrics.model_shadow_contrast(model, ds["direction"]) > 1.0
+    assert row["contrast"] == pytest.approx(metrics.model_shadow_contrast(model, ds["direction"]), rel=1e-12)
+    assert row["contrast"] > 1.0  # (a second run of the estimate may differ in the last bit)
     summary = cv.summary(rows, 0.0)
     ratio = row["contrast"] / row["true_contrast"]
     assert summary["contrast_within"] == pytest.approx(2 ** abs(np.log2(ratio))) and summary["contrast_worst"] == ratio
