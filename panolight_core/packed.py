@@ -74,6 +74,15 @@ def half_encode(block: np.ndarray) -> np.ndarray | None:
     return out.reshape(block.shape)
 
 
+def repair(block: np.ndarray, posinf: float | None, clamp: bool) -> None:
+    """The reader's repairs of a float block, in place: NaN and -Inf to 0 and +Inf to ``posinf`` (None: none to
+    make), then negatives to 0 with ``clamp``."""
+    if posinf is not None:
+        np.nan_to_num(block, copy=False, nan=0.0, posinf=posinf, neginf=0.0)
+    if clamp:
+        np.maximum(block, 0.0, out=block)
+
+
 class RowFile:
     """The float32 rows of an image file, read again at each access: what an image too large to hold whose values
     no code holds exactly becomes (a 16K float32 EXR). ``read_rows(r0, r1)`` gives the file's rows as they are;
@@ -93,11 +102,7 @@ class RowFile:
         with self._lock:
             block = np.array(self._read(r0, r1), dtype=np.float32)
         if self.repair is not None:
-            posinf, clamp = self.repair
-            if posinf is not None:
-                np.nan_to_num(block, copy=False, nan=0.0, posinf=posinf, neginf=0.0)
-            if clamp:
-                np.maximum(block, 0.0, out=block)
+            repair(block, *self.repair)
         return block
 
     def __getitem__(self, key):
@@ -124,6 +129,7 @@ class PackedImage:
         if kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
         self.store, self.kind, self.dtype = store, kind, np.dtype(dtype)
+        self._peak: float | None = None  # the input warnings and hdr.exr's writer both ask
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -156,8 +162,13 @@ class PackedImage:
         return self._decode(self.store[first])
 
     def peak(self) -> float:
-        """The largest value (NaN aside), found from the codes: RGBE decodes only the pixels of the largest
-        exponent byte; a file's, from its validation pass."""
+        """The largest value (NaN aside), found once from the codes (the reader has validated them): RGBE decodes
+        only the pixels of the largest exponent byte; a file's comes from its validation pass."""
+        if self._peak is None:
+            self._peak = self._find_peak()
+        return self._peak
+
+    def _find_peak(self) -> float:
         if self.kind == "file" and self.store.top is not None:
             return self.store.top
         if self.kind in ("half", "file"):

@@ -140,16 +140,16 @@ def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, or
     said = {"direction": [round(float(v), 6) for v in direction],
             **({"contrast": float(contrast)} if contrast is not None else {}),
             "from": "the artist" if origin is None else origin}
-    if origin is not None:
-        why = photo_places_sun(rec)
-        if why is None:
-            try:
-                return _recovery_estimate(point(rec, direction, contrast), est.lmax, est.estimator,
-                                          {**info, "pointed_sun": said})
-            except SkyCannotWeigh as exc:
-                why = f"no clear sky weighs a sun there: {exc.reason}"
-        return replace(est, info={**est.info, "sun_metadata": {**said, "used": False, "why": why}})
-    return _recovery_estimate(point(rec, direction, contrast), est.lmax, est.estimator, {**info, "pointed_sun": said})
+    why = photo_places_sun(rec) if origin is not None else None
+    if why is None:
+        try:
+            return _recovery_estimate(point(rec, direction, contrast), est.lmax, est.estimator,
+                                      {**info, "pointed_sun": said})
+        except SkyCannotWeigh as exc:
+            if origin is None:  # the artist asked for it: say why it cannot be
+                raise
+            why = f"no clear sky weighs a sun there: {exc.reason}"
+    return replace(est, info={**est.info, "sun_metadata": {**said, "used": False, "why": why}})
 
 
 def per_source_key_lights(pixels: np.ndarray, lmax: int) -> Estimate:

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ImageError, PanoLightWarning
+from ..packed import repair
 from ..sh.grid import MAX_SIDE  # larger images are refused as absurd
 
 MAX_PIXELS = 1 << 29  # 32768 x 16384: no size above this is read at all
@@ -102,24 +103,22 @@ def _sanitise(path, img, nonfinite: str, negative: str):
         if neg.any():
             n_neg += int(neg.any(axis=-1).sum())
             low = min(low, float(b[neg].min()))
-    in_file = not isinstance(img, np.ndarray)  # a packed.RowFile: its reads apply the repairs decided here
     if n_bad:
         if nonfinite == "error":
             raise ImageError(path, f"{n_bad} pixel(s) contain NaN or Inf (pass nonfinite='repair' / "
                                    f"--repair-nonfinite to replace them)")
         top = top if np.isfinite(top) else 0.0
-        for r in range(0, 0 if in_file else img.shape[0], BLOCK_ROWS):
-            np.nan_to_num(img[r:r + BLOCK_ROWS], copy=False, nan=0.0, posinf=top, neginf=0.0)
         warnings.warn(f"{path}: replaced NaN/Inf in {n_bad} pixel(s) (NaN, -Inf -> 0; +Inf -> {top:g})",
                       PanoLightWarning, stacklevel=3)
     if n_neg:
         if negative == "error":
             raise ImageError(path, f"{n_neg} pixel(s) have negative radiance (minimum {low:g})")
-        for r in range(0, 0 if in_file else img.shape[0], BLOCK_ROWS):
-            np.maximum(img[r:r + BLOCK_ROWS], 0.0, out=img[r:r + BLOCK_ROWS])
         warnings.warn(f"{path}: clamped negative radiance to 0 in {n_neg} pixel(s) (minimum was {low:g})",
                       PanoLightWarning, stacklevel=3)
-    if in_file:
-        img.repair = ((top if n_bad else None), bool(n_neg))
-        img.top = max(float(top), 0.0) if np.isfinite(top) else 0.0
+    fix = ((top if n_bad else None), bool(n_neg))
+    if not isinstance(img, np.ndarray):  # a packed.RowFile: its reads apply the repairs decided here
+        img.repair, img.top = fix, (max(float(top), 0.0) if np.isfinite(top) else 0.0)
+    elif n_bad or n_neg:
+        for r in range(0, img.shape[0], BLOCK_ROWS):
+            repair(img[r:r + BLOCK_ROWS], *fix)
     return img

@@ -160,9 +160,7 @@ class Opened:
         line, never read as another picture."""
         import os
 
-        path, subimage, spec, pick_from = self.path, self.subimage, self.spec, self.channels
-        first, last = min(pick_from), max(pick_from)
-        pick = [c - first for c in pick_from]
+        path, subimage, spec, channels = self.path, self.subimage, self.spec, self.channels
         state = {}
         stat = os.stat(path)
         seen = (stat.st_size, stat.st_mtime_ns, stat.st_ino)
@@ -180,29 +178,34 @@ class Opened:
             if "inp" not in state:
                 state["inp"] = oiio.ImageInput.open(str(path))
             inp = state["inp"]
-            block = None if inp is None else inp.read_scanlines(subimage, 0, spec.y + r0, spec.y + r1, 0, first,
-                                                                 last + 1, kind)
+            block = None if inp is None else _scanlines(inp, subimage, spec, channels, r0, r1, kind)
             if block is None:
                 raise ImageError(path, f"cannot read its pixels again: {_clean(oiio.geterror())}")
-            return np.asarray(block).reshape(r1 - r0, spec.width, last - first + 1)[..., pick]
+            return block
 
         return rows
 
     def _blocks(self, kind: str, as_uint8: bool):
         """(first row, (n, W, 3) array of its own) of the chosen subimage, in order: OpenImageIO's ``kind``
         ("uint8", "uint16" turned into 8-bit or linear float32, "uint32", "float"), colour channels only."""
-        spec = self.spec
-        h, w = spec.height, spec.width
-        first, last = min(self.channels), max(self.channels)
-        pick = [c - first for c in self.channels]
+        h = self.spec.height
         for r0 in range(0, h, BLOCK_ROWS):
             r1 = min(h, r0 + BLOCK_ROWS)
-            block = self.inp.read_scanlines(self.subimage, 0, spec.y + r0, spec.y + r1, 0, first, last + 1, kind)
+            block = _scanlines(self.inp, self.subimage, self.spec, self.channels, r0, r1, kind)
             if block is None or self.inp.has_error:
                 raise ImageError(self.path, f"cannot decode {self.fmt.upper()} pixels (corrupt or truncated file): "
                                             f"{_clean(self.inp.geterror())}")
-            block = np.asarray(block).reshape(r1 - r0, w, last - first + 1)[..., pick]
             yield r0, (_from_16_bits(block, as_uint8) if kind == "uint16" else block)
+
+
+def _scanlines(inp, subimage: int, spec, channels, r0: int, r1: int, kind: str) -> np.ndarray | None:
+    """Rows r0..r1 (of the data window) of a subimage's ``channels``, in that order, as OpenImageIO's ``kind``
+    ((n, W, len(channels)), an array of its own); None when the read fails."""
+    first, last = min(channels), max(channels)
+    block = inp.read_scanlines(subimage, 0, spec.y + r0, spec.y + r1, 0, first, last + 1, kind)
+    if block is None:
+        return None
+    return np.asarray(block).reshape(r1 - r0, spec.width, last - first + 1)[..., [c - first for c in channels]]
 
 
 def _from_16_bits(block: np.ndarray, as_uint8: bool) -> np.ndarray:

@@ -92,20 +92,24 @@ def test_dominant_source_and_its_energy_ratio():
         metrics.source_energy_ratio(img, img[::2, ::2], sun)
 
 
+def _disk_sun(radius_deg: float, excess: float, h: int = 512):
+    """A disk of radiance 1 + ``excess`` over a sky of 1 on an h x 2h map: (hdr, its direction, the disk's share of
+    the irradiance facing it, pi + excess x its cos-weighted solid angle, counted pixel by pixel)."""
+    d = sh.pixel_directions(h, 2 * h)
+    om = sh.pixel_solid_angles(h, 2 * h)
+    up = np.array([0.0, 0.6, 0.8])
+    disk = d @ up > math.cos(math.radians(radius_deg))
+    sun = excess * float((om * (d @ up))[disk].sum())
+    total = float((np.maximum(d @ up, 0.0) * om).sum()) + sun
+    return np.ones((h, 2 * h, 3)) + excess * disk[..., None], up, sun / total
+
+
 def test_true_sun_share_of_a_disk_on_a_uniform_sky():
     """A 2 degree disk of radiance 1 + R over a sky of 1: facing it, the sun gives R x its solid angle (cos ~ 1)
     of the irradiance pi + R x solid angle; true_sun_share removes the sky under the disk (its ring's median)."""
-    h, w = 512, 1024
-    d = sh.pixel_directions(h, w)
-    om = sh.pixel_solid_angles(h, w)
-    up = np.array([0.0, 0.6, 0.8])
-    disk = d @ up > math.cos(math.radians(2.0))
-    R = 2000.0
-    hdr = np.ones((h, w, 3)) + R * disk[..., None]
-    sun = R * float((om * (d @ up))[disk].sum())
-    total = float((np.maximum(d @ up, 0.0) * om).sum()) + sun
-    assert metrics.true_sun_share(hdr, up) == pytest.approx(sun / total, rel=1e-6)
-    assert metrics.true_sun_share(np.ones((h, w, 3)), up) == 0.0  # no source: nothing above its ring
+    hdr, up, share = _disk_sun(2.0, 2000.0)
+    assert metrics.true_sun_share(hdr, up) == pytest.approx(share, rel=1e-6)
+    assert metrics.true_sun_share(np.ones_like(hdr), up) == 0.0  # no source: nothing above its ring
 
 
 def test_shadow_contrast_of_a_disk_sun_and_of_a_model_with_one_light():
@@ -115,17 +119,9 @@ def test_shadow_contrast_of_a_disk_sun_and_of_a_model_with_one_light():
     (cos < 0) gives 1, and the brightest light counts, whatever its place in the list."""
     from panolight_core.lighting.adaptive import LightingModel
 
-    h, w = 512, 1024
-    d = sh.pixel_directions(h, w)
-    om = sh.pixel_solid_angles(h, w)
-    up = np.array([0.0, 0.6, 0.8])
-    disk = d @ up > math.cos(math.radians(3.0))
-    R = 500.0
-    sun = R * float((om * (d @ up))[disk].sum())
-    total = float((np.maximum(d @ up, 0.0) * om).sum()) + sun
-    hdr = np.ones((h, w, 3)) + R * disk[..., None]
-    assert metrics.true_shadow_contrast(hdr, up) == pytest.approx(1.0 / (1.0 - sun / total), rel=1e-6)
-    assert metrics.true_shadow_contrast(np.ones((h, w, 3)), up) == 1.0
+    hdr, up, share = _disk_sun(3.0, 500.0)
+    assert metrics.true_shadow_contrast(hdr, up) == pytest.approx(1.0 / (1.0 - share), rel=1e-6)
+    assert metrics.true_shadow_contrast(np.ones_like(hdr), up) == 1.0
 
     L, intensity = 0.4, 3.0
     coeffs = np.zeros((9, 3))

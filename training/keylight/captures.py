@@ -14,6 +14,7 @@ C (EVALUATION.md) and the brightest light's direction error.
 """
 from __future__ import annotations
 
+import argparse
 import math
 import statistics
 import sys
@@ -103,8 +104,6 @@ def table(summ: dict) -> list[str]:
 
 
 def main(argv=None) -> int:
-    import argparse
-
     ap = argparse.ArgumentParser(prog="python -m training.keylight.captures", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas (default: %(default)s)")
