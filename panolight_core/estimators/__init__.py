@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import __version__, sh
 from ..camera import linear
+from ..camera.ceiling import find_ceiling
 from ..errors import PanoLightError
 from .highlights import recover_highlights
 
@@ -83,31 +84,59 @@ def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
                     {"input": "ldr", "work_height": work, "clipped_regions": blobs}, recovered)
 
 
-def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_path=None) -> Estimate:
+def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_path=None, restore: bool = True
+               ) -> Estimate:
     """The per-source estimate (``keylight`` with key lights, else ``sources``) with the shipped per-source
-    energy model or the one in ``model_path``."""
+    energy model or the one in ``model_path``. An HDR file is its exact projection, unless it clips its own source
+    (``camera.ceiling``): then, with ``restore``, its plateau is weighed as a photo's clipped sun is
+    (``sources.restore``), and every other pixel kept."""
     name = "keylight" if key_lights else "sources"
-    if pixels.dtype != np.uint8:
-        return _exact_hdr(pixels, lmax, name)
     from . import sources
+    from .sources.restore import Source
 
+    info = {"input": "ldr"}
+    if pixels.dtype != np.uint8:
+        ceiling = find_ceiling(pixels)
+        if ceiling is None:
+            return _exact_hdr(pixels, lmax, name)
+        if not restore:
+            est = _exact_hdr(pixels, lmax, name)
+            est.info["restoration"] = {**ceiling.describe(), "restored": False,
+                                       "why": "--restore none: the file as it is, its clipped plateau unweighed"}
+            return est
+        info = {"input": "hdr"}
     model = sources.load_source_model(sources.MODEL_PATH if model_path is None else model_path)
-    rec = sources.recover(pixels, model)
+    rec = (sources.recover(pixels, model) if pixels.dtype == np.uint8 else
+           sources.recover_hdr(Source(pixels, ceiling), model))
     if key_lights:  # also without regions: a sun the photo does not show
         from .keylight import with_key_lights
 
         rec = with_key_lights(rec)
-    return _recovery_estimate(rec, lmax, name, {"input": "ldr", "work_height": rec.frac.shape[0],
+    return _recovery_estimate(rec, lmax, name, {**info, "work_height": rec.frac.shape[0],
                                                 "model": model.path.name, "decision": rec.decision})
 
 
 def _recovery_estimate(rec, lmax: int, name: str, info: dict) -> Estimate:
     """The Estimate of a ``sources.Recovery``: its work map's SH, its diffuse map (what the adaptive model fits)
-    and its key lights; ``info`` plus the regions and the sun search."""
-    return Estimate(sh.project(rec.work, lmax), name,
-                    {**info, "clipped_regions": rec.region_info(),
-                     **({"sun_search": rec.sun_search} if rec.sun_search is not None else {})}, rec.diffuse, rec,
-                    rec.lights(), rec.key_exclusions())
+    and its key lights; ``info`` plus the regions and the sun search. A restored HDR's (``rec.source``) is in the
+    file's units: its pixels as they are, and the recovery's energy (in clip units) times the clip level."""
+    src = rec.source
+    if src is None:
+        return Estimate(sh.project(rec.work, lmax), name,
+                        {**info, "clipped_regions": rec.region_info(),
+                         **({"sun_search": rec.sun_search} if rec.sun_search is not None else {})}, rec.diffuse, rec,
+                        rec.lights(), rec.key_exclusions())
+    level = src.level
+    coeffs = src.projection(lmax) + level * sh.project(rec.work - rec.base, lmax)
+    regions = [dict(r, held_energy=r["held_energy"] * level, energy=r["energy"] * level) for r in rec.region_info()]
+    lights = [dict(light, intensity=light["intensity"] * level, energy_68=[v * level for v in light["energy_68"]])
+              for light in rec.lights()]
+    restoration = {**src.ceiling.describe(), "restored": True, "clip_level": level,
+                   "why": "the file clips its own source: its plateau is weighed as a photo's clipped sun is, and "
+                          "every other pixel kept"}
+    return Estimate(coeffs, name, {**info, "restoration": restoration, "clipped_regions": regions,
+                                   **({"sun_search": rec.sun_search} if rec.sun_search is not None else {})},
+                    src.filled(rec, keys=False), rec, lights, rec.key_exclusions())
 
 
 def with_key_strength(est: Estimate, strength: float) -> Estimate:
@@ -152,8 +181,8 @@ def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, or
     return replace(est, info={**est.info, "sun_metadata": {**said, "used": False, "why": why}})
 
 
-def per_source_key_lights(pixels: np.ndarray, lmax: int) -> Estimate:
-    return per_source(pixels, lmax, key_lights=True)
+def per_source_key_lights(pixels: np.ndarray, lmax: int, restore: bool = True) -> Estimate:
+    return per_source(pixels, lmax, key_lights=True, restore=restore)
 
 
 def neural_estimator(weights=None, label: str = "neural"):
@@ -191,7 +220,7 @@ def register_source_model(label: str, path, key_lights: bool = True) -> str:
     _check_label(label)
     sources.load_source_model(path)  # fail now, naming the file, not in the middle of an evaluation
     _REGISTRY[label] = Entry(partial(per_source, key_lights=key_lights, model_path=path), label,
-                             f"{'keylight' if key_lights else 'sources'} with the per-source model {path}")
+                             f"{'keylight' if key_lights else 'sources'} with the per-source model {path}", True)
     return label
 
 
@@ -209,11 +238,13 @@ def _neural_shipped() -> bool:
 
 @dataclass(frozen=True)
 class Entry:
-    """A registered estimator: run(pixels, lmax) -> Estimate, a menu label and a one-line description."""
+    """A registered estimator: run(pixels, lmax) -> Estimate, a menu label and a one-line description; restores:
+    whether run takes ``restore`` (it weighs an HDR file's clipped source, ``sources.restore``)."""
 
     run: object
     label: str
     description: str
+    restores: bool = False
 
 
 _REGISTRY = {
@@ -221,10 +252,11 @@ _REGISTRY = {
     "naive": Entry(naive, "Naive", "sRGB to linear only"),
     "analytic": Entry(analytic, "Analytic", "sRGB to linear with power-law highlight recovery; exact for HDR"),
     "sources": Entry(per_source, "Per-source energy", "Each clipped sun, lamp or window gets the energy a model "
-                     "learned from real HDR panoramas predicts; exact for HDR"),
+                     "learned from real HDR panoramas predicts; exact for HDR, but for a sun or lamp the file itself clipped", True),
     "keylight": Entry(per_source_key_lights, "Per-source + key lights", "Per-source energy, and each clipped "
                       "region holding a compact sun or lamp made one explicit light that casts shadows; a sun the "
-                      "photo does not show (retouched out) put back where its clear sky places it (exact for HDR)"),
+                      "photo does not show (retouched out) put back where its clear sky places it (exact for HDR, but for a "
+                      "sun or lamp the file itself clipped)", True),
     "neural": Entry(neural_estimator(), "Neural", "The paper's network (numpy; no torch needed)"),
 }
 BUILTIN = tuple(_REGISTRY)  # register_model and register_source_model add labels beside these
@@ -251,12 +283,19 @@ def resolve(name: str) -> str:
     return name
 
 
-def estimate(pixels: np.ndarray, lmax: int = 2, estimator: str = "auto") -> Estimate:
-    """Run an estimator on panorama pixels (uint8 sRGB LDR or float linear HDR); records its time."""
+def estimate(pixels: np.ndarray, lmax: int = 2, estimator: str = "auto", restore: bool = True) -> Estimate:
+    """Run an estimator on panorama pixels (uint8 sRGB LDR or float linear HDR); records its time. restore: an HDR
+    file that clips its own source has it weighed by the estimators that can (``Entry.restores``); an estimator that
+    cannot records that it took the file as it is."""
     name = resolve(estimator)
     if pixels.ndim != 3 or pixels.shape[-1] != 3:
         raise PanoLightError(f"panorama pixels must be (H, W, 3), got {pixels.shape}")
     t0 = time.perf_counter()
-    est = _REGISTRY[name].run(pixels, lmax)
+    entry = _REGISTRY[name]
+    est = entry.run(pixels, lmax, restore=restore) if entry.restores else entry.run(pixels, lmax)
+    if not entry.restores and pixels.dtype != np.uint8 and (ceiling := find_ceiling(pixels)) is not None:
+        est.info["restoration"] = {**ceiling.describe(), "restored": False,
+                                   "why": f"the {name} estimator takes an HDR file as it is (keylight and sources "
+                                          f"weigh a clipped plateau)"}
     est.info.update({"name": name, "version": __version__, "estimate_s": time.perf_counter() - t0})
     return est

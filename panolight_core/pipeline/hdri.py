@@ -1,7 +1,8 @@
 """The full-resolution HDR panorama of an estimate (``hdr.exr``): the input, linearised at its own
 resolution, with the energy the estimator recovered put back into the clipped pixels.
 
-For an HDR input it is the input. For an LDR it is sRGB -> linear plus the estimator's excess over the
+For an HDR input it is the input (one that clips its own source: with the plateau's restored energy added to the
+plateau's pixels, ``sources.restore``). For an LDR it is sRGB -> linear plus the estimator's excess over the
 plain linearised work map, cell by cell (``sources.fill_full_resolution``): each work cell's pixel mean
 gains exactly the cell's recovered excess, so the HDRI's SH projection equals the estimate's (the
 lighting.json model) up to the model's truncation. The per-source estimator shapes the excess like a
@@ -23,9 +24,11 @@ from ..packed import PackedImage
 def hdr_panorama(pixels: np.ndarray, est) -> np.ndarray:
     """(H, W, 3) float32 linear HDR (clip level = 1 for LDR inputs) of panorama ``pixels`` (uint8 sRGB or
     float linear) and its ``estimators.Estimate``."""
+    rec = getattr(est, "recovery", None)
     if pixels.dtype != np.uint8:
-        return np.asarray(pixels, dtype=np.float32)
-    if getattr(est, "recovery", None) is not None:
+        return np.asarray(pixels if rec is None or rec.source is None else rec.source.filled(rec, keys=True),
+                          dtype=np.float32)
+    if rec is not None:
         return assemble(pixels.shape, hdr_blocks(pixels, est))
     linear = ldr_to_linear(pixels)
     work = est.radiance
@@ -75,8 +78,9 @@ class HdrRows:
                                            (rec.regions.centre, rec.regions.shape_exponents(), rec.regions.labels),
                                            rec.key_points())
             self._peak = float(SRGB8_TO_LINEAR[int(pixels.max(initial=0))]) + self.fill.peak()
-        else:  # an HDR input (perhaps a packed.PackedImage) is read block by block as it is
-            self.full = pixels if pixels.dtype != np.uint8 else hdr_panorama(pixels, est)
+        else:  # an HDR input (perhaps a packed.PackedImage; restored: its plateau filled) is read block by block
+            self.full = (pixels if rec is None or rec.source is None else rec.source.filled(rec, keys=True)
+                         ) if pixels.dtype != np.uint8 else hdr_panorama(pixels, est)
             self.blocks = row_blocks(*self.full.shape[:2])
             self._peak = None
 

@@ -26,6 +26,11 @@ WINDOWS = {  # deringing: name -> (label, one line); the fixed families are sh.w
     **{f: (_FAMILY_LABELS.get(f, f), f"a fixed {_FAMILY_LABELS.get(f, f)} window of --window-width")
        for f in FAMILIES},
 }
+RESTORES = {  # an HDR file that clips its own source: name -> (label, one line)
+    "auto": ("Restore", "an HDR file that clips its own sun or lamp (a plateau at its ceiling) gets the plateau's "
+                        "energy weighed as a photo's clipped sun is; every other pixel is kept as it is"),
+    "none": ("As it is", "take an HDR file as it is, clipped or not (its exact projection)"),
+}
 MAX_LMAX = 100  # a fixed order beyond the adaptive range; render-mitsuba caps what it renders lower
 MAX_EXPOSURE_EV = 60.0  # 2^60 keeps any clip-level radiance finite in float32 outputs
 MAX_SUN_STRENGTH = 1000.0
@@ -44,7 +49,8 @@ class Settings:
     the estimate found; sun_contrast: weigh it by the photo's lit / shadow ground contrast (> 1) instead of its sky
     (``pointed_sun.with_pointed_sun``). sun_metadata: where no direction is given, a photo whose metadata holds its
     GPS position, UTC time and heading gets the sun's direction from them (``estimate.capture_sun``) where the photo
-    does not place a sun itself. Invalid values raise PanoLightError naming the setting."""
+    does not place a sun itself. restore: RESTORES (an HDR file that clips its own source). Invalid values raise
+    PanoLightError naming the setting."""
 
     estimator: str = "auto"
     model: str = "auto"
@@ -57,6 +63,7 @@ class Settings:
     sun_direction: tuple | None = None  # the artist's sun: a direction (CONVENTIONS.md frame); made unit here
     sun_contrast: float | None = None  # ... weighed by the photo's lit/shadow ground contrast instead of its sky
     sun_metadata: bool = True  # the sun from the photo's GPS position, UTC time and heading, where it hides it
+    restore: str = "auto"  # RESTORES
 
     def __post_init__(self):
         from ..estimators import resolve
@@ -64,6 +71,7 @@ class Settings:
         resolve(self.estimator)  # unknown or unavailable names fail here, before any reading
         check_choice("model", self.model, MODELS)
         check_choice("window", self.window, WINDOWS)
+        check_choice("restore", self.restore, RESTORES)
         if self.lmax is not None:
             object.__setattr__(self, "lmax", parse_lmax(str(self.lmax), "lmax"))
         for name, (lo, hi) in RANGES.items():
@@ -248,6 +256,10 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                                  "Photo Sphere write it) gets its sun's direction from them wherever the photo does not "
                                  "place a sun itself (hidden, veiled, or inside a wide clipped patch); --sun overrides "
                                  "it, and lighting.json says which was used")
+    parser.add_argument("--restore", choices=tuple(RESTORES), default="auto",
+                        help="; ".join(f"{n}{' (default)' if n == 'auto' else ''}: {text}"
+                                       for n, (_, text) in RESTORES.items())
+                        + "; lighting.json's estimator.restoration says what was found and done")
     parser.add_argument("--window", type=argparse_type(_window), default="none", metavar="KIND",
                         help="deringing: " + "; ".join(f"{n}{' (default)' if n == 'none' else ''}: {text}"
                                                        for n, (_, text) in WINDOWS.items()))
@@ -261,4 +273,5 @@ def from_args(args) -> Settings:
                     window=args.window, window_width=args.window_width, exposure_ev=args.exposure,
                     sun_strength=getattr(args, "sun_strength", 1.0),
                     sun_direction=getattr(args, "sun", None) or getattr(args, "sun_direction", None),
-                    sun_contrast=getattr(args, "sun_contrast", None), sun_metadata=getattr(args, "sun_metadata", True))
+                    sun_contrast=getattr(args, "sun_contrast", None), sun_metadata=getattr(args, "sun_metadata", True),
+                    restore=getattr(args, "restore", "auto"))

@@ -5,7 +5,8 @@ For every scene of ../shared/data/hdri with a dominant compact source and an un-
 ev-0 camera's exposure (the factor that puts its median luminance at 0.18: the JPEG's white is then 1), and
 - the camera JPEG at ev 0 (q90), estimated as ``panolight estimate`` does (``keylight``);
 - the same truth clipped per channel at 2^k (k = 2, 4, 6 stops over the JPEG's white), as a float HDR file
-  that clips its sun holds it, estimated as an HDR input (its exact projection, the lights the model takes).
+  that clips its sun holds it, estimated as an HDR input: as it is (``--restore none``: its exact projection, the
+  lights the model takes) and restored (the default: ``sources.restore``).
 Each is scored against the truth: m-RMSE at lmax 2 over the JPEG's naive projection's and over the clipped
 file's own projection, the dominant source's energy ratio r (on the estimate's hdr.exr), the shadow contrast
 C (EVALUATION.md) and the brightest light's direction error.
@@ -31,11 +32,12 @@ from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, sce
 from training.common.study import fold_estimators, fold_models_option, save_study
 
 
-def score(truth: np.ndarray, ds: dict, pixels: np.ndarray, scale: float = 1.0, estimator: str = "auto") -> dict:
-    """One capture's estimate (``estimate_lighting`` of uint8 or float ``pixels`` by ``estimator``, its units times
-    ``scale`` in the truth's) scored against ``truth`` (the HDR at the camera's exposure) and its dominant source
-    ``ds``."""
-    res = estimate_lighting(pixels, Settings(estimator=estimator))
+def score(truth: np.ndarray, ds: dict, pixels: np.ndarray, scale: float = 1.0, estimator: str = "auto",
+          restore: str = "auto") -> dict:
+    """One capture's estimate (``estimate_lighting`` of uint8 or float ``pixels`` by ``estimator``, with ``restore``,
+    its units times ``scale`` in the truth's) scored against ``truth`` (the HDR at the camera's exposure) and its
+    dominant source ``ds``."""
+    res = estimate_lighting(pixels, Settings(estimator=estimator, restore=restore))
     key = metrics.brightest_light(res.model.lights)
     gt = sh.project(truth, 2)
     own = ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
@@ -56,17 +58,18 @@ def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto")
         return []
     truth = hdr * auto_exposure(hdr, 0.0)
     true_c = metrics.true_shadow_contrast(hdr, ds["direction"])
-    captures = [("JPEG", hdr_to_ldr(hdr, 0.0, 90), 1.0)]
+    captures = [("JPEG", hdr_to_ldr(hdr, 0.0, 90), 1.0, "auto")]
     for s in stops:
         clipped = np.minimum(truth, 2.0 ** s)
-        captures.append((f"HDR clipped at +{s:g} stops", clipped.astype(np.float32), 1.0))
+        captures.append((f"HDR clipped at +{s:g} stops, as it is", clipped.astype(np.float32), 1.0, "none"))
+        captures.append((f"HDR clipped at +{s:g} stops, restored", clipped.astype(np.float32), 1.0, "auto"))
         if as_ldr:  # the same file through the LDR path: its ceiling made the white of an 8-bit sRGB picture
             ldr = np.round(linear_to_srgb(clipped / 2.0 ** s) * 255.0).astype(np.uint8)
-            captures.append((f"HDR clipped at +{s:g} stops, as an 8-bit picture", ldr, 2.0 ** s))
+            captures.append((f"HDR clipped at +{s:g} stops, as an 8-bit picture", ldr, 2.0 ** s, "auto"))
     rows = []
-    for name, pixels, scale in captures:
+    for name, pixels, scale, restore in captures:
         row = {"scene": path.stem, "capture": name, "true_contrast": true_c,
-               **score(truth, ds, pixels, scale, estimator)}
+               **score(truth, ds, pixels, scale, estimator, restore)}
         rows.append(row)
     jpeg = rows[0]["own_projection_m_rmse"]  # the JPEG's naive projection: the EVALUATION.md baseline
     for row in rows:

@@ -11,7 +11,10 @@ predicted from what the picture does show. One module per job:
   r = true energy / energy its cells hold, as a mean mu and a spread sigma.
 - ``decision``: which ratio to report, the one of least expected error under the metric itself.
 - ``fill``: the excess put back into the work map and the full-resolution pixels.
-- ``recovery``: all of it in one call, ``recover`` (``assemble``: from a prediction of any origin).
+- ``recovery``: all of it in one call, ``recover`` (``assemble``: from a prediction of any origin; ``recover_hdr``:
+  an HDR file's clipped plateau, ``restore``).
+- ``restore``: an HDR file that clips its own source (``camera.ceiling``), read in clip units, and the restored
+  panorama, only its plateau's pixels changed.
 
 Work maps: radiance (h, 2h, 3) linear in clip units (1 = white), Blender world frame (CONVENTIONS.md).
 """
@@ -27,7 +30,7 @@ from .decision import (
 )
 from .features import FEATURES, RING_EDGES_DEG, region_features
 from .fill import FullResolutionFill, cap_log_ratios, fill_full_resolution, fill_regions
-from .recovery import Recovery, assemble, decide, recover
+from .recovery import Recovery, assemble, decide, recover, recover_hdr
 from .regions import MAX_REGIONS, SHAPE_MAX_EXTENT_DEG, WIDE_CONCENTRATION, Regions
 from .trees import MODEL_PATH, SourceModel, TreeEnsemble, ensemble_arrays, load_source_model
 
@@ -37,6 +40,6 @@ __all__ = [
     "FullResolutionFill", "Recovery", "Regions", "SourceModel", "TreeEnsemble", "_weighted_errors", "assemble",
     "decide",
     "cap_log_ratios", "choose_shrink", "ensemble_arrays", "fill_full_resolution", "fill_regions", "load_source_model",
-    "recover",
+    "recover", "recover_hdr",
     "region_features", "work_maps",
 ]

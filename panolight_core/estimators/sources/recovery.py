@@ -38,6 +38,8 @@ class Recovery:
     sun_search: dict | None = None  # keylight.sun_search_report: the search for a sun the photo does not show
     frac_any: np.ndarray | None = None  # the any-channel clipped fraction (h, 2h): with base and frac, the work maps
     decided: np.ndarray | None = None  # the reported log ratios before any key light capped them (``with_keys``)
+    source: object | None = None  # restore.Source: the HDR file whose clipped plateau this restores (maps in clip
+    # units: its energies times source.level are in the file's); None for a photo
 
     def __post_init__(self):
         if self.diffuse is None:
@@ -104,6 +106,12 @@ class Recovery:
                         "extent_deg": float(extent[i]),
                         "color": [round(float(v), 6) for v in r.color[i]], "exponent": float(r.exponent[i])})
         return out
+
+
+def recover_hdr(source, model: SourceModel | None = None) -> Recovery:
+    """``recover`` of an HDR file's clipped plateau (``restore.Source``): its work maps in clip units, the regions,
+    the model's decision and the fill, as of a photo whose white is the file's ceiling."""
+    return replace(recover(None, model, source.work_maps(WORK_HEIGHT)), source=source)
 
 
 def recover(ldr: np.ndarray, model: SourceModel | None = None, maps=None) -> Recovery:

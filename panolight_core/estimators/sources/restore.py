@@ -1,0 +1,104 @@
+"""Restoring an HDR file's clipped source: the plateau ``camera.ceiling`` finds is weighed by the same per-source
+and key-light machinery as a photo's clipped sun, and only its pixels change.
+
+The file is read in clip units (the ceiling's largest channel is 1), so its plateau is what a camera's white is
+to the trees. Its work maps are the file's own linear pixels, area-averaged (no 8-bit quantisation, no tone
+curve), and the clipped fractions count the plateau's pixels. Every pixel off the plateau keeps its value to the
+bit in ``hdr.exr`` and in the radiance the lighting model is fitted to: the recovered energy is added to the
+plateau's pixels only (``fill.FullResolutionFill``), in the file's units.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ... import sh
+from ...camera.ceiling import Ceiling
+from ...camera.resample import area_downsample_rows
+from ...packed import PackedImage
+from ..highlights import WORK_HEIGHT
+from .fill import FullResolutionFill
+
+BLOCK_ROWS = 256
+
+
+@dataclass(frozen=True)
+class Source:
+    """The HDR a recovery restores: its float pixels (H, W, 3) (an ndarray or ``packed.PackedImage``), in the
+    file's units, and their ``Ceiling``. The recovery's maps and energies are in clip units: times ``level``."""
+
+    pixels: object
+    ceiling: Ceiling
+    _projections: dict = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def level(self) -> float:
+        return self.ceiling.level
+
+    def projection(self, lmax: int) -> np.ndarray:
+        """(K, 3) float64: the exact SH projection of the pixels as they are (made once per order)."""
+        if lmax not in self._projections:
+            self._projections[lmax] = sh.project(self.pixels, lmax).astype(np.float64)
+        return self._projections[lmax]
+
+    def plateau_rows(self, r0: int, r1: int) -> np.ndarray:
+        """(r1 - r0, W) bool: the plateau pixels of rows r0..r1 (the pixels the restoration fills)."""
+        return self.ceiling.plateau(np.asarray(self.pixels[r0:r1], dtype=np.float32))
+
+    def work_maps(self, height: int = WORK_HEIGHT):
+        """(rad (h, 2h, 3) float64 in clip units, frac_any, frac_all (h, 2h)) as ``highlights.work_maps`` makes
+        them of a photo: the area means of the pixels over ``level``, of the pixels with a channel at its ceiling,
+        and of the plateau's pixels; h = min(height, H)."""
+        level = np.float32(self.level)
+        ceiling = self.ceiling
+
+        def transform(block):
+            block = np.asarray(block, dtype=np.float32)
+            k = ceiling.at_ceiling(block)
+            return np.concatenate([block / level, (k >= 1)[..., None].astype(np.float32),
+                                   ceiling.plateau(block)[..., None].astype(np.float32)], axis=-1)
+
+        maps = area_downsample_rows(self.pixels, min(height, self.pixels.shape[0]), transform)
+        return maps[..., :3], maps[..., 3], maps[..., 4]
+
+    def filled(self, rec, keys: bool) -> PackedImage:
+        """The restored panorama in the file's units, read by row blocks: the pixels, plus on the plateau the
+        energy recovery ``rec`` (a ``sources.Recovery`` of ``work_maps``) put back beyond them, with its key lights
+        (``keys``: what ``hdr.exr`` holds) or without (the diffuse radiance the lighting model is fitted to)."""
+        excess = np.maximum((rec.diffuse - rec.base) * self.level, 0.0)
+        points = [(d, e * self.level) for d, e in rec.key_points()] if keys else []
+        fill = FullResolutionFill(self.plateau_rows, self.pixels.shape[:2], excess,
+                                  (rec.regions.centre, rec.regions.shape_exponents(), rec.regions.labels), points)
+        return PackedImage(FilledRows(self, fill), "file")
+
+
+class FilledRows:
+    """The rows of a ``Source``'s pixels with a ``FullResolutionFill`` applied: a ``packed.PackedImage`` store
+    (kind "file"), read again at each access, so no full-size copy of a large panorama exists."""
+
+    repair = None
+
+    def __init__(self, source: Source, fill: FullResolutionFill):
+        self.source, self.fill = source, fill
+        self.shape = source.pixels.shape[:2] + (3,)
+        self.nbytes = 0
+        pixels = source.pixels
+        peak = pixels.peak() if isinstance(pixels, PackedImage) else float(np.max(pixels, initial=0.0))
+        self.top = peak + fill.peak()  # an upper bound, what hdr.exr's writer needs
+
+    def _rows(self, r0: int, r1: int) -> np.ndarray:
+        block = np.array(self.source.pixels[r0:r1], dtype=np.float32)
+        self.fill.apply(block, r0, self.source.plateau_rows(r0, r1))
+        return block
+
+    def __getitem__(self, key):
+        if isinstance(key, slice):
+            r0, r1, _ = key.indices(self.shape[0])
+            return self._rows(r0, max(r0, r1))
+        rows, cols = key  # gathered a block of rows at a time: only the blocks holding them are read
+        out = np.empty((len(rows), 3), np.float32)
+        for c0 in np.unique(np.asarray(rows) // BLOCK_ROWS) * BLOCK_ROWS:
+            mine = (rows >= c0) & (rows < c0 + BLOCK_ROWS)
+            out[mine] = self._rows(int(c0), min(self.shape[0], int(c0) + BLOCK_ROWS))[rows[mine] - c0, cols[mine]]
+        return out
