@@ -71,6 +71,7 @@ def configure(scene, args, core) -> None:
     s.sun_strength = args.sun_strength
     s.sun_pointed = args.sun is not None
     s.sun_metadata = args.sun_metadata
+    s.restore_clipped = args.restore != "none"
     if args.sun is not None:  # the panel keeps angles: azimuth to the right in the image, elevation up
         x, y, z = args.sun
         s.sun_azimuth, s.sun_elevation = math.atan2(-y, x), math.asin(max(-1.0, min(1.0, z)))

@@ -52,6 +52,11 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                            "(Theta, Insta360, Photo Sphere) gets its sun's direction from them where "
                                            "the photo does not place a sun itself (hidden, veiled, a wide clipped "
                                            "patch). 'Sun is here' overrides it")
+    restore_clipped: BoolProperty(name="Restore a clipped sun", default=True,
+                                  description="An HDR file that clips its own sun or lamp (a plateau at its "
+                                              "ceiling, as most HDRIs shot without an ND filter do) gets the "
+                                              "plateau's energy weighed as a photo's clipped sun is; every other "
+                                              "pixel is kept (--restore auto). Off: the file as it is")
     # the world built from the estimate
     background_strength: FloatProperty(name="Background strength", default=1.0, min=0.0, soft_max=10.0)
     lighting_strength: FloatProperty(name="Lighting strength", default=1.0, min=0.0, soft_max=10.0)
@@ -86,7 +91,8 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                   window=self.window, window_width=self.window_width or None,
                                   exposure_ev=self.exposure, sun_direction=sun,
                                   sun_contrast=(self.sun_contrast or None) if self.sun_pointed else None,
-                                  sun_metadata=self.sun_metadata)
+                                  sun_metadata=self.sun_metadata,
+                                  restore="auto" if self.restore_clipped else "none")
 
 
 def draw_panel(layout, context):
@@ -111,6 +117,7 @@ def draw_panel(layout, context):
             box.prop(s, prop)
     else:
         box.prop(s, "sun_metadata")
+    box.prop(s, "restore_clipped")
     box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
     box.label(text="Estimated" if store.has_lighting(world) else "Not estimated yet")
     box = layout.box()

@@ -84,12 +84,13 @@ def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
                     {"input": "ldr", "work_height": work, "clipped_regions": blobs}, recovered)
 
 
-def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_path=None, restore: bool = True
-               ) -> Estimate:
+def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_path=None, restore: bool = True,
+               hdr_model_path=None) -> Estimate:
     """The per-source estimate (``keylight`` with key lights, else ``sources``) with the shipped per-source
     energy model or the one in ``model_path``. An HDR file is its exact projection, unless it clips its own source
     (``camera.ceiling``): then, with ``restore``, its plateau is weighed as a photo's clipped sun is
-    (``sources.restore``), and every other pixel kept."""
+    (``sources.restore``), and every other pixel kept, by the model in ``hdr_model_path`` (default: ``model_path``
+    when given, else the shipped ``sources.HDR_MODEL_PATH``, trained on clipped HDR files too)."""
     name = "keylight" if key_lights else "sources"
     from . import sources
     from .sources.restore import Source
@@ -105,7 +106,11 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
                                        "why": "--restore none: the file as it is, its clipped plateau unweighed"}
             return est
         info = {"input": "hdr"}
-    model = sources.load_source_model(sources.MODEL_PATH if model_path is None else model_path)
+    if pixels.dtype == np.uint8:
+        path = sources.MODEL_PATH if model_path is None else model_path
+    else:
+        path = hdr_model_path or model_path or sources.HDR_MODEL_PATH
+    model = sources.load_source_model(path)
     rec = (sources.recover(pixels, model) if pixels.dtype == np.uint8 else
            sources.recover_hdr(Source(pixels, ceiling), model))
     if key_lights:  # also without regions: a sun the photo does not show
@@ -211,15 +216,17 @@ def register_model(label: str, weights) -> str:
     return label
 
 
-def register_source_model(label: str, path, key_lights: bool = True) -> str:
+def register_source_model(label: str, path, key_lights: bool = True, hdr_path=None) -> str:
     """Make a per-source energy model file usable as estimator ``label``: ``keylight`` (or, without
     ``key_lights``, ``sources``) with that model instead of the shipped one, e.g. a cross-validation fold's
-    model that never saw the scene it estimates (training/keylight/cv.py --fold-models)."""
+    model that never saw the scene it estimates (training/keylight/cv.py --fold-models); ``hdr_path``: the model
+    that restores a clipped HDR file (default ``path``)."""
     from . import sources
 
     _check_label(label)
-    sources.load_source_model(path)  # fail now, naming the file, not in the middle of an evaluation
-    _REGISTRY[label] = Entry(partial(per_source, key_lights=key_lights, model_path=path), label,
+    for p in (path, hdr_path) if hdr_path else (path,):
+        sources.load_source_model(p)  # fail now, naming the file, not in the middle of an evaluation
+    _REGISTRY[label] = Entry(partial(per_source, key_lights=key_lights, model_path=path, hdr_model_path=hdr_path), label,
                              f"{'keylight' if key_lights else 'sources'} with the per-source model {path}", True)
     return label
 

@@ -845,3 +845,31 @@ def test_the_headless_script_points_at_the_sun(tmp_path):
     r = subprocess.run([sys.executable, str(batch), "--", "--input", str(png), "--sun-contrast", "3"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and "give --sun too" in r.stderr
+
+
+def test_a_clipped_hdri_gets_its_sun_back_in_blender_as_on_the_command_line(tmp_path):
+    """An EXR that clips its own sun: the panel restores it (a sun lamp where the sun is), as ``panolight estimate``
+    does; *Restore a clipped sun* off takes the file as it is, as ``--restore none`` does."""
+    from panolight_core import metrics
+    from panolight_core.apps.cli import main
+    from panolight_core.io.lighting import read_lighting
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    truth, s, _ = _clear_day()  # 512 x 256: its clipped sun a plateau of 6 pixels
+    path = write_image(tmp_path / "clipped.exr", np.minimum(truth, np.float32(16.0)))
+    facing = {}
+    for restore, flag in ((True, "auto"), (False, "none")):
+        assert main(["estimate", str(path), "-o", str(tmp_path / flag), "-q", "--restore", flag]) == 0
+        want, cli_doc = read_lighting(tmp_path / flag / "lighting.json")
+        assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
+        _configure(restore_clipped=restore)
+        assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+        doc = store.stored_lighting(bpy.context.scene.world)
+        assert doc["estimator"]["restoration"]["restored"] is restore
+        assert np.allclose(doc["coefficients"], want, rtol=1e-9, atol=1e-12)
+        assert [light["intensity"] for light in doc["lights"]] == pytest.approx(
+            [light["intensity"] for light in cli_doc["lights"]], rel=1e-9)
+        key = metrics.brightest_light(doc["lights"])
+        facing[flag] = 0.0 if key is None else key["intensity"] * float(metrics.angle_deg(key["direction"], s) < 1.0)
+    assert facing["auto"] > 5 * facing["none"]  # the restored sun lamp stands where the sun is, far stronger
+    _configure(restore_clipped=True)

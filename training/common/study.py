@@ -67,11 +67,13 @@ def fold_models_option(ap: argparse.ArgumentParser) -> None:
                          "not the shipped one, which saw the scenes it was trained on")
 
 
-def fold_estimators(pattern: str, files, estimator: str = "keylight") -> dict:
+def fold_estimators(pattern: str, files, estimator: str = "keylight", hdr_pattern: str | None = None) -> dict:
     """{scene file: the name of ``estimator`` ("keylight" or "sources") registered with the per-source model of its
     fold} (``fold_model_paths``; the folds of ``training.source_energy.cv``): each scene scored by trees that never
-    saw it."""
-    label = {k: register_source_model(f"{estimator}-fold{k}", path, key_lights=estimator == "keylight")
+    saw it; ``hdr_pattern``: the fold models that restore a clipped HDR file (default: ``pattern``'s)."""
+    hdr = fold_model_paths(hdr_pattern) if hdr_pattern else {}
+    label = {k: register_source_model(f"{estimator}-fold{k}", path, key_lights=estimator == "keylight",
+                                      hdr_path=hdr.get(k))
              for k, path in fold_model_paths(pattern).items()}
     return {p: label[k] for p, k in fold_of(files).items()}
 

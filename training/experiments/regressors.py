@@ -142,7 +142,7 @@ def main(argv=None) -> int:
     if args.networks < 1:
         ap.error("--networks must be at least 1")
     files = scene_files(args.hdri)
-    X, y, share, scene = cached_table(args.table, files, args.augment, 0, 0.0)
+    X, y, share, scene, _ = cached_table(args.table, files, args.augment, 0, 0.0)
     w = sample_weight(share)
     print(f"regressors: {len(files)} scenes, {len(y)} regions, 5 scene folds")
     preds = out_of_fold(X, y, w, scene, scene_folds(len(files), 5), args.networks)

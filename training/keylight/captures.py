@@ -116,10 +116,15 @@ def main(argv=None) -> int:
                     help="also estimate each clipped file through the LDR path, its ceiling the white of an 8-bit "
                          "sRGB picture (the per-source and key-light machinery as they are)")
     fold_models_option(ap)
+    ap.add_argument("--hdr-fold-models", default=None, metavar="PATTERN",
+                    help="with --fold-models: the fold models that restore the clipped HDR files (models/"
+                         "sources_hdr.safetensors' folds: fit ship --hdr-cameras 8 --hold-out K/5; default: "
+                         "--fold-models')")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
-    estimator_of = fold_estimators(args.fold_models, files) if args.fold_models else {p: "auto" for p in files}
+    estimator_of = (fold_estimators(args.fold_models, files, hdr_pattern=args.hdr_fold_models) if args.fold_models
+                    else {p: "auto" for p in files})
     clipped = clipped_truth(args.hdri)
     rows = []
     for i, path in enumerate(files, 1):

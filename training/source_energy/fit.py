@@ -162,28 +162,44 @@ def main(argv=None) -> int:
     ap.add_argument("--table", type=Path, default=None, metavar="NPZ",
                     help="ship: keep the training rows of all the scenes here and reuse them (cached_table): the "
                          "shipped model and the five --hold-out models then share one table and its cameras")
+    ap.add_argument("--hdr-cameras", type=int, default=0, metavar="N",
+                    help="also N clipped HDR files per scene (data.clipped_hdr_camera: the scene clipped at 1-7 stops "
+                         "over its JPEG's white), what the HDR restoration's model learns from (default 0: photos "
+                         "alone, as models/sources.safetensors was trained; models/sources_hdr.safetensors: 6)")
+    ap.add_argument("--rows", choices=("all", "photos", "hdr"), default="all",
+                    help="ship: train on these rows of the table (default all)")
     ap.add_argument("--drop-features", nargs="+", default=[], metavar="NAME", choices=sources.FEATURES,
                     help="ship: train without these features (an ablation; the model names the columns it uses)")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
     test = fold_files(files, args.hold_out) if args.hold_out else []
     if args.table and args.command == "ship":
-        X, y, s, g = cached_table(args.table, files, args.augment, args.seed, args.inject, resave=args.resave)
+        X, y, s, g, k = cached_table(args.table, files, args.augment, args.seed, args.inject, resave=args.resave,
+                                     hdr_cameras=args.hdr_cameras)
         keep = ~np.isin(g, [i for i, f in enumerate(files) if f in test])
+        if args.rows != "all":
+            keep &= k == (1 if args.rows == "hdr" else 0)
         X, y, s, g = X[keep], y[keep], s[keep], g[keep]
         files = [f for f in files if f not in test]
         print(f"source energy: {len(files)} scenes x {args.augment} cameras")
     else:
         files = [f for f in files if f not in test]
         print(f"source energy: {len(files)} scenes x {args.augment} cameras")
-        X, y, s, g = build_table(files, args.augment, args.seed, inject=args.inject, resave=args.resave)
+        X, y, s, g, k = build_table(files, args.augment, args.seed, inject=args.inject, resave=args.resave,
+                                    hdr_cameras=args.hdr_cameras)
+        if args.rows != "all":
+            keep = k == (1 if args.rows == "hdr" else 0)
+            X, y, s, g = X[keep], y[keep], s[keep], g[keep]
     w = sample_weight(s, X, args.weight)
     if args.command == "ship":
         names = tuple(n for n in sources.FEATURES if n not in args.drop_features)
         X = X[:, [sources.FEATURES.index(n) for n in names]]
         mean, spread, _ = fit(X, y, w, args.seed, g)
         out = save(args.out or sources.MODEL_PATH, mean, spread, args.shrink, {
-            "trained_on": f"{len(files)} scenes of {Path(args.hdri).name} x {args.augment} cameras, {y.size} regions",
+            "trained_on": f"{len(files)} scenes of {Path(args.hdri).name} x {args.augment} cameras"
+                          + (f" + {args.hdr_cameras} clipped HDR files" if args.hdr_cameras else "")
+                          + (f" ({args.rows} rows)" if args.rows != "all" else "") + f", {y.size} regions",
+            "hdr_cameras": args.hdr_cameras, "rows": args.rows,
             "scenes": [f.name for f in files], "gbt": GBT, "spread_gbt": SPREAD_GBT, "seed": args.seed,
             "resave": args.resave, "weight": args.weight, "environment": environment()}, names)
         print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} kB)")

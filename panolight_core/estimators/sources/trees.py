@@ -17,6 +17,8 @@ from ...errors import PanoLightError
 from .features import FEATURES
 
 MODEL_PATH = Path(__file__).resolve().parents[2] / "models" / "sources.safetensors"
+HDR_MODEL_PATH = MODEL_PATH.with_name("sources_hdr.safetensors")  # the same trees, trained on clipped HDR files too:
+# what restores an HDR file that clips its own source (``restore``)
 
 
 @dataclass(frozen=True)

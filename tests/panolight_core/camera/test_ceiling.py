@@ -1,0 +1,59 @@
+import math
+
+import numpy as np
+import pytest
+
+from panolight_core import sh
+from panolight_core.camera.ceiling import CEILING_TOL, MIN_HEADROOM, find_ceiling
+from panolight_core.packed import PackedImage, RowFile
+
+
+def _sky_with_sun(h=128, sun_radiance=5e4):
+    """A smooth sky (0.2-1.2) with a one-degree sun: an un-clipped HDR whose peak is one pixel's."""
+    d = sh.pixel_directions(h, 2 * h)
+    s = np.array([0.6, 0.3, 0.74])
+    s /= np.linalg.norm(s)
+    img = (0.2 + np.maximum(d[..., 2], 0.0))[..., None] * np.array([0.7, 0.85, 1.0])
+    ang = np.degrees(np.arccos(np.clip(d @ s, -1.0, 1.0)))
+    img = img + (sun_radiance * np.exp(-(ang / 1.0) ** 2))[..., None]
+    return img.astype(np.float32), s
+
+
+def test_a_peaked_sun_is_no_plateau_and_the_same_sun_clipped_is_one():
+    img, _ = _sky_with_sun()
+    assert find_ceiling(img) is None  # one brightest pixel: a real sun, left alone
+    clipped = np.minimum(img, np.float32(100.0))
+    c = find_ceiling(clipped)
+    assert c is not None and c.rgb == pytest.approx((100.0, 100.0, 100.0))
+    plateau = (clipped >= 100.0 * (1 - CEILING_TOL)).sum(axis=-1) >= 2  # at the ceiling to its last bits
+    assert c.pixels == int(plateau.sum()) >= 3
+    assert c.solid_angle == pytest.approx(float(sh.pixel_solid_angles(*plateau.shape)[plateau].sum()), rel=1e-9)
+    assert c.level == 100.0 and c.headroom > MIN_HEADROOM
+    assert c.describe()["plateau_pixels"] == c.pixels
+
+
+def test_a_warm_sun_clipped_in_two_channels_is_a_plateau_one_channel_alone_is_not():
+    img, _ = _sky_with_sun()
+    img *= np.array([1.0, 0.8, 0.3], np.float32)  # blue stays under the ceiling
+    two = np.minimum(img, np.float32(200.0))
+    assert find_ceiling(two) is not None
+    one = img.copy()
+    one[..., 0] = np.minimum(one[..., 0], 300.0)  # only red ties: a coloured lamp's channel, not a clipped source
+    one[..., 1] = img[..., 1]
+    assert find_ceiling(one) is None
+
+
+def test_flat_and_black_images_have_no_ceiling():
+    assert find_ceiling(np.full((32, 64, 3), 0.5, np.float32)) is None  # every pixel at the top, but no headroom
+    assert find_ceiling(np.zeros((32, 64, 3), np.float32)) is None
+    grey = np.zeros((32, 64, 3), np.float32)
+    grey[..., 1] = 1.0  # one channel: no two channels can sit at a ceiling
+    assert find_ceiling(grey) is None
+
+
+def test_a_large_image_read_by_rows_finds_the_same_ceiling():
+    img, _ = _sky_with_sun(h=600)
+    clipped = np.minimum(img, np.float32(50.0))
+    packed = PackedImage(RowFile(lambda r0, r1: clipped[r0:r1], *clipped.shape[:2]), "file")
+    assert find_ceiling(packed) == find_ceiling(clipped)
+    assert math.isfinite(find_ceiling(clipped).headroom)

@@ -1,0 +1,119 @@
+"""An HDR file that clips its own sun: the plateau is found, weighed and filled; every other pixel is kept to the
+bit, and an un-clipped file is what it always was."""
+import math
+
+import numpy as np
+import pytest
+
+from panolight_core import metrics, sh
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
+from panolight_core.estimators import sky
+from panolight_core.packed import PackedImage, RowFile
+from panolight_core.pipeline.estimate import estimate_lighting
+from panolight_core.pipeline.settings import Settings
+
+
+def _clear_day(h=256, elev_deg=40.0):
+    """The tabulated clear sky with its sun spread over a peaked 1-degree disk (the 0.53 degree sun as a lens blurs
+    it: a real 1K panorama's clipped sun is 3 pixels or more), over a grey ground lit by both, exposed so its median
+    luminance is 0.18 (the ev-0 JPEG's white is then 1): (float32 HDR, sun direction, the sun's luminance
+    energy)."""
+    t = sky.load_sky_table()
+    j = int(np.argmin(abs(t.turbidities - 3.0)))
+    e, az = math.radians(elev_deg), 1.0
+    s = np.array([math.cos(e) * math.cos(az), math.cos(e) * math.sin(az), math.sin(e)])
+    d = sh.pixel_directions(h, 2 * h)
+    om = sh.pixel_solid_angles(h, 2 * h)
+    img = t.sky_radiance(d.reshape(-1, 3), s)[j].reshape(h, 2 * h, 3)
+    sun_rgb = t.sun_energy(elev_deg)[j]
+    ang = np.degrees(np.arccos(np.clip(d @ s, -1.0, 1.0)))
+    core = ang <= 1.0
+    shape = 1.0 - 0.5 * ang[core] ** 2  # brightest at its centre, as a blurred disk is: no two pixels tie
+    img[core] += sun_rgb * (shape / (shape * om[core]).sum())[:, None]
+    ground = d[..., 2] < 0
+    irradiance = (img[~ground] * (om[~ground] * np.maximum(d[~ground] @ np.array([0, 0, 1.0]), 0))[:, None]).sum(0)
+    img[ground] = 0.3 * irradiance / math.pi
+    k = 0.18 / float(np.median(img @ LUMINANCE_WEIGHTS))
+    return (img * k).astype(np.float32), s, float(sun_rgb @ LUMINANCE_WEIGHTS) * k
+
+
+@pytest.fixture(scope="module")
+def day():
+    return _clear_day()
+
+
+def test_an_unclipped_hdr_is_projected_exactly_as_before(day):
+    truth, _, _ = day
+    auto = estimate_lighting(truth)
+    none = estimate_lighting(truth, Settings(restore="none"))
+    assert "restoration" not in auto.document["estimator"]
+    assert auto.model.coeffs.tobytes() == none.model.coeffs.tobytes()
+    assert auto.model.lights == none.model.lights
+    assert auto.hdr_panorama(truth).tobytes() == truth.tobytes()
+
+
+def test_a_clipped_sun_is_restored_on_its_plateau_alone(day):
+    truth, s, sun_energy = day
+    clipped = np.minimum(truth, np.float32(16.0))  # 4 stops over the JPEG's white
+    plateau = (clipped >= 16.0).sum(axis=-1) >= 2
+    assert 3 <= plateau.sum() < 200
+    res = estimate_lighting(clipped)
+    info = res.document["estimator"]["restoration"]
+    assert info["restored"] and info["ceiling"] == [16.0, 16.0, 16.0] and info["plateau_pixels"] == plateau.sum()
+    out = res.hdr_panorama(clipped)
+    assert out[~plateau].tobytes() == clipped[~plateau].tobytes()  # every other pixel to the bit
+    assert (out[plateau] >= clipped[plateau]).all()
+    key = metrics.brightest_light(res.model.lights)
+    assert metrics.angle_deg(key["peak_direction"], s) < 1.0
+    held = metrics.cone_energy(clipped, s)
+    restored = metrics.cone_energy(out, s)
+    true = metrics.cone_energy(truth, s)
+    assert restored > 5 * held  # the clipped file held a small part of it
+    assert 0.25 < restored / true < 4.0
+    assert metrics.model_shadow_contrast(res.model, s) > 1.5  # the restored sun casts a shadow
+    # the estimate's own SH holds what hdr.exr holds (one account of the energy)
+    assert res.estimate.coeffs[0] == pytest.approx(sh.project(out.astype(np.float64), 0)[0], rel=1e-3)
+    assert true > sun_energy * 0.9  # the truth's cone holds its sun
+
+
+def test_restore_none_takes_the_file_as_it_is_and_says_so(day):
+    truth, _, _ = day
+    clipped = np.minimum(truth, np.float32(16.0))
+    res = estimate_lighting(clipped, Settings(restore="none"))
+    info = res.document["estimator"]["restoration"]
+    assert not info["restored"] and "--restore none" in info["why"]
+    assert res.hdr_panorama(clipped).tobytes() == clipped.tobytes()
+    assert np.array_equal(res.estimate.coeffs, sh.project(clipped, res.estimate.lmax).astype(np.float64))
+
+
+def test_an_estimator_that_cannot_restore_says_it_took_the_file_as_it_is(day):
+    truth, _, _ = day
+    res = estimate_lighting(np.minimum(truth, np.float32(16.0)), Settings(estimator="naive"))
+    info = res.document["estimator"]["restoration"]
+    assert not info["restored"] and "naive" in info["why"]
+
+
+def test_a_file_read_by_rows_is_restored_as_the_array_is(day):
+    truth, _, _ = day
+    clipped = np.minimum(truth, np.float32(16.0))
+    packed = PackedImage(RowFile(lambda r0, r1: clipped[r0:r1], *clipped.shape[:2]), "file")
+    a, b = estimate_lighting(clipped), estimate_lighting(packed)
+    assert np.allclose(a.model.coeffs, b.model.coeffs, rtol=1e-9, atol=1e-12)
+    assert a.hdr_panorama(clipped).tobytes() == b.hdr_panorama(packed).tobytes()
+
+
+def test_sun_strength_scales_the_restored_sun(day):
+    truth, s, _ = day
+    clipped = np.minimum(truth, np.float32(16.0))
+    one = estimate_lighting(clipped)
+    two = estimate_lighting(clipped, Settings(sun_strength=2.0))
+    k1, k2 = metrics.brightest_light(one.model.lights), metrics.brightest_light(two.model.lights)
+    assert k2["intensity"] == pytest.approx(2.0 * k1["intensity"], rel=1e-9)
+    assert metrics.cone_energy(two.hdr_panorama(clipped), s) > metrics.cone_energy(one.hdr_panorama(clipped), s)
+
+
+def test_a_bad_restore_setting_is_refused():
+    from panolight_core.errors import PanoLightError
+
+    with pytest.raises(PanoLightError, match="restore must be one of auto, none"):
+        Settings(restore="always")
