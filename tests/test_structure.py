@@ -86,6 +86,7 @@ def test_the_extension_zip_holds_the_estimation_core_and_no_developer_tools(tmp_
     core = [n for n in names if n.startswith("panolight_core/")]
     assert "blender_manifest.toml" in names and "operators.py" in names and "panolight_core/sh/basis.py" in core
     assert "panolight_core/models/sources.safetensors" in core
+    assert "panolight_core/models/sources_hdr.safetensors" in core  # what restores an HDR that clips its sun
     tools = [n for n in core if n.startswith(("panolight_core/apps/", "panolight_core/data.py"))
              or n.endswith(("cli.py", "evaluation.py", "extension.py", "__main__.py"))]
     assert not tools, tools

@@ -12,10 +12,11 @@ real un-clipped sun is a peaked disk: it has one brightest pixel, and is never t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .. import threads
 from ..sh.grid import row_solid_angles
 from .color import LUMINANCE_WEIGHTS
 
@@ -33,12 +34,14 @@ BLOCK_ROWS = 256
 @dataclass(frozen=True)
 class Ceiling:
     """The clip of an HDR image: rgb (3,) the per-channel ceilings (the file's units), the plateau's pixel count
-    and solid angle (sr), and its headroom (the ceiling's luminance over the image's median luminance)."""
+    and solid angle (sr), its headroom (the ceiling's luminance over the image's median luminance), and rows: the
+    rows holding a channel at its ceiling (what the later passes read: no other row has a clipped pixel)."""
 
     rgb: tuple
     pixels: int
     solid_angle: float
     headroom: float
+    rows: tuple = ()
 
     @property
     def level(self) -> float:
@@ -46,19 +49,54 @@ class Ceiling:
         return max(self.rgb)
 
     def at_ceiling(self, block: np.ndarray) -> np.ndarray:
-        """(n, W) int: how many channels of each pixel of a float (n, W, 3) block sit at their ceilings."""
+        """(n, W) uint8: how many channels of each pixel of a float (n, W, 3) block sit at their ceilings."""
         top = np.asarray(self.rgb, dtype=np.float32) * np.float32(1.0 - CEILING_TOL)
-        positive = np.asarray(self.rgb) > 0  # a black channel has no ceiling to sit at
-        return ((block >= top) & positive).sum(axis=-1)
+        count = np.zeros(block.shape[:2], np.uint8)
+        for c in range(3):
+            if self.rgb[c] > 0:  # a black channel has no ceiling to sit at
+                count += block[..., c] >= top[c]
+        return count
 
     def plateau(self, block: np.ndarray) -> np.ndarray:
         """(n, W) bool: the block's plateau pixels (MIN_PLATEAU_CHANNELS or more channels at their ceilings)."""
         return self.at_ceiling(block) >= MIN_PLATEAU_CHANNELS
 
+    def row_counts(self, pixels, r0: int, r1: int) -> np.ndarray:
+        """(r1 - r0, W) uint8: ``at_ceiling`` of rows r0..r1 of ``pixels``, reading only the rows in ``rows``."""
+        out = np.zeros((r1 - r0, pixels.shape[1]), np.uint8)
+        rows = np.asarray(self.rows, dtype=np.int64)
+        rows = rows[(rows >= r0) & (rows < r1)]
+        for a, b in row_runs(rows):
+            out[a - r0:b - r0] = self.at_ceiling(np.asarray(pixels[a:b], dtype=np.float32))
+        return out
+
     def describe(self) -> dict:
         """For lighting.json: the ceiling per channel, the plateau's pixels and solid angle, the headroom."""
         return {"ceiling": [float(v) for v in self.rgb], "plateau_pixels": int(self.pixels),
                 "plateau_sr": round(float(self.solid_angle), 8), "headroom": round(float(self.headroom), 3)}
+
+
+def row_runs(rows: np.ndarray):
+    """(first, last + 1) of each run of consecutive row indices in sorted ``rows``."""
+    if not rows.size:
+        return []
+    breaks = np.flatnonzero(np.diff(rows) > 1)
+    starts = np.concatenate([[rows[0]], rows[breaks + 1]])
+    ends = np.concatenate([rows[breaks], [rows[-1]]]) + 1
+    return list(zip(starts.tolist(), ends.tolist()))
+
+
+def row_channel_max(block: np.ndarray) -> np.ndarray:
+    """(n, 3): each row's largest value per channel of an (n, W, 3) block, by halving the row (numpy reduces a
+    middle axis of length W 12x slower)."""
+    m = block
+    while m.shape[1] > 1:
+        k = m.shape[1] // 2
+        head = np.maximum(m[:, :k], m[:, k:2 * k])
+        if m.shape[1] % 2:
+            head[:, :1] = np.maximum(head[:, :1], m[:, 2 * k:])
+        m = head
+    return m[:, 0]
 
 
 def _blocks(height: int):
@@ -68,28 +106,32 @@ def _blocks(height: int):
 def find_ceiling(pixels) -> Ceiling | None:
     """The ``Ceiling`` of float linear HDR ``pixels`` (H, W, 3) (an ndarray or a ``packed.PackedImage``), or None
     when it clips nothing: fewer than MIN_PLATEAU_PIXELS plateau pixels, or a ceiling under MIN_HEADROOM times the
-    median luminance (over the pixels of every 8th row and column: a gate, not a measurement)."""
+    median luminance (over the pixels of every 8th row and column: a gate, not a measurement). One pass over every
+    row (each row's largest value per channel, on every thread), then one over the rows that reach a ceiling."""
     h, w = pixels.shape[:2]
-    blocks = _blocks(h)
-    top = np.zeros(3)
-    samples = []
-    for r0, r1 in blocks:
-        block = np.asarray(pixels[r0:r1], dtype=np.float32)
-        top = np.maximum(top, block.reshape(-1, 3).max(axis=0))
-        samples.append(block[::8, ::8].reshape(-1, 3))  # BLOCK_ROWS is a multiple of 8
+
+    def scan(rows):
+        block = np.asarray(pixels[rows[0]:rows[1]], dtype=np.float32)
+        return row_channel_max(block), block[::8, ::8].reshape(-1, 3)  # BLOCK_ROWS is a multiple of 8
+
+    parts = threads.map_ordered(scan, _blocks(h))
+    row_max = np.concatenate([m for m, _ in parts])  # (H, 3)
+    top = row_max.max(axis=0).astype(np.float64)
     if not np.all(np.isfinite(top)) or (top > 0).sum() < MIN_PLATEAU_CHANNELS:
         return None
-    ceiling = Ceiling(tuple(float(v) for v in top), 0, 0.0, 0.0)
-    count, sr = 0, 0.0
+    reach = (row_max >= (top * (1.0 - CEILING_TOL)).astype(np.float32)) & (top > 0)  # (H, 3)
+    ceiling = Ceiling(tuple(float(v) for v in top), 0, 0.0, 0.0,
+                      tuple(np.flatnonzero(reach.any(axis=1)).tolist()))
     omega = row_solid_angles(h, w)
-    for r0, r1 in blocks:
-        rows = ceiling.plateau(np.asarray(pixels[r0:r1], dtype=np.float32)).sum(axis=1)
-        count += int(rows.sum())
-        sr += float(rows @ omega[r0:r1])
+    count, sr = 0, 0.0
+    for a, b in row_runs(np.flatnonzero(reach.sum(axis=1) >= MIN_PLATEAU_CHANNELS)):
+        per_row = ceiling.plateau(np.asarray(pixels[a:b], dtype=np.float32)).sum(axis=1)
+        count += int(per_row.sum())
+        sr += float(per_row @ omega[a:b])
     if count < MIN_PLATEAU_PIXELS:
         return None
-    median = float(np.median(np.concatenate(samples) @ LUMINANCE_WEIGHTS))
+    median = float(np.median(np.concatenate([sample for _, sample in parts]) @ LUMINANCE_WEIGHTS))
     headroom = float(top @ LUMINANCE_WEIGHTS) / median if median > 0 else math.inf
     if headroom < MIN_HEADROOM:
         return None
-    return Ceiling(ceiling.rgb, count, sr, headroom)
+    return replace(ceiling, pixels=count, solid_angle=sr, headroom=headroom)

@@ -42,7 +42,7 @@ def _as_is(block: np.ndarray) -> np.ndarray:
     return block
 
 
-def _block_starts(n: int, blocks: int) -> np.ndarray:
+def block_starts(n: int, blocks: int) -> np.ndarray:
     """(blocks + 1,) the first row (column) of each of ``blocks`` area-average blocks of n rows (columns), and n."""
     return np.linspace(0, n, blocks + 1).astype(int)
 
@@ -52,7 +52,7 @@ def _area_blocks(img: np.ndarray, height: int, width: int, transform) -> np.ndar
     time: only a slab of ``transform(img)`` (or of img) exists in float64 at once, never the whole image
     (a 16000 x 8000 JPEG peaked at 5.4 GB the whole-image way). The same sums in the same order."""
     h, w = img.shape[:2]
-    ys, xs = _block_starts(h, height), _block_starts(w, width)
+    ys, xs = block_starts(h, height), block_starts(w, width)
     step = max(1, (BLOCK_PIXELS // 4) // (w * max(1, -(-h // height))))  # output rows per slab (~24 MB float64)
 
     def slab(k0):
@@ -137,9 +137,9 @@ cell is a 1000x firefly in ``hdr.exr``. Up to twice as tall one pixel is a quart
 REFERENCE_MIN_FRACTION = 0.25
 
 
-def _block_of(n: int, blocks: int) -> np.ndarray:
-    """(n,) the block (of ``blocks`` area-average blocks, ``_block_starts``) each of n rows holds."""
-    return np.searchsorted(_block_starts(n, blocks), np.arange(n), side="right") - 1
+def block_of(n: int, blocks: int) -> np.ndarray:
+    """(n,) the block (of ``blocks`` area-average blocks, ``block_starts``) each of n rows holds."""
+    return np.searchsorted(block_starts(n, blocks), np.arange(n), side="right") - 1
 
 
 def _reference_height(height: int) -> int:
@@ -176,10 +176,10 @@ def clipped_pixels(block: np.ndarray, r0: int, H: int, reference: np.ndarray | N
         return mask
     h, w = reference.shape[:2]
     n, W = mask.shape
-    rows = reference[_block_of(H, h)[r0:r0 + n], :, int(all_channels)]  # (n, w): each row's reference row
+    rows = reference[block_of(H, h)[r0:r0 + n], :, int(all_channels)]  # (n, w): each row's reference row
     if W % w == 0:
         return mask & np.repeat(rows, W // w, axis=1)
-    return mask & rows[:, _block_of(W, w)]
+    return mask & rows[:, block_of(W, w)]
 
 
 def clipped_fractions(ldr: np.ndarray, height: int) -> np.ndarray:

@@ -46,7 +46,8 @@ def main(argv=None) -> int:
     ap.add_argument("--scale", type=int, default=8, help="upsampling factor of the 1024 x 512 scene (default 8: 8K)")
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args(argv)
-    from panolight_core.io import read_image, write_exr_rows
+    from panolight_core.io import read_image
+    from panolight_core.io.images import write_exr_rows
     from panolight_core.pipeline.job import run_estimate
     from panolight_core.pipeline.settings import Settings
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ... import sh
-from ...camera.ceiling import Ceiling
-from ...camera.resample import area_downsample_rows
+from ...camera.ceiling import MIN_PLATEAU_CHANNELS, Ceiling, row_runs
+from ...camera.resample import area_downsample, block_of, block_starts
 from ...packed import PackedImage
 from ..highlights import WORK_HEIGHT
 from .fill import FullResolutionFill
@@ -44,23 +44,27 @@ class Source:
 
     def plateau_rows(self, r0: int, r1: int) -> np.ndarray:
         """(r1 - r0, W) bool: the plateau pixels of rows r0..r1 (the pixels the restoration fills)."""
-        return self.ceiling.plateau(np.asarray(self.pixels[r0:r1], dtype=np.float32))
+        return self.ceiling.row_counts(self.pixels, r0, r1) >= MIN_PLATEAU_CHANNELS
 
     def work_maps(self, height: int = WORK_HEIGHT):
         """(rad (h, 2h, 3) float64 in clip units, frac_any, frac_all (h, 2h)) as ``highlights.work_maps`` makes
         them of a photo: the area means of the pixels over ``level``, of the pixels with a channel at its ceiling,
-        and of the plateau's pixels; h = min(height, H)."""
-        level = np.float32(self.level)
-        ceiling = self.ceiling
-
-        def transform(block):
-            block = np.asarray(block, dtype=np.float32)
-            k = ceiling.at_ceiling(block)
-            return np.concatenate([block / level, (k >= 1)[..., None].astype(np.float32),
-                                   ceiling.plateau(block)[..., None].astype(np.float32)], axis=-1)
-
-        maps = area_downsample_rows(self.pixels, min(height, self.pixels.shape[0]), transform)
-        return maps[..., :3], maps[..., 3], maps[..., 4]
+        and of the plateau's pixels; h = min(height, H). The fractions read only the ceiling's rows."""
+        H, W = self.pixels.shape[:2]
+        h = min(height, H)
+        w = 2 * h
+        rad = area_downsample(self.pixels, h) / self.level
+        cell_pixels = np.diff(block_starts(H, h))[:, None] * np.diff(block_starts(W, w))[None, :]
+        counts = np.zeros((2, h, w))
+        row_cell, col_cell = block_of(H, h), block_of(W, w)
+        for r0, r1 in row_runs(np.asarray(self.ceiling.rows, dtype=np.int64)):
+            k = self.ceiling.at_ceiling(np.asarray(self.pixels[r0:r1], dtype=np.float32))
+            y, x = np.nonzero(k)
+            cy = row_cell[y + r0]
+            np.add.at(counts[0], (cy, col_cell[x]), 1.0)
+            plateau = k[y, x] >= MIN_PLATEAU_CHANNELS
+            np.add.at(counts[1], (cy[plateau], col_cell[x[plateau]]), 1.0)
+        return rad, counts[0] / cell_pixels, counts[1] / cell_pixels
 
     def filled(self, rec, keys: bool) -> PackedImage:
         """The restored panorama in the file's units, read by row blocks: the pixels, plus on the plateau the

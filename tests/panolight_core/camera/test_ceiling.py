@@ -57,3 +57,11 @@ def test_a_large_image_read_by_rows_finds_the_same_ceiling():
     packed = PackedImage(RowFile(lambda r0, r1: clipped[r0:r1], *clipped.shape[:2]), "file")
     assert find_ceiling(packed) == find_ceiling(clipped)
     assert math.isfinite(find_ceiling(clipped).headroom)
+
+
+@pytest.mark.parametrize("width", [1, 2, 7, 64, 1025])
+def test_each_row_s_largest_value_per_channel_is_numpy_s(width):
+    from panolight_core.camera.ceiling import row_channel_max
+
+    block = np.random.default_rng(width).normal(size=(5, width, 3)).astype(np.float32)
+    assert np.array_equal(row_channel_max(block), block.max(axis=1))
