@@ -405,6 +405,9 @@ def region_candidates(maps, regions, prediction, params: KeyLightParams = PARAMS
         # cloud edge whose fit passes is no sun to give half its fit (dawn.jpg saved again: 67x the trees')
         trusted = physical is not None and i not in weak and physics_trusted(float(extent[i]), elevation, params)
         energy = key_energy(physical, learned, decided, trusted, params)
+        if params.belief and physical is not None:  # the belief's range: the trees' and the fit's, averaged in log
+            lo = math.sqrt(regions.added_energy(np.maximum(mu - sigma, 0.0), parts) * lo)
+            hi = math.sqrt(regions.added_energy(mu + sigma, parts) * hi)
         keys.append(KeyLight(np.asarray(direction, dtype=np.float64), float(energy), np.asarray(color, dtype=np.float64),
                              float(angle), (float(lo), float(hi)), i, method, physical, fit,
                              max(params.direction_68_per_extent * math.radians(float(extent[i])), math.pi / h),

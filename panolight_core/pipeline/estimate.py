@@ -25,24 +25,32 @@ UNITS_LDR = "relative: 1 = the LDR camera's clip level (white)"
 
 def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model: str = "auto",
                tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None, sun_strength: float = 1.0,
-               pointed_sun=None, restore: bool = True):
+               pointed_sun=None):
     """Panorama pixels (uint8 sRGB LDR or float linear HDR) -> (LightingModel, Estimate), unscaled and with
     the model's own deringing. lmax: None (auto for model "auto", 2 for "sh"), "auto" or an int.
-    deringing: None = the model's default ("auto" with lights, "none" for SH only). pointed_sun: (unit direction,
-    lit/shadow contrast or None[, where it came from: the photo's metadata]), a pointed sun
-    (``estimators.with_pointed_sun``); sun_strength: the
-    estimator's key lights times this (``estimators.with_key_strength``); restore: an HDR file that clips its own
-    source has it weighed (``estimators.estimate``)."""
+    deringing: None = the model's default ("auto" with lights, "none" for SH only). pointed_sun, sun_strength:
+    ``estimate_pixels``'."""
     check_choice("model", model, MODELS)
     lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
+    est = estimate_pixels(pixels, lmax, estimator, pointed_sun=pointed_sun, sun_strength=sun_strength)
+    return fit_estimate(est, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
+                        tolerance=tolerance, deringing=deringing), est
+
+
+def estimate_pixels(pixels: np.ndarray, lmax="auto", estimator: str = "auto", *, pointed_sun=None,
+                    sun_strength: float = 1.0, restore: bool = True) -> Estimate:
+    """The estimator's step of ``fit_pixels``: ``estimators.estimate`` at order ``lmax`` ("auto": the adaptive
+    range's largest; an int), then a pointed sun (``pointed_sun``: (unit direction, lit/shadow contrast or None[,
+    where it came from: the photo's metadata]), ``estimators.with_pointed_sun``) and the key lights times
+    ``sun_strength`` (``estimators.with_key_strength``). restore: an HDR file that clips its own source has it
+    weighed (``estimators.estimate``)."""
     threads.check_cancelled()
-    est = estimate(pixels, DEFAULT_MAX_ORDER if lmax == "auto" else int(lmax), estimator, restore)
+    est = estimate(pixels, DEFAULT_MAX_ORDER if str(lmax) == "auto" else int(lmax), estimator, restore)
     if pointed_sun is not None:
         est = with_pointed_sun(est, *pointed_sun)
     est = with_key_strength(est, sun_strength)
     threads.check_cancelled()
-    return fit_estimate(est, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
-                        tolerance=tolerance, deringing=deringing), est
+    return est
 
 
 def fit_estimate(est, *, hdr_input: bool, **kw) -> LightingModel:
@@ -148,10 +156,10 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), captu
         pointed = (settings.sun_direction, settings.sun_contrast)
     elif settings.sun_metadata and (found := capture_sun(capture)) is not None:
         pointed = (found[0], None, found[1])
-    fitted, est = fit_pixels(pixels, lmax=settings.order, estimator=settings.estimator, model=settings.model,
-                             tolerance=settings.tolerance, deringing=None if settings.window == "none" else "none",
-                             sun_strength=settings.sun_strength, pointed_sun=pointed,
-                             restore=settings.restore != "none")
+    est = estimate_pixels(pixels, settings.order, settings.estimator, pointed_sun=pointed,
+                          sun_strength=settings.sun_strength, restore=settings.restore != "none")
+    fitted = fit_estimate(est, hdr_input=pixels.dtype != np.uint8, lmax=settings.order, model=settings.model,
+                          tolerance=settings.tolerance, deringing=None if settings.window == "none" else "none")
     threads.check_cancelled()
     coeffs, window_info = fitted.coeffs, fitted.info["ringing"]["window"]
     if settings.window == "auto":

@@ -11,11 +11,14 @@ Each is scored against the truth: m-RMSE at lmax 2 over the JPEG's naive project
 file's own projection, the dominant source's energy ratio r (on the estimate's hdr.exr), the shadow contrast
 C (EVALUATION.md) and the brightest light's direction error.
 
-    python -m training.keylight.captures [--stops 2 4 6] [--as-ldr] [--fold-models PATTERN] [--out docs/studies/captures.json]
+    python -m training.keylight.captures [--stops 2 4 6] [--as-ldr] [--fold-models PATTERN] [--hdr-fold-models PATTERN]
+        [--out docs/studies/captures.json] [--plot docs/studies/captures.png]
+    python -m training.keylight.captures --from docs/studies/captures.json --plot docs/studies/captures.png
 """
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import statistics
 import sys
@@ -106,6 +109,44 @@ def table(summ: dict) -> list[str]:
     return lines
 
 
+def plot(summ: dict, out: Path) -> Path:
+    """A picture of ``summary``: per capture, the dominant source's energy and the shadow contrast "within" (log
+    scale, 1 is exact) and the m-RMSE over the capture's own projection, with issue 45's bars for a clipped HDR."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(summ)
+    fig, axes = plt.subplots(1, 3, figsize=(13, 0.45 * len(names) + 1.4), sharey=True)
+    panels = (("energy_within", "dominant source's energy within (x)", 1.5, True),
+              ("contrast_within", "shadow contrast within (x)", 1.25, True),
+              ("m_rmse_over_own_median", "m-RMSE / own projection (median)", 0.5, False))
+    y = np.arange(len(names))
+    for ax, (key, title, bar, log) in zip(axes, panels):
+        values = [summ[n][key] for n in names]
+        ax.barh(y, values, color=["#888" if "as it is" in n else "#2a7" if "restored" in n else "#47a" for n in names])
+        ax.axvline(bar, color="k", ls="--", lw=1)
+        if log:  # ratios of 1 or more: ticks in plain numbers
+            from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
+
+            ax.set_xscale("log")
+            ax.set_xlim(1.0, 2.0 * max(values))
+            ticks = (1, 2, 5, 10, 30, 100) if max(values) > 10 else (1, 1.25, 1.5, 2, 3, 5)
+            ax.xaxis.set_major_locator(FixedLocator([t for t in ticks if t <= 2.0 * max(values)]))
+            ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.set_title(f"{title}; bar {bar:g}", fontsize=9)
+        for yi, v in zip(y, values):
+            ax.text(v, yi, f" {v:.2f}", va="center", fontsize=8)
+    axes[0].set_yticks(y, names, fontsize=8)
+    axes[0].invert_yaxis()
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m training.keylight.captures", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -121,7 +162,16 @@ def main(argv=None) -> int:
                          "sources_hdr.safetensors' folds: fit ship --hdr-cameras 8 --hold-out K/5; default: "
                          "--fold-models')")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
+    ap.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                    help="also draw the summary here; with --from, draw a JSON this study wrote, without running it")
+    ap.add_argument("--from", dest="source", type=Path, default=None, metavar="JSON",
+                    help="with --plot: the study's JSON to draw")
     args = ap.parse_args(argv)
+    if args.source:
+        summ = json.loads(args.source.read_text(encoding="utf-8"))["summary"]
+        print("\n".join(table(summ)))
+        print(f"wrote {plot(summ, args.plot or args.source.with_suffix('.png'))}")
+        return 0
     files = scene_files(args.hdri)
     estimator_of = (fold_estimators(args.fold_models, files, hdr_pattern=args.hdr_fold_models) if args.fold_models
                     else {p: "auto" for p in files})
@@ -137,7 +187,10 @@ def main(argv=None) -> int:
                   f"C {r['contrast']:6.2f} of {r['true_contrast']:6.2f}  m/naive {r['m_rmse_over_naive']:.3f}", flush=True)
     summ = summary(rows)
     print("\n".join(table(summ)))
-    save_study({"stops": args.stops, "fold_models": args.fold_models, "summary": summ, "rows": rows}, args.out)
+    save_study({"stops": args.stops, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
+                "summary": summ, "rows": rows}, args.out)
+    if args.plot:
+        print(f"wrote {plot(summ, args.plot)}")
     return 0
 
 

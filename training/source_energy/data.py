@@ -13,8 +13,8 @@ import numpy as np
 
 from panolight_core import sh, threads
 from panolight_core.camera import auto_exposure, jpeg_roundtrip, lanczos_resize, tone_curve
-from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.camera.ceiling import find_ceiling
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.camera.resample import area_downsample
 from panolight_core.estimators import sources
 from panolight_core.estimators.sources.restore import Source

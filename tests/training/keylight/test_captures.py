@@ -7,19 +7,28 @@ from training.keylight import captures
 from .test_hidden_sun import _sky_hdr, _write_hdr
 
 
-def test_a_clipped_hdr_is_scored_as_today_s_estimate_takes_it(tmp_path):
-    """A clear sky with its sun: the JPEG (whose clipped sun the key light weighs) and the HDR clipped at +2 and
-    +6 stops (taken as it is: its exact projection). The more the file clips, the less of the sun it holds; its
-    estimate is its own projection; the summary has a row per capture."""
-    hdr, _ = _sky_hdr(with_sun=True)
+def test_a_clipped_hdr_is_scored_as_it_is_and_restored(tmp_path):
+    """A clear day with its sun (a 1-degree disk, as a lens blurs it): the JPEG (whose clipped sun the key light
+    weighs) and the HDR clipped at +2 and +6 stops, taken as it is (its exact projection: the more the file clips,
+    the less of the sun it holds) and restored (its plateau weighed: nearer the truth); the summary has a row per
+    capture, and draws."""
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    hdr, _, _ = _clear_day()
     rows = captures.scene_rows(_write_hdr(tmp_path, hdr), [2.0, 6.0])
-    assert [r["capture"] for r in rows] == ["JPEG", "HDR clipped at +2 stops", "HDR clipped at +6 stops"]
-    jpeg, low, high = rows
+    assert [r["capture"] for r in rows] == ["JPEG", "HDR clipped at +2 stops, as it is", "HDR clipped at +2 stops, "
+                                            "restored", "HDR clipped at +6 stops, as it is",
+                                            "HDR clipped at +6 stops, restored"]
+    jpeg, low, low_restored, high, high_restored = rows
     assert low["ratio"] < high["ratio"] <= 1.0 + 1e-6 and low["contrast"] <= high["contrast"]
     assert low["m_rmse_over_own"] == pytest.approx(1.0, abs=0.02) and jpeg["m_rmse_over_naive"] < 1.0
+    for as_is, restored in ((low, low_restored), (high, high_restored)):
+        assert abs(np.log2(restored["ratio"])) < abs(np.log2(as_is["ratio"]))
+        assert restored["m_rmse_over_own"] < 1.0
     summ = captures.summary(rows)
     assert set(summ) == {r["capture"] for r in rows} and all(s["scenes"] == 1 for s in summ.values())
     assert captures.table(summ)[2].startswith("| JPEG | 1 |")
+    assert captures.plot(summ, tmp_path / "c.png").stat().st_size > 1000
 
 
 def test_a_clipped_hdr_through_the_ldr_path_gets_back_its_sun(tmp_path):
@@ -28,5 +37,5 @@ def test_a_clipped_hdr_through_the_ldr_path_gets_back_its_sun(tmp_path):
     lacks."""
     hdr, _ = _sky_hdr(with_sun=True)
     rows = {r["capture"]: r for r in captures.scene_rows(_write_hdr(tmp_path, hdr), [2.0], as_ldr=True)}
-    raw, ldr = rows["HDR clipped at +2 stops"], rows["HDR clipped at +2 stops, as an 8-bit picture"]
+    raw, ldr = rows["HDR clipped at +2 stops, as it is"], rows["HDR clipped at +2 stops, as an 8-bit picture"]
     assert abs(np.log2(ldr["ratio"])) < abs(np.log2(raw["ratio"])) and ldr["m_rmse"] < raw["m_rmse"]

@@ -133,11 +133,11 @@ def test_one_cached_table_serves_every_model_and_is_built_again_for_other_camera
 
     calls = []
 
-    def fake_build(files, augment, seed, log=print, inject=0.0, resave=sd.RESAVE):
-        calls.append((tuple(files), augment, seed, resave))
+    def fake_build(files, augment, seed, log=print, inject=0.0, resave=sd.RESAVE, hdr_cameras=0):
+        calls.append((tuple(files), augment, seed, hdr_cameras, resave))
         n = 6 * len(files)
         return (rng.normal(size=(n, len(sources.FEATURES))), rng.random(n), rng.random(n),
-                np.repeat(np.arange(len(files)), 6))
+                np.repeat(np.arange(len(files)), 6), (np.arange(n) % 2).astype(np.int8) * (hdr_cameras > 0))
 
     monkeypatch.setattr(sd, "build_table", fake_build)
     files = [tmp_path / "a.hdr", tmp_path / "b.hdr"]
@@ -148,6 +148,10 @@ def test_one_cached_table_serves_every_model_and_is_built_again_for_other_camera
     assert len(calls) == 2
     sd.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None, resave=0.35)  # pictures saved again
     assert len(calls) == 3 and calls[-1][-1] == 0.35
+    both = sd.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None, resave=0.35, hdr_cameras=8)
+    assert len(calls) == 4 and calls[-1][3] == 8 and set(both[4]) == {0, 1}  # clipped HDR files: other rows, marked
+    again = sd.cached_table(tmp_path / "t.npz", files, 16, 1, 0.0, log=lambda *_: None, resave=0.35, hdr_cameras=8)
+    assert len(calls) == 4 and np.array_equal(again[4], both[4])  # the kinds come back from the file
     names = sources.FEATURES[3:7]
     X = first[0][:, [sources.FEATURES.index(n) for n in names]]
     ens = se._export(GradientBoostingRegressor(n_estimators=5, max_depth=2).fit(X, first[1]))
