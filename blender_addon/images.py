@@ -10,7 +10,7 @@ import bpy
 import numpy as np
 
 from .core import core
-from .store import SOURCE_KEY, TAG
+from .store import BRACKETS_KEY, SOURCE_KEY, TAG
 
 SH_IMAGE_NAME = "PanoLight SH Radiance"
 HDRI_IMAGE_NAME = "PanoLight HDRI"
@@ -42,6 +42,14 @@ def file_pixels(image):
     OpenImageIO module Blender ships): the CLI's pixels exactly, with its decode budget, by row blocks
     (a 16K JPEG costs its 0.4 GB of uint8 pixels, not a 2.1 GB RGBA float read). None for a packed,
     generated or edited image, or a missing file: Blender's own pixels are then read."""
+    brackets = image.get(BRACKETS_KEY)  # a merged bracket set: merged again from its files, if they are all there
+    if brackets is not None:
+        import json
+
+        saved = json.loads(brackets)
+        if not all(Path(p).is_file() for p in saved["files"]):
+            return None
+        return core.pipeline.brackets.read_brackets(saved["files"], saved["evs"])[0]
     source = image.get(SOURCE_KEY)  # PanoLight's upright copy of a turned file: read the file itself
     if source is None:
         if image.source != "FILE" or image.packed_file is not None or image.is_dirty:
@@ -53,12 +61,12 @@ def file_pixels(image):
     return core.io.images.read_image(path, ldr_as_uint8=True)
 
 
-def upright_panorama(filepath: str, pixels: np.ndarray):
+def upright_panorama(filepath: str, pixels: np.ndarray, name: str | None = None):
     """PanoLight's own packed float image of a file Blender would show turned (an EXIF orientation, a
     Radiance ``+Y`` file: Blender ignores both): the core's upright linear pixels (H, W, 3), so the
     background and the estimate agree. The file's path is kept (``file_pixels`` reads it again)."""
     h, w = pixels.shape[:2]
-    image = bpy.data.images.new(Path(filepath).name, w, h, alpha=False, float_buffer=True)
+    image = bpy.data.images.new(name or Path(filepath).name, w, h, alpha=False, float_buffer=True)
     image[TAG] = "panorama"
     image[SOURCE_KEY] = str(filepath)
     image.colorspace_settings.name = "Linear Rec.709"
@@ -67,6 +75,19 @@ def upright_panorama(filepath: str, pixels: np.ndarray):
     image.pixels.foreach_set(rgba.ravel())
     image.pack()
     return image
+
+
+def bracket_panorama(paths, evs=None):
+    """PanoLight's own packed float image of a bracket set merged by the core (``pipeline.brackets.read_brackets``:
+    exposures from the files' EXIF, or ``evs`` in stops), named after its reference frame; the set is kept
+    (``file_pixels`` merges it again, to the CLI's numbers). Returns (image, the merge's record)."""
+    import json
+
+    merged, info = core.pipeline.brackets.read_brackets(paths, evs)
+    reference = Path(info["files"][info["reference"]])
+    image = upright_panorama(str(reference), merged, f"{reference.stem} ({len(paths)} brackets)")
+    image[BRACKETS_KEY] = json.dumps({"files": [str(p) for p in paths], "evs": list(evs) if evs else None})
+    return image, info
 
 
 def load_panorama(filepath: str):

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import bpy
 import numpy as np
-from bpy.props import StringProperty
+from bpy.props import CollectionProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
 from . import images, store
@@ -119,6 +119,12 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
 
     filepath: StringProperty(subtype="FILE_PATH")
     filter_glob: StringProperty(default="*.jpg;*.jpeg;*.png;*.exr;*.hdr", options={"HIDDEN"})
+    files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
+    directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
+    evs: StringProperty(name="Bracket EVs", default="",
+                        description="Several files selected: a bracket set of one scene, merged into one HDR. Its "
+                                    "exposures in stops, one per file in name order (e.g. -2,0,2); empty: from "
+                                    "each file's EXIF (ExposureTime x ISO / FNumber^2)")
 
     def invoke(self, context, event):
         context.window_manager.fileselect_add(self)
@@ -126,6 +132,11 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
 
     @reports_errors
     def execute(self, context):
+        chosen = sorted(Path(bpy.path.abspath(self.directory)) / f.name for f in self.files if f.name)
+        if len(chosen) > 1:  # a bracket set, merged by the core as the CLI merges it
+            evs = core.pipeline.brackets.parse_evs(self.evs) if self.evs.strip() else None
+            image, info = images.bracket_panorama(chosen, evs)
+            return self._show(context, image, f" merged from {len(chosen)} frames ({', '.join(f'{v:+g}' for v in info['stops'])} stops)")
         path = Path(bpy.path.abspath(self.filepath))
         if not path.is_file():
             raise Error(f"{path}: file not found")
@@ -141,15 +152,21 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         w, h = image.size
         if w == 0 or h == 0:
             raise Error(f"{path}: Blender could not read this image")
+        return self._show(context, image, label=path)
+
+    def _show(self, context, image, how: str = "", label=None):
+        """Make ``image`` (PanoLight's, 2:1 checked here: errors name ``label``, else the image) the background of
+        the PanoLight world."""
+        w, h = image.size
         if w != 2 * h:
-            raise Error(f"{path}: equirectangular panoramas must be 2:1, got {w} x {h}")
+            raise Error(f"{label or image.name}: equirectangular panoramas must be 2:1, got {w} x {h}")
         world = build_world(image, **_world_kwargs(context))
         world[store.PANORAMA_KEY] = image  # the image itself, not its name: a rename keeps it
         store.store_lighting(world, None)  # a new panorama needs a new estimate
         if store.ours(bpy.data.collections, LIGHTS_COLLECTION) is not None:
             set_lights([], context.scene)  # the previous panorama's suns no longer apply
         context.scene.world = world
-        self.report({"INFO"}, f"PanoLight: {image.name} ({w} x {h}) is the world background")
+        self.report({"INFO"}, f"PanoLight: {image.name} ({w} x {h}){how} is the world background")
         return {"FINISHED"}
 
 

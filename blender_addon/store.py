@@ -16,6 +16,7 @@ TAG = "panolight"
 PANORAMA_KEY = "panolight_panorama"  # world ID property: the panorama image itself (an ID pointer: renames follow)
 LIGHTING_KEY = "panolight_lighting"  # world ID property: the estimate, a lighting.json document as JSON
 SOURCE_KEY = "panolight_source"  # image ID property: the file an upright copy was made from
+BRACKETS_KEY = "panolight_brackets"  # image ID property: the bracket set (JSON: files, evs) a merged image was made from
 ESTIMATE_KEY = "panolight_estimate"  # world and HDRI image ID property: which estimate the HDRI is of
 SUN_STRENGTH_KEY = "panolight_sun_strength"  # HDRI image ID property: the Sun lamp strength its key lights carry
 

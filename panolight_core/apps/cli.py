@@ -15,6 +15,7 @@ from pathlib import Path
 from .. import __version__
 from ..errors import PanoLightError, PanoLightWarning, printable
 from ..pipeline import settings as estimate_settings
+from ..pipeline.brackets import parse_evs
 from .options import HelpFormatter, progress_to_stderr, resolution
 
 PLUGIN_GROUP = "panolight.commands"  # entry points: register(subparsers) adds a plugin's commands
@@ -77,9 +78,15 @@ def _job_kwargs(args) -> dict:
 def run_estimate(args) -> int:
     from ..pipeline import run_estimate as job
 
-    out = Path(args.output) if args.output else Path("out") / Path(args.input).stem
+    from ..pipeline.brackets import BracketSet
+
+    if len(args.input) == 1 and args.evs is not None:
+        raise PanoLightError(f"{args.input[0]}: --evs gives a bracket set's exposures; one file is estimated as it "
+                             f"is (give every frame of the set)")
+    src = Path(args.input[0]) if len(args.input) == 1 else BracketSet(args.input, args.evs)
+    out = Path(args.output) if args.output else Path("out") / Path(args.input[0]).stem
     with _exr_threads():
-        doc = job(args.input, out, estimate_settings.from_args(args), **_job_kwargs(args))
+        doc = job(src, out, estimate_settings.from_args(args), **_job_kwargs(args))
     if not args.quiet:
         t = doc["timings"]
         print(f"done: {out}/ (lmax {doc['lmax']}, {doc['estimator']['name']}; read {t['read_s'] * 1e3:.0f} ms, "
@@ -252,7 +259,13 @@ def build_parser() -> argparse.ArgumentParser:
                  help="estimate the lighting of one panorama",
                  description="Estimate the lighting of an equirectangular panorama (2:1; .jpg/.png LDR or "
                              ".exr/.hdr HDR) and write it with reconstructions and a preview.")
-    p.add_argument("input", help="panorama file (equirectangular, width = 2 x height)")
+    p.add_argument("input", nargs="+",
+                   help="panorama file (equirectangular, width = 2 x height); several 8-bit files: a bracket set of "
+                        "one scene at different exposures, merged into one HDR first (its exposures from each "
+                        "file's EXIF, or --evs)")
+    p.add_argument("--evs", type=estimate_settings.argparse_type(parse_evs), default=None, metavar="EV,EV,...",
+                   help="a bracket set's exposures in stops, one per file in their order (e.g. -2,0,2), where the "
+                        "files' EXIF lacks or misstates them")
 
     b = _command(sub, "batch", run_batch, estimate_options="auto", epilog=EPILOG_BATCH,
                  help="estimate many panoramas (folders, lists, render-farm shards)",

@@ -137,3 +137,26 @@ def _utc(get) -> tuple[datetime | None, str | None]:
         if when is not None and when.utcoffset() is not None:
             return when.astimezone(timezone.utc), "GPano:FirstPhotoDate"
     return None, None
+
+
+def read_exposure(path) -> dict | None:
+    """A frame's exposure settings from its EXIF (through OpenImageIO): {"time_s", "f_number", "iso"} (ISO 100
+    where the file records none: a set shot at one ISO then still merges right), or None when the file records no
+    ExposureTime and FNumber (or OpenImageIO is missing)."""
+    try:
+        import OpenImageIO as oiio
+    except ImportError:
+        return None
+    inp = oiio.ImageInput.open(str(Path(path)))
+    if inp is None:
+        oiio.geterror()
+        return None
+    try:
+        spec = inp.spec()
+        time_s, f_number = spec.getattribute("ExposureTime"), spec.getattribute("FNumber")
+        iso = spec.getattribute("Exif:PhotographicSensitivity") or spec.getattribute("Exif:ISOSpeedRatings")
+    finally:
+        inp.close()
+    if time_s is None or f_number is None:
+        return None
+    return {"time_s": float(time_s), "f_number": float(f_number), "iso": float(iso) if iso else 100.0}

@@ -20,6 +20,7 @@ from ..io.images import PACKED_ABOVE_MEGAPIXELS, write_exr_rows
 from ..io.lighting import write_lighting
 from ..io.staging import clean_stale, make_stage
 from ..lighting.lights import key_light_note
+from .brackets import BracketSet, read_brackets
 from .estimate import estimate_lighting, require_finite
 from .settings import Settings, check_map_cost
 
@@ -49,7 +50,8 @@ def parse_outputs(text) -> tuple[str, ...]:
 def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(512, 256),
                  repair_nonfinite: bool = False, max_megapixels: float | None = None, overwrite: bool = False,
                  outputs=tuple(OUTPUT_GROUPS)) -> dict:
-    """Estimate the lighting of panorama ``src`` (pipeline.estimate_lighting with ``settings``) and write
+    """Estimate the lighting of panorama ``src`` (a file, or a ``brackets.BracketSet`` of exposures merged into one
+    HDR first; pipeline.estimate_lighting with ``settings``) and write
     the files of the ``outputs`` groups (OUTPUT_GROUPS) into ``out_dir`` (created). resolution: (W, H) of
     radiance.exr / irradiance.exr. max_megapixels: the decoding budget (io.images). The folder is locked
     for the whole run (a second writer is refused at once). Output-named files that PanoLight did not
@@ -57,13 +59,15 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
     this run does not write are removed, a user's are kept, so the folder never mixes two runs. Returns
     the lighting document written; progress goes to the ``panolight_core.pipeline.job`` logger (INFO).
     Raises PanoLightError."""
-    src, out_dir = Path(src), Path(out_dir)
+    src = src if isinstance(src, BracketSet) else Path(src)
+    out_dir = Path(out_dir)
     outputs = parse_outputs(outputs)
     check_map_cost(settings.order, resolution[1])
     for name in OUTPUT_FILES:  # an output never replaces the input (estimate hdr.exr -o . would)
-        if _same_file(out_dir / name, src):
-            raise PanoLightError(f"{src}: the output {name} in {out_dir} would overwrite the input; "
-                                 f"choose another output folder (-o)")
+        for path in _paths(src):
+            if _same_file(out_dir / name, path):
+                raise PanoLightError(f"{path}: the output {name} in {out_dir} would overwrite the input; "
+                                     f"choose another output folder (-o)")
     created = not out_dir.exists()
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -81,6 +85,11 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
         if created and out_dir.is_dir() and not any(out_dir.iterdir()):
             out_dir.rmdir()
         raise
+
+
+def _paths(src) -> tuple:
+    """The input files of a run: one panorama, or a ``BracketSet``'s frames."""
+    return src.paths if isinstance(src, BracketSet) else (src,)
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -102,14 +111,23 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     t0 = time.perf_counter()
     logger.info("reading %s", src)
     budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
-    pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error",
-                        packed_above=PACKED_ABOVE_MEGAPIXELS, **budget)
+    bracket = None
+    if isinstance(src, BracketSet):
+        pixels, bracket = read_brackets(src.paths, src.evs, **budget)
+        logger.info(f"merged {len(src.paths)} frames (exposures from {bracket['exposures_from']}; "
+                    f"{', '.join(f'{v:+g}' for v in bracket['stops'])} stops; ceiling {bracket['ceiling']:g}x the "
+                    f"reference's white, {100 * bracket['clipped_in_every_frame']:.2g} % of pixels clipped in every "
+                    f"frame)")
+    else:
+        pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error",
+                            packed_above=PACKED_ABOVE_MEGAPIXELS, **budget)
     t_read = time.perf_counter() - t0
     scaled = f", sun strength {settings.sun_strength:g}" if settings.sun_strength != 1.0 else ""
     logger.info(f"estimating ({settings.estimator}, model {settings.model}, lmax {settings.lmax or 'default'}{scaled}) "
                 f"on {pixels.shape[1]}x{pixels.shape[0]}")
     try:
-        capture = (read_capture(src) if pixels.dtype == np.uint8 and settings.sun_direction is None
+        photo = src if bracket is None else src.paths[bracket["reference"]]  # a set: its reference frame's
+        capture = (read_capture(photo) if (pixels.dtype == np.uint8 or bracket) and settings.sun_direction is None
                    and settings.sun_metadata else None)
         result = estimate_lighting(pixels, settings, capture)
     except PanoLightError as exc:
@@ -127,12 +145,18 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
             maps["irradiance.exr"] = fitted.irradiance_map(h, w).astype(np.float32)
     require_finite(maps, settings.exposure_ev, f"{src}: ")  # refused before anything is written
     doc = result.document
-    source = ownership.digest(src)
-    if source is None:
-        raise PanoLightError(f"{src}: could not be read again to record its SHA-256 (was it moved?)")
-    doc["source"] = {"path": str(src), "sha256": source["sha256"],
+    digests = []
+    for path in _paths(src):
+        found = ownership.digest(path)
+        if found is None:
+            raise PanoLightError(f"{path}: could not be read again to record its SHA-256 (was it moved?)")
+        digests.append(found["sha256"])
+    doc["source"] = {"path": str(photo), "sha256": digests[_paths(src).index(photo)],
                      "width": int(pixels.shape[1]), "height": int(pixels.shape[0]),
-                     "dynamic_range": "ldr-8bit-srgb" if pixels.dtype == np.uint8 else "hdr"}
+                     "dynamic_range": ("ldr-8bit-srgb" if pixels.dtype == np.uint8 else
+                                       "hdr" if bracket is None else "hdr-merged-brackets")}
+    if bracket is not None:  # every frame, and how the set was merged
+        doc["source"]["brackets"] = {**bracket, "sha256": digests}
     doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
     doc.setdefault("model", {}).setdefault("ringing", {})["emitter"] = {
         "negative_fraction": round(made["negative_fraction"], 6), "moment_error": made["moment_error"]}

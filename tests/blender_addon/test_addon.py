@@ -873,3 +873,32 @@ def test_a_clipped_hdri_gets_its_sun_back_in_blender_as_on_the_command_line(tmp_
         facing[flag] = 0.0 if key is None else key["intensity"] * float(metrics.angle_deg(key["direction"], s) < 1.0)
     assert facing["auto"] > 5 * facing["none"]  # the restored sun lamp stands where the sun is, far stronger
     _configure(restore_clipped=True)
+
+
+def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp_path):
+    """Load panorama with three frames selected: one background merged by the core (the CLI's numbers), whose sun,
+    clipped in every frame, the estimate restores; a set whose exposures cannot be told apart is refused."""
+    from panolight_core import metrics
+    from panolight_core.apps.cli import main
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.io import write_srgb8
+    from panolight_core.io.lighting import read_lighting
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    truth, s, _ = _clear_day()
+    names = [write_srgb8(tmp_path / f"shot_{i}.png", hdr_to_ldr(truth, ev)).name for i, ev in enumerate((-2, 0, 2))]
+    assert main(["estimate", *(str(tmp_path / n) for n in names), "--evs=-2,0,2", "-o", str(tmp_path / "cli"),
+                 "-q"]) == 0
+    want, _ = read_lighting(tmp_path / "cli" / "lighting.json")
+    files = [{"name": n} for n in names]
+    assert bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="-2,0,2") == {"FINISHED"}
+    image = bpy.context.scene.world[store.PANORAMA_KEY]
+    assert image.name.startswith("shot_1 (3 brackets)") and image.is_float
+    _configure()
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    doc = store.stored_lighting(bpy.context.scene.world)
+    assert doc["estimator"]["restoration"]["restored"]
+    assert np.allclose(doc["coefficients"], want, rtol=1e-9, atol=1e-12)
+    assert metrics.angle_deg(metrics.brightest_light(doc["lights"])["direction"], s) < 1.0
+    with pytest.raises(RuntimeError, match="less than a third of a stop apart"):
+        bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="0,0.1,2")

@@ -4,6 +4,8 @@ one JPEG. The baseline issue 45's restoration is to beat.
 For every scene of ../shared/data/hdri with a dominant compact source and an un-clipped truth: the truth at the
 ev-0 camera's exposure (the factor that puts its median luminance at 0.18: the JPEG's white is then 1), and
 - the camera JPEG at ev 0 (q90), estimated as ``panolight estimate`` does (``keylight``);
+- bracket sets: the camera's JPEGs at each set's exposures (default {-2, 0, +2} and {-4, -2, 0, +2, +4}) merged
+  (``camera.brackets``: an HDR whose ceiling is the darkest frame's white, then restored as any such file);
 - the same truth clipped per channel at 2^k (k = 2, 4, 6 stops over the JPEG's white), as a float HDR file
   that clips its sun holds it, estimated as an HDR input: as it is (``--restore none``: its exact projection, the
   lights the model takes) and restored (the default: ``sources.restore``).
@@ -28,6 +30,7 @@ import numpy as np
 
 from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
+from panolight_core.camera.brackets import merge_brackets
 from panolight_core.camera.color import linear_to_srgb
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
@@ -51,10 +54,11 @@ def score(truth: np.ndarray, ds: dict, pixels: np.ndarray, scale: float = 1.0, e
             "angle_deg": metrics.angle_deg(ds["direction"], key["peak_direction"]) if key else 180.0}
 
 
-def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto") -> list[dict]:
+def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto", brackets=()) -> list[dict]:
     """The captures of one scene (none without a dominant source): the ev-0 JPEG, then the HDR clipped at each
     2^stops (with ``as_ldr`` also that file through the LDR path, its ceiling the white: a restoration tried by
-    the machinery as it is), each with the scene's true contrast."""
+    the machinery as it is), then each bracket set of ``brackets`` (tuples of evs: the camera's JPEGs at those
+    exposures merged, ``camera.brackets``), each with the scene's true contrast."""
     hdr = load_hdr(path)
     ds = metrics.dominant_source(hdr)
     if not ds["dominant"]:
@@ -69,6 +73,9 @@ def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto")
         if as_ldr:  # the same file through the LDR path: its ceiling made the white of an 8-bit sRGB picture
             ldr = np.round(linear_to_srgb(clipped / 2.0 ** s) * 255.0).astype(np.uint8)
             captures.append((f"HDR clipped at +{s:g} stops, as an 8-bit picture", ldr, 2.0 ** s, "auto"))
+    for evs in brackets:  # the reference frame (ev 0) sets the units: the truth's
+        merged, _ = merge_brackets([hdr_to_ldr(hdr, ev, 90) for ev in evs], [2.0 ** ev for ev in evs])
+        captures.append((f"{len(evs)} brackets {{{', '.join(f'{ev:+g}' for ev in evs)}}}", merged, 1.0, "auto"))
     rows = []
     for name, pixels, scale, restore in captures:
         row = {"scene": path.stem, "capture": name, "true_contrast": true_c,
@@ -156,6 +163,8 @@ def main(argv=None) -> int:
     ap.add_argument("--as-ldr", action="store_true",
                     help="also estimate each clipped file through the LDR path, its ceiling the white of an 8-bit "
                          "sRGB picture (the per-source and key-light machinery as they are)")
+    ap.add_argument("--brackets", nargs="*", default=["-2,0,2", "-4,-2,0,2,4"], metavar="EVS",
+                    help="bracket sets of the camera's JPEGs, merged (default: -2,0,2 and -4,-2,0,2,4; none: no sets)")
     fold_models_option(ap)
     ap.add_argument("--hdr-fold-models", default=None, metavar="PATTERN",
                     help="with --fold-models: the fold models that restore the clipped HDR files (models/"
@@ -176,18 +185,19 @@ def main(argv=None) -> int:
     estimator_of = (fold_estimators(args.fold_models, files, hdr_pattern=args.hdr_fold_models) if args.fold_models
                     else {p: "auto" for p in files})
     clipped = clipped_truth(args.hdri)
+    brackets = [tuple(float(v) for v in b.split(",")) for b in args.brackets]
     rows = []
     for i, path in enumerate(files, 1):
         if path.name in clipped:
             continue  # a truth that clips its own source is a lower bound, never a target
-        got = scene_rows(path, args.stops, args.as_ldr, estimator_of[path])
+        got = scene_rows(path, args.stops, args.as_ldr, estimator_of[path], brackets)
         rows += got
         for r in got:
             print(f"[{i}/{len(files)}] {r['scene']:28s} {r['capture']:24s} angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  "
                   f"C {r['contrast']:6.2f} of {r['true_contrast']:6.2f}  m/naive {r['m_rmse_over_naive']:.3f}", flush=True)
     summ = summary(rows)
     print("\n".join(table(summ)))
-    save_study({"stops": args.stops, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
+    save_study({"stops": args.stops, "brackets": args.brackets, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
                 "summary": summ, "rows": rows}, args.out)
     if args.plot:
         print(f"wrote {plot(summ, args.plot)}")

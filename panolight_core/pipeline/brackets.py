@@ -1,0 +1,89 @@
+"""Reading a bracket set: several exposures of one scene, merged into one HDR panorama (``camera.brackets``) that
+the estimate then takes as an HDR file whose ceiling is the darkest frame's white."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..camera.brackets import check_exposures, exposure, merge_brackets
+from ..errors import PanoLightError
+from ..io.capture import read_exposure
+from ..io.images import read_image
+
+
+@dataclass(frozen=True)
+class BracketSet:
+    """A bracket set to estimate (``pipeline.run_estimate`` takes it in place of one file): its frames' paths and
+    their exposures in stops (None: from each file's EXIF)."""
+
+    paths: tuple
+    evs: tuple | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "paths", tuple(Path(p) for p in self.paths))
+
+    def __str__(self) -> str:
+        return " + ".join(str(p) for p in self.paths)
+
+
+def parse_evs(text: str) -> tuple[float, ...]:
+    """'-2,0,2' -> (-2.0, 0.0, 2.0): each frame's exposure in stops, in the order of the files."""
+    try:
+        evs = tuple(float(v) for v in str(text).split(","))
+    except ValueError:
+        raise PanoLightError(f"--evs takes the frames' exposures in stops, comma-separated (e.g. -2,0,2), got "
+                             f"{text!r}") from None
+    if not all(math.isfinite(v) and abs(v) <= 30 for v in evs):
+        raise PanoLightError(f"--evs: each exposure is a number of stops within +-30, got {text!r}")
+    return evs
+
+
+def bracket_exposures(paths, evs=None) -> tuple[list[float], str]:
+    """(relative exposures, where they came from) of the frames ``paths``: 2^ev of ``evs`` (one per file), else
+    each file's EXIF (ExposureTime x ISO / FNumber^2). PanoLightError naming the file that records none, or when
+    the count of ``evs`` is not the count of files, or the exposures cannot be told apart."""
+    paths = [Path(p) for p in paths]
+    if evs is not None:
+        if len(evs) != len(paths):
+            raise PanoLightError(f"--evs gives {len(evs)} exposure(s) for {len(paths)} file(s): one per file")
+        found, origin = [2.0 ** v for v in evs], "--evs"
+    else:
+        found = []
+        for p in paths:
+            exif = read_exposure(p)
+            if exif is None:
+                raise PanoLightError(f"{p}: records no exposure (EXIF ExposureTime and FNumber); give every frame's "
+                                     f"exposure with --evs (e.g. --evs -2,0,2)")
+            try:
+                found.append(exposure(exif["time_s"], exif["f_number"], exif["iso"]))
+            except PanoLightError as exc:
+                raise PanoLightError(f"{p}: {exc}") from None
+        origin = "EXIF (ExposureTime x ISO / FNumber^2)"
+    check_exposures(found)
+    return found, origin
+
+
+def read_brackets(paths, evs=None, **read_options) -> tuple[np.ndarray, dict]:
+    """The merged float32 HDR (H, W, 3) of the 8-bit frames ``paths`` (``io.read_image`` with ``read_options``
+    each) at their exposures (``bracket_exposures``), and the record lighting.json keeps (``source.brackets``).
+    PanoLightError, naming the file, for a frame that is not 8-bit or not the first frame's size."""
+    paths = [Path(p) for p in paths]
+    if len(paths) < 2:
+        raise PanoLightError(f"{paths[0] if paths else 'no file'}: a bracket set is two or more files; --evs is for "
+                             f"a set, one file is estimated as it is")
+    exposures, origin = bracket_exposures(paths, evs)
+    frames = []
+    for p in paths:
+        frame = read_image(p, ldr_as_uint8=True, **read_options)
+        if frame.dtype != np.uint8:
+            raise PanoLightError(f"{p}: a bracket frame must be an 8-bit picture (JPEG, PNG); an HDR file is "
+                                 f"estimated on its own")
+        if frames and frame.shape != frames[0].shape:
+            raise PanoLightError(f"{p}: {frame.shape[1]}x{frame.shape[0]}, but {paths[0].name} is "
+                                 f"{frames[0].shape[1]}x{frames[0].shape[0]}: a bracket set's frames have one size")
+        frames.append(frame)
+    merged, info = merge_brackets(frames, exposures)
+    return merged, {"files": [str(p) for p in paths], "exposures_from": origin, **info}

@@ -1,0 +1,65 @@
+"""camera.brackets: 8-bit exposures of one scene merged into one linear HDR."""
+import numpy as np
+import pytest
+
+from panolight_core.camera import hdr_to_ldr
+from panolight_core.camera.brackets import exposure, hat, merge_brackets
+from panolight_core.camera.ceiling import find_ceiling
+from panolight_core.errors import PanoLightError
+from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+
+@pytest.fixture(scope="module")
+def day():
+    return _clear_day()
+
+
+def test_exposure_is_time_times_iso_over_f_number_squared():
+    assert exposure(1 / 250, 8.0, 400) == pytest.approx(exposure(1 / 125, 8.0, 200))  # ISO changed in the set
+    assert exposure(1 / 100, 4.0, 100) == pytest.approx(4 * exposure(1 / 100, 8.0, 100))
+    with pytest.raises(PanoLightError, match="FNumber 0"):
+        exposure(0.01, 0, 100)
+
+
+def test_the_hat_weighs_mid_tones_most_and_clipped_codes_not_at_all():
+    w = hat(np.array([0, 1, 127, 128, 200, 253, 254, 255], np.uint8))
+    assert w[0] > 0 and w[2] == w.max() and w[-1] == w[-2] == 0 and w[5] > 0
+
+
+def test_three_exposures_merge_to_the_truth_and_the_sun_clips_at_the_darkest_white(day):
+    """EVALUATION.md's camera at -2, 0 and +2: every pixel some frame holds comes back within the 8-bit steps
+    (in the ev-0 frame's units, the truth's), and the sun, clipped in every frame, sits at 4 in every channel: a
+    plateau the restoration finds."""
+    truth, s, _ = day  # median luminance 0.18: the ev-0 camera's exposure is 1
+    frames = [hdr_to_ldr(truth, ev) for ev in (-2, 0, 2)]
+    merged, info = merge_brackets(frames, [0.25, 1.0, 4.0])
+    assert info["reference"] == 1 and info["stops"] == [-2.0, 0.0, 2.0] and info["ceiling"] == 4.0
+    held = truth.max(axis=-1) < 4.0 * 0.99
+    rel = np.abs(merged[held] - truth[held]) / np.maximum(truth[held], 1e-3)
+    assert np.median(rel) < 0.01 and np.percentile(rel, 99) < 0.06
+    clipped = truth.min(axis=-1) > 4.0 * 1.01
+    assert clipped.any() and (merged[clipped] == 4.0).all()
+    assert info["clipped_in_every_frame"] == pytest.approx((merged == 4.0).all(axis=-1).mean())
+    ceiling = find_ceiling(merged)
+    assert ceiling is not None and ceiling.rgb == (4.0, 4.0, 4.0)
+
+
+def test_a_channel_clipped_in_one_frame_takes_nothing_from_that_frame():
+    """A warm highlight: red clips at +2 but not at 0. The merged pixel keeps the ev-0 frame's colour, not a
+    clipped red averaged into it (a magenta or dark halo)."""
+    truth = np.full((4, 8, 3), 0.18, np.float32)
+    truth[1, 2] = (0.6, 0.3, 0.1)  # red over 0.25: clipped at +2 (x4), held at 0
+    frames = [hdr_to_ldr(truth, 0.0), hdr_to_ldr(truth, 2.0)]
+    merged, _ = merge_brackets(frames, [1.0, 4.0])
+    assert merged[1, 2] == pytest.approx(truth[1, 2], rel=0.03)
+
+
+@pytest.mark.parametrize("frames, exposures, match", [
+    ([np.zeros((4, 8, 3), np.uint8)] * 2, [1.0, 1.1], "less than a third of a stop apart"),
+    ([np.zeros((4, 8, 3), np.uint8)], [1.0], "two or more positive exposures"),
+    ([np.zeros((4, 8, 3), np.uint8), np.zeros((4, 6, 3), np.uint8)], [1.0, 4.0], "frames of one size"),
+    ([np.zeros((4, 8, 3), np.uint8)] * 2, [1.0, -4.0], "positive exposures"),
+])
+def test_bad_sets_are_refused_in_one_line(frames, exposures, match):
+    with pytest.raises(PanoLightError, match=match):
+        merge_brackets(frames, exposures)

@@ -1,0 +1,80 @@
+"""A bracket set through ``panolight estimate``: exposures from EXIF or --evs, merged, restored, recorded; bad sets
+refused in one line naming the file."""
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+from PIL.TiffImagePlugin import IFDRational
+
+from panolight_core import metrics
+from panolight_core.apps.cli import main
+from panolight_core.camera import hdr_to_ldr
+from panolight_core.io import write_image
+from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+
+def _frame(path, ldr, time_s=None, f_number=None, iso=None):
+    """A JPEG with the exposure EXIF a camera writes (ExposureTime, FNumber, ISO)."""
+    exif = Image.Exif()
+    ifd = exif.get_ifd(0x8769)
+    if time_s is not None:
+        ifd[0x829A] = IFDRational(*(1, round(1 / time_s)) if time_s < 1 else (round(time_s), 1))
+    if f_number is not None:
+        ifd[0x829D] = IFDRational(round(10 * f_number), 10)
+    if iso is not None:
+        ifd[0x8827] = iso
+    Image.fromarray(ldr).save(path, quality=95, exif=exif)
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def day():
+    return _clear_day()
+
+
+def test_a_set_with_its_exif_is_merged_restored_and_recorded(tmp_path, day):
+    """Three frames whose EXIF changes time and ISO (1/1000 s ISO 100, 1/250 ISO 100, 1/250 ISO 400: -2, 0, +2
+    stops): the set's sun comes back where it is, as a light, and lighting.json names every frame."""
+    truth, s, _ = day
+    files = [_frame(tmp_path / f"f{i}.jpg", hdr_to_ldr(truth, ev), t, 8.0, iso)
+             for i, (ev, t, iso) in enumerate(((-2, 1 / 1000, 100), (0, 1 / 250, 100), (2, 1 / 250, 400)))]
+    assert main(["estimate", *files, "-o", str(tmp_path / "out"), "-q"]) == 0
+    doc = json.loads((tmp_path / "out" / "lighting.json").read_text())
+    b = doc["source"]["brackets"]
+    assert b["exposures_from"].startswith("EXIF") and b["stops"] == pytest.approx([-2, 0, 2], abs=0.01)
+    assert doc["source"]["path"] == files[1] and doc["source"]["dynamic_range"] == "hdr-merged-brackets"
+    assert len(b["sha256"]) == 3 and b["ceiling"] == pytest.approx(4.0, rel=0.01)
+    assert doc["estimator"]["restoration"]["restored"]
+    key = metrics.brightest_light(doc["lights"])
+    assert metrics.angle_deg(key["direction"], s) < 1.0
+
+
+def test_evs_give_the_exposures_where_the_files_have_none(tmp_path, day):
+    truth, _, _ = day
+    files = [_frame(tmp_path / f"g{i}.jpg", hdr_to_ldr(truth, ev)) for i, ev in enumerate((-2, 0, 2))]
+    assert main(["estimate", *files, "-o", str(tmp_path / "a"), "-q", "--evs=-2,0,2"]) == 0
+    doc = json.loads((tmp_path / "a" / "lighting.json").read_text())
+    assert doc["source"]["brackets"]["exposures_from"] == "--evs"
+
+
+@pytest.mark.parametrize("case, match", [
+    ("no exif", r"g0.jpg: records no exposure .*--evs"),
+    ("one with evs", r"g0.jpg: --evs gives a bracket set's exposures; one file"),
+    ("evs count", r"--evs gives 2 exposure\(s\) for 3 file\(s\)"),
+    ("same exposures", r"less than a third of a stop apart"),
+    ("sizes", r"small.jpg: 32x16, but g0.jpg is .*one size"),
+    ("hdr frame", r"frame.exr: a bracket frame must be an 8-bit picture"),
+])
+def test_bad_sets_are_refused_in_one_line(tmp_path, day, capsys, case, match):
+    truth, _, _ = day
+    files = [_frame(tmp_path / f"g{i}.jpg", hdr_to_ldr(truth, ev)) for i, ev in enumerate((-2, 0, 2))]
+    args = {"no exif": files, "one with evs": [files[0], "--evs=-2"], "evs count": [*files, "--evs=-2,0"],
+            "same exposures": [*files, "--evs=0,0.1,2"],
+            "sizes": [files[0], _frame(tmp_path / "small.jpg", np.zeros((16, 32, 3), np.uint8)), "--evs=-2,0"],
+            "hdr frame": [files[0], str(write_image(tmp_path / "frame.exr", truth)), "--evs=-2,0"]}[case]
+    assert main(["estimate", *args, "-o", str(tmp_path / "out"), "-q"]) != 0
+    err = capsys.readouterr().err
+    assert len([line for line in err.splitlines() if line.startswith("panolight: error")]) == 1
+    assert __import__("re").search(match, err), err
+    assert not (tmp_path / "out").exists()  # nothing written, no folder left
