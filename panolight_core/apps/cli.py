@@ -77,7 +77,6 @@ def _job_kwargs(args) -> dict:
 
 def run_estimate(args) -> int:
     from ..pipeline import run_estimate as job
-
     from ..pipeline.brackets import BracketSet
 
     if len(args.input) == 1 and args.evs is not None:
