@@ -166,8 +166,12 @@ class Progress:
 SIDECAR = ".panolight-batch.json"  # per output folder: the input's SHA-256 and the settings it was made with
 
 
-def _sha256(path: Path) -> str | None:
-    """The file's SHA-256, or None when it cannot be read (the job then reports why)."""
+def _sha256(path) -> str | None:
+    """The file's SHA-256 (a bracket set's: of its frames' in order), or None when one cannot be read (the job
+    then reports why)."""
+    if hasattr(path, "paths"):  # a pipeline.brackets.BracketSet
+        found = [_sha256(p) for p in path.paths]
+        return None if None in found else hashlib.sha256(" ".join(found).encode()).hexdigest()
     d = digest(path)
     return d and d["sha256"]
 
@@ -375,7 +379,8 @@ def _run_locked(inputs, out_dir, job, shard_spec, quiet, settings, jobs) -> dict
 
     def record(k, result):
         done[k] = result
-        prog.step(Path(result["input"]).name, {"ok": "ok", "skipped": "skip"}.get(result["status"], "FAILED"))
+        shown = " + ".join(Path(part).name for part in result["input"].split(" + "))  # a bracket set: its frames
+        prog.step(shown, {"ok": "ok", "skipped": "skip"}.get(result["status"], "FAILED"))
         report()
 
     tasks = [(k, job, src, out_dir / names[src], settings) for k, src in enumerate(mine)]

@@ -133,6 +133,12 @@ def run_batch(args) -> int:
     inputs = collect_inputs(args.inputs, args.list, args.recursive, exclude=args.output)
     if not inputs:
         raise PanoLightError("no input panoramas found (give files, folders, or --list FILE)")
+    if args.brackets:
+        from ..pipeline.brackets import group_brackets
+
+        inputs = group_brackets(inputs, args.brackets, args.evs)
+    elif args.evs is not None:
+        raise PanoLightError("--evs gives each bracket set's exposures: give --brackets N too")
     kwargs = _job_kwargs(args)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PanoLightWarning)
@@ -274,6 +280,11 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--list", help="a text file with one input path per line ('#' comments allowed)")
     b.add_argument("--recursive", action="store_true", help="also search sub-folders of the given folders")
     b.add_argument("--shard", help="run only shard I of N, written I/N (1 <= I <= N)")
+    b.add_argument("--brackets", type=estimate_settings.number("--brackets", 2, 64, integer=True), default=None,
+                   metavar="N", help="the inputs are bracket sets of N frames: sorted by name, each N consecutive "
+                                     "files one scene, merged into one HDR (its folder named after the first frame)")
+    b.add_argument("--evs", type=estimate_settings.argparse_type(parse_evs), default=None, metavar="EV,EV,...",
+                   help="with --brackets: every set's exposures in stops, in name order (default: each file's EXIF)")
     b.add_argument("--jobs", type=estimate_settings.number("--jobs", 0, 256, integer=True), default=0, metavar="N",
                    help="worker processes (default 0: one more than the CPUs this process may use; 1: no pool). "
                         "Each holds one panorama: at 16K, about 1.3 GB")

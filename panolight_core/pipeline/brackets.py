@@ -28,6 +28,23 @@ class BracketSet:
     def __str__(self) -> str:
         return " + ".join(str(p) for p in self.paths)
 
+    @property
+    def stem(self) -> str:
+        """The first frame's stem: the set's name (``batch``'s output folder)."""
+        return self.paths[0].stem
+
+
+def group_brackets(files, size: int, evs=None) -> list[BracketSet]:
+    """Sorted ``files`` in consecutive sets of ``size`` frames (a camera's bracket sequence, IMG_0001-0003 ...),
+    each with ``evs`` (or None: the files' EXIF). PanoLightError when the files do not divide into whole sets."""
+    files = sorted((Path(f) for f in files), key=str)
+    if size < 2 or len(files) % size:
+        raise PanoLightError(f"--brackets {size}: {len(files)} file(s) do not make whole sets of {size} frames "
+                             f"(sorted by name, each set its consecutive files)")
+    if evs is not None and len(evs) != size:
+        raise PanoLightError(f"--evs gives {len(evs)} exposure(s) for sets of {size} frames: one per frame")
+    return [BracketSet(files[i:i + size], evs) for i in range(0, len(files), size)]
+
 
 def parse_evs(text: str) -> tuple[float, ...]:
     """'-2,0,2' -> (-2.0, 0.0, 2.0): each frame's exposure in stops, in the order of the files."""

@@ -78,3 +78,26 @@ def test_bad_sets_are_refused_in_one_line(tmp_path, day, capsys, case, match):
     assert len([line for line in err.splitlines() if line.startswith("panolight: error")]) == 1
     assert __import__("re").search(match, err), err
     assert not (tmp_path / "out").exists()  # nothing written, no folder left
+
+
+def test_batch_groups_sorted_files_into_sets_and_resumes_them(tmp_path, day, capsys):
+    """--brackets 3: six files, two sets (sorted by name), each merged into one output folder named after its first
+    frame; a second run finds both up to date; a count that does not divide is refused before any work."""
+    truth, _, _ = day
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    for scene in ("a", "b"):
+        for i, ev in enumerate((-2, 0, 2)):
+            _frame(shots / f"{scene}_{i}.jpg", hdr_to_ldr(truth, ev))
+    out = tmp_path / "out"
+    assert main(["batch", str(shots), "-o", str(out), "--brackets", "3", "--evs=-2,0,2", "--jobs", "1", "-q"]) == 0
+    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == ["a_0", "b_0"]
+    doc = json.loads((out / "b_0" / "lighting.json").read_text())
+    assert [p.rsplit("/", 1)[-1] for p in doc["source"]["brackets"]["files"]] == ["b_0.jpg", "b_1.jpg", "b_2.jpg"]
+    assert main(["batch", str(shots), "-o", str(out), "--brackets", "3", "--evs=-2,0,2", "--jobs", "1", "-q"]) == 0
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["skipped", "skipped"]
+    assert main(["batch", str(shots), "-o", str(tmp_path / "x"), "--brackets", "4"]) != 0
+    assert "6 file(s) do not make whole sets of 4 frames" in capsys.readouterr().err
+    assert main(["batch", str(shots), "-o", str(tmp_path / "y"), "--evs=-2,0,2"]) != 0
+    assert "give --brackets N too" in capsys.readouterr().err
