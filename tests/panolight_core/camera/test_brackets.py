@@ -22,8 +22,8 @@ def test_exposure_is_time_times_iso_over_f_number_squared():
 
 
 def test_the_hat_weighs_mid_tones_most_and_clipped_codes_not_at_all():
-    w = hat(np.array([0, 1, 127, 128, 200, 253, 254, 255], np.uint8))
-    assert w[0] > 0 and w[2] == w.max() and w[-1] == w[-2] == 0 and w[5] > 0
+    w = hat(np.array([0, 1, 127, 128, 200, 249, 250, 255], np.uint8))
+    assert w[0] > 0 and w[2] == w.max() and w[-1] == w[-2] == 0 and w[5] > 0  # a JPEG's clipped sun: 250-255
 
 
 def test_three_exposures_merge_to_the_truth_and_the_sun_clips_at_the_darkest_white(day):
