@@ -79,11 +79,13 @@ def run_estimate(args) -> int:
     from ..pipeline import run_estimate as job
     from ..pipeline.brackets import BracketSet
 
-    if len(args.input) == 1 and args.evs is not None:
-        raise PanoLightError(f"{args.input[0]}: --evs gives a bracket set's exposures; one file is estimated as it "
+    inputs = [args.input] if isinstance(args.input, str) else args.input  # project takes one file
+    evs = getattr(args, "evs", None)
+    if len(inputs) == 1 and evs is not None:
+        raise PanoLightError(f"{inputs[0]}: --evs gives a bracket set's exposures; one file is estimated as it "
                              f"is (give every frame of the set)")
-    src = Path(args.input[0]) if len(args.input) == 1 else BracketSet(args.input, args.evs)
-    out = Path(args.output) if args.output else Path("out") / Path(args.input[0]).stem
+    src = Path(inputs[0]) if len(inputs) == 1 else BracketSet(inputs, evs)
+    out = Path(args.output) if args.output else Path("out") / Path(inputs[0]).stem
     with _exr_threads():
         doc = job(src, out, estimate_settings.from_args(args), **_job_kwargs(args))
     if not args.quiet:
