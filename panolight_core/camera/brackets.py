@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 
+from .. import threads
 from ..errors import PanoLightError
 from .color import SRGB8_TO_LINEAR
 
@@ -70,21 +71,26 @@ def merge_brackets(frames, exposures) -> tuple[np.ndarray, dict]:
     ref = int(np.argsort(e)[(e.size - 1) // 2])
     rel = e / e[ref]
     ceiling = float(1.0 / rel.min())
+    weight = hat(np.arange(256, dtype=np.uint8))  # by code: a table lookup per pixel, not arithmetic
+    radiance = [(SRGB8_TO_LINEAR / np.float32(k)).astype(np.float32) for k in rel]  # each frame's code -> radiance
     h = frames[0].shape[0]
     out = np.empty(frames[0].shape, np.float32)
-    clipped = 0
-    for r0 in range(0, h, BLOCK_ROWS):
-        r1 = min(h, r0 + BLOCK_ROWS)
+
+    def merge_rows(rows):
+        r0, r1 = rows
         num = np.zeros((r1 - r0,) + frames[0].shape[1:], np.float32)
         den = np.zeros((r1 - r0, frames[0].shape[1]), np.float32)
-        for frame, k in zip(frames, rel):
+        for frame, lut in zip(frames, radiance):
             block = frame[r0:r1]
-            w = hat(block.max(axis=-1))
-            num += (w / np.float32(k))[..., None] * SRGB8_TO_LINEAR[block]
+            w = weight[np.maximum(np.maximum(block[..., 0], block[..., 1]), block[..., 2])]
+            num += w[..., None] * lut[block]
             den += w
         none = den == 0  # clipped in every frame: at the darkest frame's white
-        clipped += int(none.sum())
-        out[r0:r1] = num / np.where(none, np.float32(1.0), den)[..., None]
-        out[r0:r1][none] = np.float32(ceiling)
+        num /= np.where(none, np.float32(1.0), den)[..., None]
+        num[none] = np.float32(ceiling)
+        out[r0:r1] = num
+        return int(none.sum())
+
+    clipped = sum(threads.map_ordered(merge_rows, [(r, min(h, r + BLOCK_ROWS)) for r in range(0, h, BLOCK_ROWS)]))
     return out, {"reference": ref, "stops": [round(math.log2(k), 4) for k in rel], "ceiling": ceiling,
                  "clipped_in_every_frame": clipped / float(out.shape[0] * out.shape[1])}
