@@ -95,24 +95,19 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
     from . import sources
     from .sources.restore import Source
 
-    info = {"input": "ldr"}
-    if pixels.dtype != np.uint8:
-        ceiling = find_ceiling(pixels)
-        if ceiling is None:
-            return _exact_hdr(pixels, lmax, name)
-        if not restore:
-            est = _exact_hdr(pixels, lmax, name)
-            est.info["restoration"] = {**ceiling.describe(), "restored": False,
-                                       "why": "--restore none: the file as it is, its clipped plateau unweighed"}
-            return est
-        info = {"input": "hdr"}
     if pixels.dtype == np.uint8:
-        path = sources.MODEL_PATH if model_path is None else model_path
+        model = sources.load_source_model(sources.MODEL_PATH if model_path is None else model_path)
+        rec, info = sources.recover(pixels, model), {"input": "ldr"}
     else:
-        path = hdr_model_path or model_path or sources.HDR_MODEL_PATH
-    model = sources.load_source_model(path)
-    rec = (sources.recover(pixels, model) if pixels.dtype == np.uint8 else
-           sources.recover_hdr(Source(pixels, ceiling), model))
+        ceiling = find_ceiling(pixels)
+        if ceiling is None or not restore:
+            est = _exact_hdr(pixels, lmax, name)
+            if ceiling is not None:
+                est.info["restoration"] = {**ceiling.describe(), "restored": False,
+                                           "why": "--restore none: the file as it is, its clipped plateau unweighed"}
+            return est
+        model = sources.load_source_model(hdr_model_path or model_path or sources.HDR_MODEL_PATH)
+        rec, info = sources.recover_hdr(Source(pixels, ceiling), model), {"input": "hdr"}
     if key_lights:  # also without regions: a sun the photo does not show
         from .keylight import with_key_lights
 
@@ -226,8 +221,9 @@ def register_source_model(label: str, path, key_lights: bool = True, hdr_path=No
     _check_label(label)
     for p in (path, hdr_path) if hdr_path else (path,):
         sources.load_source_model(p)  # fail now, naming the file, not in the middle of an evaluation
-    _REGISTRY[label] = Entry(partial(per_source, key_lights=key_lights, model_path=path, hdr_model_path=hdr_path), label,
-                             f"{'keylight' if key_lights else 'sources'} with the per-source model {path}", True)
+    run = partial(per_source, key_lights=key_lights, model_path=path, hdr_model_path=hdr_path)
+    _REGISTRY[label] = Entry(run, label, f"{'keylight' if key_lights else 'sources'} with the per-source model {path}",
+                             True)
     return label
 
 
@@ -259,11 +255,12 @@ _REGISTRY = {
     "naive": Entry(naive, "Naive", "sRGB to linear only"),
     "analytic": Entry(analytic, "Analytic", "sRGB to linear with power-law highlight recovery; exact for HDR"),
     "sources": Entry(per_source, "Per-source energy", "Each clipped sun, lamp or window gets the energy a model "
-                     "learned from real HDR panoramas predicts; exact for HDR, but for a sun or lamp the file itself clipped", True),
+                     "learned from real HDR panoramas predicts; exact for HDR, but for a sun or lamp the file itself "
+                     "clipped", True),
     "keylight": Entry(per_source_key_lights, "Per-source + key lights", "Per-source energy, and each clipped "
                       "region holding a compact sun or lamp made one explicit light that casts shadows; a sun the "
-                      "photo does not show (retouched out) put back where its clear sky places it (exact for HDR, but for a "
-                      "sun or lamp the file itself clipped)", True),
+                      "photo does not show (retouched out) put back where its clear sky places it (exact for HDR, but "
+                      "for a sun or lamp the file itself clipped)", True),
     "neural": Entry(neural_estimator(), "Neural", "The paper's network (numpy; no torch needed)"),
 }
 BUILTIN = tuple(_REGISTRY)  # register_model and register_source_model add labels beside these
