@@ -63,3 +63,23 @@ def test_a_channel_clipped_in_one_frame_takes_nothing_from_that_frame():
 def test_bad_sets_are_refused_in_one_line(frames, exposures, match):
     with pytest.raises(PanoLightError, match=match):
         merge_brackets(frames, exposures)
+
+
+def test_a_hand_held_set_is_aligned_round_the_panorama_and_merges_as_the_still_one():
+    """Blender's city, three frames turned by 40 and -25 columns and tipped by 3 and -2 rows (a 360 camera turned in
+    the hand): the median threshold bitmaps find each shift, and the merge equals the still set's away from the
+    poles' edge rows."""
+    from panolight_core.camera.brackets import align_shift, shift_frame
+    from panolight_core.data import load_studio_hdri
+
+    truth = load_studio_hdri("city")
+    frames = [hdr_to_ldr(truth, ev) for ev in (-2, 0, 2)]
+    assert [align_shift(frames[1], f) for f in frames] == [(0, 0)] * 3  # a still set stays where it is
+    moved = [shift_frame(frames[0], 3, -40), frames[1], shift_frame(frames[2], -2, 25)]
+    still, _ = merge_brackets(frames, [0.25, 1.0, 4.0])
+    merged, info = merge_brackets(moved, [0.25, 1.0, 4.0])
+    w = truth.shape[1]
+    assert info["shifts"] == [[-3, 40], [0, 0], [2, w - 25]]
+    assert np.array_equal(merged[4:-4], still[4:-4])
+    raw, raw_info = merge_brackets(moved, [0.25, 1.0, 4.0], align=False)
+    assert "shifts" not in raw_info and not np.array_equal(raw[4:-4], still[4:-4])
