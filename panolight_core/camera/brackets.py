@@ -124,12 +124,12 @@ def align_shift(reference: np.ndarray, frame: np.ndarray, ratio: float = 1.0, le
     the panorama (a 360 camera turned in the hand), the rows within ALIGN_MAX_ROWS of where they were; on a grid at
     most ALIGN_MAX_WIDTH wide. (0, 0) for a frame mostly clipped white or black, and where no shift matches the
     frames better than none by ALIGN_MIN_GAIN."""
-    gray_ref, gray = _gray(reference), _gray(frame)
+    scale = 1
+    while frame.shape[1] > scale * ALIGN_MAX_WIDTH:  # a large set: every scale-th pixel (what the grid holds)
+        scale *= 2
+    gray_ref, gray = _gray(reference[::scale, ::scale]), _gray(frame[::scale, ::scale])
     t_ref, t_frame = _thresholds(gray_ref, ratio)
     pyramid = [(gray_ref, gray)]
-    scale = 1
-    while pyramid[0][0].shape[1] > ALIGN_MAX_WIDTH:
-        pyramid, scale = [tuple(_halve(g) for g in pyramid[0])], 2 * scale
     for _ in range(levels - 1):
         if min(pyramid[-1][0].shape) < 16:
             break
@@ -163,7 +163,8 @@ def merge_brackets(frames, exposures, align: bool = True) -> tuple[np.ndarray, d
         raise PanoLightError(f"a bracket set is frames of one size, 8-bit, one per exposure (got {len(frames)} "
                              f"frames of shapes {sorted(shapes)}, {e.size} exposures)")
     ref = int(np.argsort(e)[(e.size - 1) // 2])
-    shifts = [align_shift(frames[ref], f, e[i] / e[ref]) if align and i != ref else (0, 0) for i, f in enumerate(frames)]
+    shifts = threads.map_ordered(lambda i: align_shift(frames[ref], frames[i], e[i] / e[ref]) if align and i != ref
+                                 else (0, 0), range(len(frames)))
     frames = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(frames, shifts)]
     rel = e / e[ref]
     ceiling = float(1.0 / rel.min())
