@@ -59,8 +59,11 @@ TOOLS = {
                         "source-energy cross-validation"),
     "keylight-cv": ("training.keylight.cv", "the key light's direction and energy over the real HDRs, and the "
                     "clear-sky correction cross-validated"),
-    "captures": ("training.keylight.captures", "better captures (EVALUATION.md): an HDR clipped at +2/+4/+6 stops "
-                 "against one JPEG, scored by the dominant source, its shadow and m-RMSE"),
+    "captures": ("training.keylight.captures", "better captures (EVALUATION.md): an HDR clipped at +2/+4/+6 stops, as "
+                 "it is and restored, and bracket sets, against one JPEG, scored by the dominant source, its shadow "
+                 "and m-RMSE"),
+    "bracket-alignment": ("training.experiments.bracket_alignment", "bracket sets aligned over the real HDRs: still "
+                          "frames left in place, moved frames put back"),
     "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
     "hidden-sun": ("training.keylight.hidden_sun", "a sun the photo does not show: located from the sky alone over "
                    "the real HDRs, and the suns the estimator invents"),
@@ -78,6 +81,8 @@ TOOLS = {
     "ship": ("training.neural.ship", "ship a trained run as the learned estimator's weights, with its model card"),
     "eval-synthetic": ("training.synth.evaluate", "the LDR estimators on procedural skies and rooms"),
     "bench-estimate": ("training.benchmarks.bench_estimate", "benchmark: decode + estimate of a 2048 x 1024 JPEG"),
+    "bench-restore": ("training.benchmarks.bench_restore", "benchmark: an 8K clipped HDR restored, and a 3-bracket "
+                      "set, against their peers"),
     "bench-io": ("training.benchmarks.bench_io", "benchmark: decode time per format, peak memory per size"),
     "bench-neural": ("training.benchmarks.bench_neural", "benchmark: the learned estimator's network latency"),
     "bench-scale": ("training.benchmarks.bench_scale", "benchmark: 16K CLI, 8K/16K Blender and batch throughput"),

@@ -163,8 +163,9 @@ def main(argv=None) -> int:
     ap.add_argument("--as-ldr", action="store_true",
                     help="also estimate each clipped file through the LDR path, its ceiling the white of an 8-bit "
                          "sRGB picture (the per-source and key-light machinery as they are)")
-    ap.add_argument("--brackets", nargs="*", default=["-2,0,2", "-4,-2,0,2,4"], metavar="EVS",
-                    help="bracket sets of the camera's JPEGs, merged (default: -2,0,2 and -4,-2,0,2,4; none: no sets)")
+    ap.add_argument("--brackets", action="append", default=None, metavar="EVS",
+                    help="a bracket set of the camera's JPEGs, merged, as --brackets=-2,0,2 (again for another set; "
+                         "default: -2,0,2 and -4,-2,0,2,4; --brackets= alone: no sets)")
     fold_models_option(ap)
     ap.add_argument("--hdr-fold-models", default=None, metavar="PATTERN",
                     help="with --fold-models: the fold models that restore the clipped HDR files (models/"
@@ -185,7 +186,8 @@ def main(argv=None) -> int:
     estimator_of = (fold_estimators(args.fold_models, files, hdr_pattern=args.hdr_fold_models) if args.fold_models
                     else {p: "auto" for p in files})
     clipped = clipped_truth(args.hdri)
-    brackets = [tuple(float(v) for v in b.split(",")) for b in args.brackets]
+    sets = args.brackets if args.brackets is not None else ["-2,0,2", "-4,-2,0,2,4"]
+    brackets = [tuple(float(v) for v in b.split(",")) for b in sets if b.strip()]
     rows = []
     for i, path in enumerate(files, 1):
         if path.name in clipped:
@@ -197,7 +199,7 @@ def main(argv=None) -> int:
                   f"C {r['contrast']:6.2f} of {r['true_contrast']:6.2f}  m/naive {r['m_rmse_over_naive']:.3f}", flush=True)
     summ = summary(rows)
     print("\n".join(table(summ)))
-    save_study({"stops": args.stops, "brackets": args.brackets, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
+    save_study({"stops": args.stops, "brackets": sets, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
                 "summary": summ, "rows": rows}, args.out)
     if args.plot:
         print(f"wrote {plot(summ, args.plot)}")
