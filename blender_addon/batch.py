@@ -1,6 +1,7 @@
 """Headless PanoLight: load a panorama, estimate its lighting, build the world, optionally render and save.
 
-    blender -b [scene.blend] --python <extension>/batch.py -- --input PANO [--output-blend OUT.blend]
+    blender -b [scene.blend] --python <extension>/batch.py -- --input PANO [PANO ...] [--evs EV,EV,...]
+            [--output-blend OUT.blend]
             [--render OUT.png] [--samples 64] [--resolution 640x360] [--light-with sh|hdri]
             [the estimate options of 'panolight estimate': --estimator --model --lmax --tolerance
              --window --window-width --exposure]
@@ -32,7 +33,11 @@ def parse(argv, core):
     argv = argv[argv.index("--") + 1:] if "--" in argv else []
     ap = argparse.ArgumentParser(prog="batch.py", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--input", required=True, help="panorama (.jpg/.png/.exr/.hdr, 2:1)")
+    ap.add_argument("--input", required=True, nargs="+",
+                    help="panorama (.jpg/.png/.exr/.hdr, 2:1); several 8-bit files: a bracket set of one scene, merged "
+                         "into one HDR (the panel's Load panorama with several files)")
+    ap.add_argument("--evs", default="", metavar="EV,EV,...",
+                    help="a bracket set's exposures in stops, one per file in name order (default: each file's EXIF)")
     ap.add_argument("--output-blend", help="save the .blend here")
     ap.add_argument("--render", help="render the scene's camera to this image (PNG or EXR)")
     ap.add_argument("--samples", type=int, default=64, help="Cycles samples for --render (default 64)")
@@ -82,7 +87,10 @@ def run(args, addon) -> None:
     import bpy
 
     configure(bpy.context.scene, args, addon.core.core)
-    for op, kwargs in ((bpy.ops.panolight.load_panorama, {"filepath": str(Path(args.input).resolve())}),
+    paths = [str(Path(p).resolve()) for p in args.input]
+    load = ({"filepath": paths[0]} if len(paths) == 1 else
+            {"directory": str(Path(paths[0]).parent), "files": [{"name": p} for p in paths], "evs": args.evs})
+    for op, kwargs in ((bpy.ops.panolight.load_panorama, load),
                        (bpy.ops.panolight.estimate_lighting, {}),
                        (bpy.ops.panolight.build_environment, {})):
         try:
@@ -116,8 +124,11 @@ def run(args, addon) -> None:
 def main(argv=None):
     addon = _addon()
     args = parse(sys.argv if argv is None else argv, addon.core.core)
-    if not Path(args.input).is_file():
-        raise SystemExit(f"panolight batch: {args.input}: file not found")
+    for path in args.input:
+        if not Path(path).is_file():
+            raise SystemExit(f"panolight batch: {path}: file not found")
+    if args.evs and len(args.input) == 1:
+        raise SystemExit(f"panolight batch: {args.input[0]}: --evs gives a bracket set's exposures; give every frame")
     run(args, addon)
 
 

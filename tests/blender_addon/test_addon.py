@@ -902,3 +902,21 @@ def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp
     assert metrics.angle_deg(metrics.brightest_light(doc["lights"])["direction"], s) < 1.0
     with pytest.raises(RuntimeError, match="less than a third of a stop apart"):
         bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="0,0.1,2")
+
+
+def test_the_headless_script_merges_a_bracket_set(tmp_path):
+    """batch.py --input a b c --evs: the set merged and estimated as the panel's Load of several files does; --evs
+    with one file is refused in one line."""
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.io import write_srgb8
+
+    city = load_studio_hdri("city")
+    frames = [str(write_srgb8(tmp_path / f"c{i}.png", hdr_to_ldr(city, ev))) for i, ev in enumerate((-2, 0, 2))]
+    batch = ROOT / "blender_addon" / "batch.py"
+    r = subprocess.run([sys.executable, str(batch), "--", "--input", *frames, "--evs=-2,0,2", "--output-blend",
+                        str(tmp_path / "set.blend")], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "merged from 3 frames (-2, +0, +2 stops)" in r.stdout + r.stderr
+    r = subprocess.run([sys.executable, str(batch), "--", "--input", frames[0], "--evs=-2"], capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode != 0 and "c0.png: --evs gives a bracket set's exposures" in r.stderr
