@@ -8,6 +8,9 @@ makes a dark sun or a magenta halo). A pixel clipped in every frame is clipped: 
 white in every channel, which makes the merged file an HDR that clips its own sun at exactly its ceiling
 (``camera.ceiling``), and the restoration weighs it as for any such file.
 
+What moves between the frames (a person, a leaf, a wave) is the reference frame's alone: a frame gives nothing to a
+pixel whose radiance it sees GHOST_RATIO off the reference's where both see it well exposed.
+
 Hand-held frames are aligned first (``align_shift``: Ward's median threshold bitmaps, the panorama's columns
 turned round and its rows shifted: a 360 camera turned or tipped a little between frames; a tilt that bends the
 horizon is not undone).
@@ -152,11 +155,18 @@ def align_shift(reference: np.ndarray, frame: np.ndarray, ratio: float = 1.0, le
     return scale * dy, (scale * dx) % frame.shape[1]
 
 
-def merge_brackets(frames, exposures, align: bool = True) -> tuple[np.ndarray, dict]:
+GHOST_RATIO = 2.0  # a pixel whose brightest channel's radiance in a frame is this far from the reference frame's ...
+GHOST_CODES = (20, 235)  # ... where both frames see it well exposed (these codes), moved between them (a person, a
+# leaf, a wave): that frame gives it nothing. A still scene's frames agree within JPEG's few per cent there
+
+
+def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True) -> tuple[np.ndarray, dict]:
     """Merge 8-bit sRGB frames (each (H, W, 3) uint8, one scene) taken at relative ``exposures`` into a float32
     (H, W, 3) linear HDR (units: the reference frame's white is 1) and what was done: the reference frame (index),
     each frame's exposure over the reference's (in stops), the ceiling, the share of pixels clipped in every frame
-    and, with ``align``, each frame's (dy, dx) shift onto the reference (``align_shift``: a hand-held set)."""
+    and, with ``align``, each frame's (dy, dx) shift onto the reference (``align_shift``: a hand-held set). With
+    ``ghosts`` a frame gives nothing to a pixel it sees GHOST_RATIO brighter or darker than the reference frame does
+    where both see it well exposed (GHOST_CODES): what moved between the frames is the reference frame's alone."""
     e = check_exposures(exposures)
     shapes = {np.asarray(f).shape for f in frames}
     if len(frames) != e.size or len(shapes) != 1 or any(np.asarray(f).dtype != np.uint8 for f in frames):
@@ -170,6 +180,18 @@ def merge_brackets(frames, exposures, align: bool = True) -> tuple[np.ndarray, d
     ceiling = float(1.0 / rel.min())
     weight = hat(np.arange(256, dtype=np.uint8))  # by code: a table lookup per pixel, not arithmetic
     radiance = [(SRGB8_TO_LINEAR / np.float32(k)).astype(np.float32) for k in rel]  # each frame's code -> radiance
+    # each frame's weight by (the reference's code, its own code) of a pixel's brightest channel: the hat, and 0 where
+    # the two differ by GHOST_RATIO in radiance though both are well exposed (GHOST_CODES): one table lookup per pixel
+    codes = np.arange(256)
+    sure = (codes >= GHOST_CODES[0]) & (codes <= GHOST_CODES[1])
+    weights = []
+    for i, k in enumerate(rel):
+        table = np.broadcast_to(weight[None, :], (256, 256)).copy()  # [reference code, own code]
+        if ghosts and i != ref:
+            level = SRGB8_TO_LINEAR.astype(np.float64)
+            ratio = level[None, :] / (k * np.maximum(level[:, None], 1e-12))  # own radiance over the reference's
+            table[sure[:, None] & sure[None, :] & ((ratio > GHOST_RATIO) | (ratio < 1.0 / GHOST_RATIO))] = 0.0
+        weights.append(table.ravel())  # read at reference code x 256 + own code
     h = frames[0].shape[0]
     out = np.empty(frames[0].shape, np.float32)
 
@@ -177,9 +199,11 @@ def merge_brackets(frames, exposures, align: bool = True) -> tuple[np.ndarray, d
         r0, r1 = rows
         num = np.zeros((r1 - r0,) + frames[0].shape[1:], np.float32)
         den = np.zeros((r1 - r0, frames[0].shape[1]), np.float32)
-        for frame, lut in zip(frames, radiance):
+        top = [np.maximum(np.maximum(f[r0:r1, :, 0], f[r0:r1, :, 1]), f[r0:r1, :, 2]) for f in frames]
+        row = top[ref].astype(np.uint16) << 8
+        for i, (frame, lut) in enumerate(zip(frames, radiance)):
             block = frame[r0:r1]
-            w = weight[np.maximum(np.maximum(block[..., 0], block[..., 1]), block[..., 2])]
+            w = weights[i][row | top[i]]
             num += w[..., None] * lut[block]
             den += w
         none = den == 0  # clipped in every frame: at the darkest frame's white

@@ -2,9 +2,10 @@
 import numpy as np
 import pytest
 
-from panolight_core.camera import hdr_to_ldr
+from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.camera.brackets import exposure, hat, merge_brackets
 from panolight_core.camera.ceiling import find_ceiling
+from panolight_core.camera.color import linear_to_srgb
 from panolight_core.errors import PanoLightError
 from tests.panolight_core.estimators.sources.test_restore import _clear_day
 
@@ -83,3 +84,20 @@ def test_a_hand_held_set_is_aligned_round_the_panorama_and_merges_as_the_still_o
     assert np.array_equal(merged[4:-4], still[4:-4])
     raw, raw_info = merge_brackets(moved, [0.25, 1.0, 4.0], align=False)
     assert "shifts" not in raw_info and not np.array_equal(raw[4:-4], still[4:-4])
+
+
+def test_what_moves_between_frames_is_the_reference_frame_s_alone():
+    """A passer-by in the +2 frame only (a dark coat over a grey wall): that frame gives the patch nothing, and the
+    merge there is the still set's, not a half-dark ghost; with ghosts off it is darkened."""
+    truth = np.full((32, 64, 3), 0.12, np.float32)
+    truth[:, 32:] = 0.05  # a darker half: well exposed in every frame
+    frames = [hdr_to_ldr(truth, ev) for ev in (-2, 0, 2)]
+    coat = linear_to_srgb(np.float32(0.01 * auto_exposure(truth, 2.0)))  # 12x darker than the wall, in one frame
+    frames[2][10:20, 10:20] = np.round(255 * coat).astype(np.uint8)
+    still, _ = merge_brackets([hdr_to_ldr(truth, ev) for ev in (-2, 0, 2)], [0.25, 1.0, 4.0], align=False)
+    merged, _ = merge_brackets(frames, [0.25, 1.0, 4.0], align=False)
+    ghost, _ = merge_brackets(frames, [0.25, 1.0, 4.0], align=False, ghosts=False)
+    patch = (slice(10, 20), slice(10, 20))
+    assert merged[patch] == pytest.approx(still[patch], rel=0.02)
+    assert float(ghost[patch].mean()) < 0.8 * float(still[patch].mean())
+    assert np.array_equal(merged[:, 32:], still[:, 32:])  # the still part is untouched
