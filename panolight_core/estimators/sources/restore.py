@@ -16,11 +16,9 @@ import numpy as np
 from ... import sh
 from ...camera.ceiling import MIN_PLATEAU_CHANNELS, Ceiling, row_runs
 from ...camera.resample import area_downsample, block_of, block_starts
-from ...packed import PackedImage
+from ...packed import PackedImage, RowFile
 from ..highlights import WORK_HEIGHT
 from .fill import FullResolutionFill
-
-BLOCK_ROWS = 256
 
 
 @dataclass(frozen=True)
@@ -77,16 +75,14 @@ class Source:
         return PackedImage(FilledRows(self, fill), "file")
 
 
-class FilledRows:
+class FilledRows(RowFile):
     """The rows of a ``Source``'s pixels with a ``FullResolutionFill`` applied: a ``packed.PackedImage`` store
-    (kind "file"), read again at each access, so no full-size copy of a large panorama exists."""
-
-    repair = None
+    (kind "file", read by slices and gathers as a ``RowFile``), made again at each access, so no full-size copy of a
+    large panorama exists. Blocks are made in parallel (no file to serialise on)."""
 
     def __init__(self, source: Source, fill: FullResolutionFill):
+        super().__init__(None, *source.pixels.shape[:2])
         self.source, self.fill = source, fill
-        self.shape = source.pixels.shape[:2] + (3,)
-        self.nbytes = 0
         pixels = source.pixels
         peak = pixels.peak() if isinstance(pixels, PackedImage) else float(np.max(pixels, initial=0.0))
         self.top = peak + fill.peak()  # an upper bound, what hdr.exr's writer needs
@@ -95,14 +91,3 @@ class FilledRows:
         block = np.array(self.source.pixels[r0:r1], dtype=np.float32)
         self.fill.apply(block, r0, self.source.plateau_rows(r0, r1))
         return block
-
-    def __getitem__(self, key):
-        if isinstance(key, slice):
-            r0, r1, _ = key.indices(self.shape[0])
-            return self._rows(r0, max(r0, r1))
-        rows, cols = key  # gathered a block of rows at a time: only the blocks holding them are read
-        out = np.empty((len(rows), 3), np.float32)
-        for c0 in np.unique(np.asarray(rows) // BLOCK_ROWS) * BLOCK_ROWS:
-            mine = (rows >= c0) & (rows < c0 + BLOCK_ROWS)
-            out[mine] = self._rows(int(c0), min(self.shape[0], int(c0) + BLOCK_ROWS))[rows[mine] - c0, cols[mine]]
-        return out
