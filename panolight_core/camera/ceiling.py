@@ -3,8 +3,9 @@ exposure, as most hand-merged and downloaded HDRIs shot without an ND filter cli
 
 A clipped source is a plateau: pixels whose channels sit, to the last bits, at the file's largest value in that
 channel. Real radiance has no such ties at its peak: of the 111 real HDRs in ../shared/data/hdri only the two
-whose sun or lamp core overflowed half floats show three pixels with two or more channels at their maxima, while
-a truth clipped at 2, 4 or 6 stops over its JPEG's white shows dozens to thousands (docs/studies/restore.md). A
+whose sun or lamp core overflowed half floats, and one studio's ceiling lamps, show three pixels with two or more
+channels at their maxima, while a truth clipped at 2, 4 or 6 stops over its JPEG's white shows dozens to thousands
+(docs/studies/captures.md). A
 real un-clipped sun is a peaked disk: it has one brightest pixel, and is never taken for a plateau.
 
 ``find_ceiling`` reads the image by row blocks (a ``packed.PackedImage`` too) and returns a ``Ceiling`` or None.

@@ -84,15 +84,11 @@ class KeyLightParams:
         that stands at least this high keeps at least its fit's 68 % low end, its patch at most the high end
         (``physics_trusted``): there the centroid is on the sun and the fit was checked; a wider patch's centroid
         is degrees off, and a low sun's haze makes the model's sun too strong.
-    one_account: a clear-sky sun takes its whole region's decided energy (a trusted one's capped at its fit's high
-        end, as its patch is), not its fit's with the rest left in the region's fill, which the SH part spreads
-        while hdr.exr keeps it on the sun (an experiment on photos: training/experiments/key_variants.py; it cost a
-        blinding scene at ev +2, docs/studies/keylight_111.md).
     belief: a key light carries what its evidence believes, not the decided fill's caution: the per-source model's
         mean energy for its regions, a clear-sky sun the geometric mean of that and its fit's (two estimates
         averaged in log), and never less than the decided fill's (so its region holds one account: the light).
         What an HDR file's clipped plateau gets (``with_key_lights``): the plateau is a few pixels around the
-        source, its place sure, its surroundings un-clipped and linear (docs/studies/restore.md).
+        source, its place sure, its surroundings un-clipped and linear (docs/studies/captures.md).
     """
 
     key_share: float = 0.1
@@ -109,7 +105,6 @@ class KeyLightParams:
     direction_68_per_extent: float = 0.25
     floor_max_extent_deg: float = 30.0
     floor_min_elevation_deg: float = 15.0
-    one_account: bool = False
     belief: bool = False
 
 
@@ -202,19 +197,15 @@ def key_energy(physical: float | None, learned: float, decided: float, trusted: 
     sky_correction; None where there is none), the per-source model's mean and the decided fill's. A clear-sky
     sun takes its fit's energy capped at the larger of the mean and the decided fill, but never below the low end
     of the fit's 68 % range (fit / sky_spread) where the fit is ``trusted`` (``physics_trusted``); any other
-    light takes the decided fill's. With ``params.one_account`` a clear-sky sun takes at least the decided fill's
-    (a trusted one's at most the fit's high end); with ``params.belief`` any light takes its belief: the model's mean
-    (``learned``), for a clear-sky sun the geometric mean of it and the fit's, at least the decided fill's. (The rules compared with it, "hybrid" in the study, are
-    training's: training/keylight/rules.py; docs/studies/keylight_energy.md.)"""
+    light takes the decided fill's. With ``params.belief`` any light takes its belief: the model's mean (``learned``),
+    for a clear-sky sun the geometric mean of it and the fit's, at least the decided fill's. (The rules compared
+    with it, "hybrid" in the study, are training's: training/keylight/rules.py; docs/studies/keylight_energy.md.)"""
     if params.belief:
         return max(learned if physical is None else math.sqrt(learned * physical), decided)
     if physical is None:
         return decided
     capped = min(physical, max(decided, learned))
-    energy = max(capped, physical / params.sky_spread) if trusted else capped
-    if params.one_account:
-        energy = max(energy, min(decided, physical * params.sky_spread) if trusted else decided)
-    return energy
+    return max(capped, physical / params.sky_spread) if trusted else capped
 
 
 def physics_trusted(extent_deg: float, elevation_deg: float, params: KeyLightParams = PARAMS) -> bool:

@@ -29,8 +29,11 @@ def one_account():
     """``keylight.key_energy`` as ``one-account`` weighs a clear-sky sun, for the ``with`` block."""
     shipped = keylight.key_energy
 
-    def whole(physical, learned, decided, trusted, params=keylight.PARAMS):  # the rule an HDR's plateau ships with
-        return shipped(physical, learned, decided, trusted, replace(params, one_account=True))
+    def whole(physical, learned, decided, trusted, params=keylight.PARAMS):
+        energy = shipped(physical, learned, decided, trusted, params)
+        if physical is None:
+            return energy
+        return max(energy, min(decided, physical * params.sky_spread) if trusted else decided)
 
     keylight.key_energy = whole
     try:
