@@ -15,7 +15,7 @@ from pathlib import Path
 from .. import __version__
 from ..errors import PanoLightError, PanoLightWarning, printable
 from ..pipeline import settings as estimate_settings
-from ..pipeline.brackets import parse_evs
+from ..pipeline.brackets import BracketSet, group_brackets, parse_evs
 from .options import HelpFormatter, progress_to_stderr, resolution
 
 PLUGIN_GROUP = "panolight.commands"  # entry points: register(subparsers) adds a plugin's commands
@@ -77,8 +77,6 @@ def _job_kwargs(args) -> dict:
 
 def run_estimate(args) -> int:
     from ..pipeline import run_estimate as job
-    from ..pipeline.brackets import BracketSet
-
     inputs = [args.input] if isinstance(args.input, str) else args.input  # project takes one file
     evs = getattr(args, "evs", None)
     if len(inputs) == 1 and evs is not None:
@@ -136,8 +134,6 @@ def run_batch(args) -> int:
     if not inputs:
         raise PanoLightError("no input panoramas found (give files, folders, or --list FILE)")
     if args.brackets:
-        from ..pipeline.brackets import group_brackets
-
         inputs = group_brackets(inputs, args.brackets, args.evs)
     elif args.evs is not None:
         raise PanoLightError("--evs gives each bracket set's exposures: give --brackets N too")
