@@ -111,14 +111,15 @@ def _make_hdri(world, pixels, result, sun_strength: float = 1.0):
 
 
 class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
-    """Load an equirectangular panorama (LDR or HDR) as the background of the PanoLight world"""
+    """Load an equirectangular panorama (LDR, HDR or a camera RAW) as the background of the PanoLight world"""
 
     bl_idname = "panolight.load_panorama"
     bl_label = "Load panorama"
     bl_options = {"REGISTER", "UNDO"}
 
     filepath: StringProperty(subtype="FILE_PATH")
-    filter_glob: StringProperty(default="*.jpg;*.jpeg;*.png;*.exr;*.hdr", options={"HIDDEN"})
+    filter_glob: StringProperty(default="*.jpg;*.jpeg;*.png;*.exr;*.hdr;" + ";".join(
+        f"*{e}" for e in core.io.checks.RAW_EXTENSIONS), options={"HIDDEN"})
     files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
     directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
     evs: StringProperty(name="Bracket EVs", default="",
@@ -140,6 +141,10 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         path = Path(bpy.path.abspath(self.filepath))
         if not path.is_file():
             raise Error(f"{path}: file not found")
+        if core.io.images.sniff_format(path) == core.io.checks.RAW_FORMAT:  # Blender reads no camera RAW: the core
+            # decodes it (rawpy, where it is installed into Blender's Python; else refused in one line)
+            return self._show(context, images.upright_panorama(str(path), core.io.images.read_image(path)),
+                              label=path)
         # what Blender would read wrong, crash on, or decode past the budget (it has none of its own)
         upright = core.io.images.preflight(path)
         if upright is not None and upright[2] != 1:  # Blender ignores EXIF orientation and +Y .hdr files

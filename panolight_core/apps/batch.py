@@ -11,11 +11,12 @@ from pathlib import Path
 
 from ..errors import PanoLightError, PanoLightWarning, printable
 from ..io.atomic import atomic_path, folder_lock, pid_alive, read_small_file
+from ..io.checks import RAW_EXTENSIONS
 from ..io.ownership import MANIFEST, digest
 from ..io.staging import clean_stale
 from ..lighting.lights import key_light_note
 
-EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
+EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg") + RAW_EXTENSIONS
 
 
 def collect_inputs(paths, list_file=None, recursive: bool = False, exclude=None) -> list[Path]:

@@ -1,5 +1,5 @@
-"""Merging a bracket set: several 8-bit exposures of one scene -> one linear HDR panorama (numpy only: Blender
-runs it too).
+"""Merging a bracket set: several 8-bit exposures of one scene (or camera RAWs) -> one linear HDR panorama (numpy
+only: Blender runs it too).
 
 Each frame is decoded through the sRGB curve (EVALUATION.md's camera; a set's own response curve is not recovered)
 and divided by its relative exposure; the frames are averaged with Debevec's hat weight of the pixel's **worst**
@@ -160,8 +160,22 @@ GHOST_CODES = (20, 235)  # ... where both frames see it well exposed (these code
 # leaf, a wave): that frame gives it nothing. A still scene's frames agree within JPEG's few per cent there
 
 
+_CODE_EDGES = ((SRGB8_TO_LINEAR[1:].astype(np.float64) + SRGB8_TO_LINEAR[:-1]) / 2).astype(np.float32)
+
+
+def linear_codes(frame: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8: the nearest 8-bit sRGB code of each linear value of a float frame whose white is 1 (a camera
+    RAW's: io.read_raw), 255 at 1 and above: what the merge's weights, ghost test and alignment read."""
+    out = np.empty(frame.shape, np.uint8)
+    for r in range(0, frame.shape[0], BLOCK_ROWS):
+        out[r:r + BLOCK_ROWS] = np.searchsorted(_CODE_EDGES, frame[r:r + BLOCK_ROWS])
+    return out
+
+
 def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True) -> tuple[np.ndarray, dict]:
-    """Merge 8-bit sRGB frames (each (H, W, 3) uint8, one scene) taken at relative ``exposures`` into a float32
+    """Merge 8-bit sRGB frames (each (H, W, 3) uint8, one scene), or linear float32 frames whose white is 1 (camera
+    RAWs, ``io.read_raw``: weighed, tested for ghosts and aligned by their nearest sRGB codes, ``linear_codes``, and
+    averaged in their own linear values), taken at relative ``exposures`` into a float32
     (H, W, 3) linear HDR (units: the reference frame's white is 1) and what was done: the reference frame (index),
     each frame's exposure over the reference's (in stops), the ceiling, the share of pixels clipped in every frame
     and, with ``align``, each frame's (dy, dx) shift onto the reference (``align_shift``: a hand-held set). With
@@ -169,13 +183,19 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True) -
     where both see it well exposed (GHOST_CODES): what moved between the frames is the reference frame's alone."""
     e = check_exposures(exposures)
     shapes = {np.asarray(f).shape for f in frames}
-    if len(frames) != e.size or len(shapes) != 1 or any(np.asarray(f).dtype != np.uint8 for f in frames):
-        raise PanoLightError(f"a bracket set is frames of one size, 8-bit, one per exposure (got {len(frames)} "
-                             f"frames of shapes {sorted(shapes)}, {e.size} exposures)")
+    kinds = {np.asarray(f).dtype for f in frames}
+    if len(frames) != e.size or len(shapes) != 1 or kinds not in ({np.dtype(np.uint8)}, {np.dtype(np.float32)}):
+        raise PanoLightError(f"a bracket set is frames of one size, all 8-bit or all linear float32, one per exposure "
+                             f"(got {len(frames)} frames of shapes {sorted(shapes)} and types "
+                             f"{sorted(map(str, kinds))}, {e.size} exposures)")
+    linear = [np.asarray(f) for f in frames] if kinds == {np.dtype(np.float32)} else None
+    frames = [linear_codes(f) for f in linear] if linear is not None else frames
     ref = int(np.argsort(e)[(e.size - 1) // 2])
     shifts = threads.map_ordered(lambda i: align_shift(frames[ref], frames[i], e[i] / e[ref]) if align and i != ref
                                  else (0, 0), range(len(frames)))
     frames = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(frames, shifts)]
+    if linear is not None:
+        linear = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(linear, shifts)]
     rel = e / e[ref]
     ceiling = float(1.0 / rel.min())
     weight = hat(np.arange(256, dtype=np.uint8))  # by code: a table lookup per pixel, not arithmetic
@@ -202,9 +222,9 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True) -
         top = [np.maximum(np.maximum(f[r0:r1, :, 0], f[r0:r1, :, 1]), f[r0:r1, :, 2]) for f in frames]
         row = top[ref].astype(np.uint16) << 8
         for i, (frame, lut) in enumerate(zip(frames, radiance)):
-            block = frame[r0:r1]
             w = weights[i][row | top[i]]
-            num += w[..., None] * lut[block]
+            seen = lut[frame[r0:r1]] if linear is None else linear[i][r0:r1] * np.float32(1.0 / rel[i])
+            num += w[..., None] * seen
             den += w
         none = den == 0  # clipped in every frame: at the darkest frame's white
         num /= np.where(none, np.float32(1.0), den)[..., None]

@@ -12,6 +12,9 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
+from .checks import RAW_FORMAT, sniff_format
+from .read_raw import read_raw_exposure
+
 
 @dataclass(frozen=True)
 class Capture:
@@ -140,9 +143,11 @@ def _utc(get) -> tuple[datetime | None, str | None]:
 
 
 def read_exposure(path) -> dict | None:
-    """A frame's exposure settings from its EXIF (through OpenImageIO): {"time_s", "f_number", "iso"} (ISO 100
-    where the file records none: a set shot at one ISO then still merges right), or None when the file records no
-    ExposureTime and FNumber (or OpenImageIO is missing)."""
+    """A frame's exposure settings from its EXIF (through OpenImageIO; a camera RAW's through LibRaw):
+    {"time_s", "f_number", "iso"} (ISO 100 where the file records none: a set shot at one ISO then still merges
+    right), or None when the file records no ExposureTime and FNumber (or its reader is missing)."""
+    if sniff_format(path) == RAW_FORMAT:
+        return read_raw_exposure(path)
     try:
         import OpenImageIO as oiio
     except ImportError:

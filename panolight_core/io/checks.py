@@ -16,6 +16,11 @@ MAX_PIXELS = 1 << 29  # 32768 x 16384: no size above this is read at all
 DEFAULT_MAX_MEGAPIXELS = 140.0  # the decode budget: 16384 x 8192 (134 MP, the largest common HDRI) fits
 HDR_FORMATS = ("exr", "hdr")
 LDR_FORMATS = ("png", "jpeg")
+RAW_FORMAT = "raw"  # a camera RAW (io.read_raw): linear, its sensor's white the ceiling
+RAW_EXTENSIONS = (".dng", ".cr2", ".cr3", ".crw", ".nef", ".nrw", ".arw", ".srf", ".sr2", ".raf", ".orf", ".rw2",
+                  ".pef", ".srw", ".3fr", ".iiq", ".erf", ".kdc", ".mos", ".mrw", ".x3f")  # batch's folder scan
+# a RAW's first bytes: TIFF's (DNG, CR2, NEF, ARW, PEF, SRW ...), Olympus', Panasonic's, Fujifilm's and CR3's box
+_RAW_MAGIC = (b"II*\x00", b"MM\x00*", b"IIRO", b"IIRS", b"MMOR", b"IIU\x00", b"FUJIFILM")
 BLOCK_ROWS = 256  # row blocks for full-resolution passes: temporaries stay a few MB at any width
 # a JPEG codes every 8 x 8 luma block with at least one bit (its DC difference, even in progressive
 # scans): fewer bytes than pixels / 512 cannot hold the picture; half that is refused as corrupt
@@ -23,7 +28,8 @@ JPEG_MIN_PIXELS_PER_BYTE = 1024
 
 
 def sniff_format(path) -> str:
-    """'exr' | 'hdr' | 'png' | 'jpeg' from the file's first bytes; raises ImageError otherwise."""
+    """'exr' | 'hdr' | 'png' | 'jpeg' | 'raw' (a TIFF-like or camera RAW file, which io.read_raw decodes or refuses)
+    from the file's first bytes; raises ImageError otherwise."""
     import stat
 
     p = Path(path)
@@ -47,7 +53,10 @@ def sniff_format(path) -> str:
         return "png"
     if head.startswith(b"\xff\xd8\xff"):
         return "jpeg"
-    raise ImageError(p, f"not a supported image (OpenEXR, Radiance .hdr, PNG or JPEG); starts with {head[:8]!r}")
+    if head.startswith(_RAW_MAGIC) or head[4:12] == b"ftypcrx ":
+        return RAW_FORMAT
+    raise ImageError(p, f"not a supported image (OpenEXR, Radiance .hdr, PNG, JPEG or a camera RAW); starts with "
+                        f"{head[:8]!r}")
 
 
 def is_hdr(path) -> bool:

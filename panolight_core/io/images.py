@@ -17,7 +17,7 @@ from ..camera.color import SRGB8_TO_LINEAR, linear_to_srgb
 from ..errors import ImageError
 from ..packed import PackedImage
 from . import hdr as _hdr
-from . import read_exr, read_jpeg, read_oiio
+from . import read_exr, read_jpeg, read_oiio, read_raw
 from .atomic import atomic_path
 from .checks import (  # noqa: F401
     BLOCK_ROWS,
@@ -25,6 +25,7 @@ from .checks import (  # noqa: F401
     HDR_FORMATS,
     LDR_FORMATS,
     MAX_PIXELS,
+    RAW_FORMAT,
     _sanitise,
     check_jpeg_data,
     check_size,
@@ -117,6 +118,8 @@ def preflight(path, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS) -> tuple[int
 
 def _decode(p: Path, fmt: str, equirect: bool, max_megapixels: float, as_uint8: bool,
             packed_above: float = float("inf")):
+    if fmt == RAW_FORMAT:
+        return read_raw.read_raw(p, equirect=equirect, max_megapixels=max_megapixels)[0]
     if fmt == "exr" and read_exr.luminance_chroma(p):
         reader = read_exr.read_luminance_chroma(p)
         check_size(p, *next(reader), equirect, max_megapixels)

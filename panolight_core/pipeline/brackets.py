@@ -11,7 +11,7 @@ import numpy as np
 from ..camera.brackets import check_exposures, exposure, merge_brackets
 from ..errors import PanoLightError
 from ..io.capture import read_exposure
-from ..io.images import read_image
+from ..io.images import RAW_FORMAT, read_image, sniff_format
 
 
 @dataclass(frozen=True)
@@ -84,20 +84,26 @@ def bracket_exposures(paths, evs=None) -> tuple[list[float], str]:
 
 
 def read_brackets(paths, evs=None, **read_options) -> tuple[np.ndarray, dict]:
-    """The merged float32 HDR (H, W, 3) of the 8-bit frames ``paths`` (``io.read_image`` with ``read_options``
-    each) at their exposures (``bracket_exposures``), and the record lighting.json keeps (``source.brackets``).
-    PanoLightError, naming the file, for a frame that is not 8-bit or not the first frame's size."""
+    """The merged float32 HDR (H, W, 3) of the frames ``paths``, all 8-bit pictures or all camera RAWs
+    (``io.read_image`` with ``read_options`` each), at their exposures (``bracket_exposures``), and the record
+    lighting.json keeps (``source.brackets``). PanoLightError, naming the file, for an HDR frame, a set that mixes
+    RAWs and pictures, or a frame not the first frame's size."""
     paths = [Path(p) for p in paths]
     if len(paths) < 2:
         raise PanoLightError(f"{paths[0] if paths else 'no file'}: a bracket set is two or more files; --evs is for "
                              f"a set, one file is estimated as it is")
     exposures, origin = bracket_exposures(paths, evs)
     frames = []
-    for p in paths:
+    raws = [sniff_format(p) == RAW_FORMAT for p in paths]
+    for p, raw in zip(paths, raws):
+        if raw != raws[0]:
+            raise PanoLightError(f"{p}: {'a camera RAW' if raw else 'not a camera RAW'}, but {paths[0].name} "
+                                 f"{'is not' if raw else 'is'}: a bracket set's frames are all RAWs or all 8-bit "
+                                 f"pictures")
         frame = read_image(p, ldr_as_uint8=True, **read_options)
-        if frame.dtype != np.uint8:
-            raise PanoLightError(f"{p}: a bracket frame must be an 8-bit picture (JPEG, PNG); an HDR file is "
-                                 f"estimated on its own")
+        if frame.dtype != np.uint8 and not raw:
+            raise PanoLightError(f"{p}: a bracket frame must be an 8-bit picture (JPEG, PNG) or a camera RAW; an "
+                                 f"HDR file is estimated on its own")
         if frames and frame.shape != frames[0].shape:
             raise PanoLightError(f"{p}: {frame.shape[1]}x{frame.shape[0]}, but {paths[0].name} is "
                                  f"{frames[0].shape[1]}x{frames[0].shape[0]}: a bracket set's frames have one size")

@@ -16,8 +16,9 @@ from ..errors import PanoLightError, PanoLightWarning
 from ..io import ownership, read_image, write_image, write_srgb8
 from ..io.atomic import folder_lock
 from ..io.capture import read_capture
-from ..io.images import PACKED_ABOVE_MEGAPIXELS, write_exr_rows
+from ..io.images import PACKED_ABOVE_MEGAPIXELS, RAW_FORMAT, sniff_format, write_exr_rows
 from ..io.lighting import write_lighting
+from ..io.read_raw import read_raw
 from ..io.staging import clean_stale, make_stage
 from ..lighting.lights import key_light_note
 from .brackets import BracketSet, read_brackets
@@ -111,13 +112,17 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     t0 = time.perf_counter()
     logger.info("reading %s", src)
     budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
-    bracket = None
+    bracket = raw = None
     if isinstance(src, BracketSet):
         pixels, bracket = read_brackets(src.paths, src.evs, **budget)
         logger.info(f"merged {len(src.paths)} frames (exposures from {bracket['exposures_from']}; "
                     f"{', '.join(f'{v:+g}' for v in bracket['stops'])} stops; ceiling {bracket['ceiling']:g}x the "
                     f"reference's white, {100 * bracket['clipped_in_every_frame']:.2g} % of pixels clipped in every "
                     f"frame)")
+    elif sniff_format(src) == RAW_FORMAT:  # linear, in its sensor's white: an HDR whose ceiling is 1
+        pixels, raw = read_raw(src, **budget)
+        logger.info(f"decoded the camera RAW ({raw['reader']}; white balance {raw['white_balance']}; "
+                    f"{100 * raw['sensor_clipped_fraction']:.2g} % of pixels clipped by the sensor)")
     else:
         pixels = read_image(src, ldr_as_uint8=True, nonfinite="repair" if repair_nonfinite else "error",
                             packed_above=PACKED_ABOVE_MEGAPIXELS, **budget)
@@ -127,7 +132,7 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
                 f"on {pixels.shape[1]}x{pixels.shape[0]}")
     try:
         photo = src if bracket is None else src.paths[bracket["reference"]]  # a set: its reference frame's
-        capture = (read_capture(photo) if (pixels.dtype == np.uint8 or bracket) and settings.sun_direction is None
+        capture = (read_capture(photo) if (pixels.dtype == np.uint8 or bracket or raw) and settings.sun_direction is None
                    and settings.sun_metadata else None)
         result = estimate_lighting(pixels, settings, capture)
     except PanoLightError as exc:
@@ -153,10 +158,12 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
         digests.append(found["sha256"])
     doc["source"] = {"path": str(photo), "sha256": digests[_paths(src).index(photo)],
                      "width": int(pixels.shape[1]), "height": int(pixels.shape[0]),
-                     "dynamic_range": ("ldr-8bit-srgb" if pixels.dtype == np.uint8 else
+                     "dynamic_range": ("ldr-8bit-srgb" if pixels.dtype == np.uint8 else "raw-linear" if raw else
                                        "hdr" if bracket is None else "hdr-merged-brackets")}
     if bracket is not None:  # every frame, and how the set was merged
         doc["source"]["brackets"] = {**bracket, "sha256": digests}
+    if raw is not None:  # how the sensor's data was decoded
+        doc["source"]["raw"] = raw
     doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
     doc.setdefault("model", {}).setdefault("ringing", {})["emitter"] = {
         "negative_fraction": round(made["negative_fraction"], 6), "moment_error": made["moment_error"]}

@@ -904,6 +904,33 @@ def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp
         bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="0,0.1,2")
 
 
+def test_a_camera_raw_loads_decoded_by_the_core_and_estimates_as_on_the_command_line(tmp_path, monkeypatch):
+    """Blender reads no RAW: Load panorama decodes it through the core (rawpy), upright and packed, and the estimate
+    restores its clipped sun to the CLI's numbers; without rawpy in Blender's Python it is refused in one line."""
+    from panolight_core import metrics
+    from panolight_core.apps.cli import main
+    from panolight_core.io.lighting import read_lighting
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+    from training.common.dng import write_dng
+
+    truth, s, _ = _clear_day()
+    path = write_dng(tmp_path / "day.dng", truth, scale=0.25)
+    assert main(["estimate", path, "-o", str(tmp_path / "cli"), "-q"]) == 0
+    want, _ = read_lighting(tmp_path / "cli" / "lighting.json")
+    assert bpy.ops.panolight.load_panorama(filepath=path) == {"FINISHED"}
+    image = bpy.context.scene.world[store.PANORAMA_KEY]
+    assert image.is_float and tuple(image.size) == (truth.shape[1], truth.shape[0])
+    _configure()
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    doc = store.stored_lighting(bpy.context.scene.world)
+    assert doc["estimator"]["restoration"]["restored"]
+    assert np.allclose(doc["coefficients"], want, rtol=1e-9, atol=1e-12)
+    assert metrics.angle_deg(metrics.brightest_light(doc["lights"])["direction"], s) < 1.0
+    monkeypatch.setitem(sys.modules, "rawpy", None)  # a stock Blender
+    with pytest.raises(RuntimeError, match=r"day\.dng: a camera RAW needs rawpy"):
+        bpy.ops.panolight.load_panorama(filepath=path)
+
+
 def test_the_headless_script_merges_a_bracket_set(tmp_path):
     """batch.py --input a b c --evs: the set merged and estimated as the panel's Load of several files does; --evs
     with one file is refused in one line."""

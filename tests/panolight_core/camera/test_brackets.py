@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from panolight_core.camera import auto_exposure, hdr_to_ldr
-from panolight_core.camera.brackets import exposure, hat, merge_brackets
+from panolight_core.camera.brackets import exposure, hat, linear_codes, merge_brackets
 from panolight_core.camera.ceiling import find_ceiling
-from panolight_core.camera.color import linear_to_srgb
+from panolight_core.camera.color import SRGB8_TO_LINEAR, linear_to_srgb
 from panolight_core.errors import PanoLightError
 from tests.panolight_core.estimators.sources.test_restore import _clear_day
 
@@ -45,6 +45,19 @@ def test_three_exposures_merge_to_the_truth_and_the_sun_clips_at_the_darkest_whi
     assert ceiling is not None and ceiling.rgb == (4.0, 4.0, 4.0)
 
 
+def test_linear_frames_merge_as_the_8_bit_frames_they_decode_from(day):
+    """Camera RAWs are merged in their own linear values, weighed by their nearest sRGB codes: frames that are
+    exactly the 8-bit frames' decoded values merge to the same HDR (to float32 rounding), shifts and ghosts alike."""
+    truth, _, _ = day
+    frames = [hdr_to_ldr(truth, ev) for ev in (-2, 0, 2)]
+    merged, info = merge_brackets(frames, [0.25, 1.0, 4.0])
+    linear = [SRGB8_TO_LINEAR[f] for f in frames]
+    np.testing.assert_array_equal(linear_codes(np.stack(linear)), np.stack(frames))  # the codes come back
+    merged_linear, info_linear = merge_brackets(linear, [0.25, 1.0, 4.0])
+    assert info_linear == info
+    np.testing.assert_allclose(merged_linear, merged, rtol=1e-6)
+
+
 def test_a_channel_clipped_in_one_frame_takes_nothing_from_that_frame():
     """A warm highlight: red clips at +2 but not at 0. The merged pixel keeps the ev-0 frame's colour, not a
     clipped red averaged into it (a magenta or dark halo)."""
@@ -60,6 +73,7 @@ def test_a_channel_clipped_in_one_frame_takes_nothing_from_that_frame():
     ([np.zeros((4, 8, 3), np.uint8)], [1.0], "two or more positive exposures"),
     ([np.zeros((4, 8, 3), np.uint8), np.zeros((4, 6, 3), np.uint8)], [1.0, 4.0], "frames of one size"),
     ([np.zeros((4, 8, 3), np.uint8)] * 2, [1.0, -4.0], "positive exposures"),
+    ([np.zeros((4, 8, 3), np.uint8), np.zeros((4, 8, 3), np.float32)], [1.0, 4.0], "all 8-bit or all linear"),
 ])
 def test_bad_sets_are_refused_in_one_line(frames, exposures, match):
     with pytest.raises(PanoLightError, match=match):
