@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR
 from ..errors import ImageError, PanoLightWarning
 from ..packed import repair
 from ..sh.grid import MAX_SIDE  # larger images are refused as absurd
@@ -77,6 +78,32 @@ def check_size(path, h: int, w: int, equirect: bool, max_megapixels: float = DEF
                                f"{MAX_PIXELS} pixels)")
     if equirect and w != 2 * h:
         raise ImageError(path, f"equirectangular panoramas must be 2:1 (width = 2 x height); got {w} x {h}")
+
+
+FISHEYE_DARK = 0.02  # a pixel under this share of the image circles' median luminance is black (the lens' shadow)
+FISHEYE_SAMPLE = 256  # the test reads about this many rows
+
+
+def dual_fisheye(pixels: np.ndarray) -> bool:
+    """True when a 2:1 image (H, W, 3: uint8 sRGB or float linear) is two side-by-side fisheye circles on black (an
+    unstitched 360 capture: a Theta's or an Insta360's dual-fisheye DNG or .insp, 2:1 like a panorama): almost every
+    pixel outside both circles (diameter H, centred on each half) black, almost none inside. A night panorama's
+    black sky is inside the circles too, so it never passes. Reads every (H / FISHEYE_SAMPLE)-th row and column."""
+    h, w = pixels.shape[:2]
+    if w != 2 * h or h < 16:
+        return False
+    step = max(1, h // FISHEYE_SAMPLE)
+    sample = np.asarray(pixels[::step, ::step])
+    lum = (SRGB8_TO_LINEAR[sample] if sample.dtype == np.uint8 else sample.astype(np.float32)) @ LUMINANCE_WEIGHTS
+    y = (np.arange(sample.shape[0]) * step + 0.5)[:, None] - h / 2.0
+    x = np.arange(sample.shape[1]) * step + 0.5
+    r = np.minimum(np.hypot(y, x[None, :] - h / 2.0), np.hypot(y, x[None, :] - 1.5 * h)) / (h / 2.0)
+    inside, outside = r < 0.9, r > 1.05  # the rims left out: a lens' circle is a little smaller or larger than H
+    ref = float(np.median(lum[inside]))
+    if not ref > 0:
+        return False
+    dark = lum < FISHEYE_DARK * ref
+    return bool(dark[outside].mean() > 0.98 and dark[inside].mean() < 0.05)
 
 
 def check_jpeg_data(path, h: int, w: int) -> None:

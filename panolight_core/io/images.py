@@ -29,6 +29,7 @@ from .checks import (  # noqa: F401
     _sanitise,
     check_jpeg_data,
     check_size,
+    dual_fisheye,
     is_hdr,
     sanitise_pixels,
     sniff_format,
@@ -55,7 +56,7 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     of a 16K .hdr takes as long, of a half EXR 2-3 s more); an EXR whose values no code holds is left in its
     file (``packed.RowFile``: read again by rows at each pass, about twice the time); other files as float32
     arrays. PACKED_ABOVE_MEGAPIXELS is the CLI's choice.
-    equirect: require a 2:1 image. nonfinite: "error" (default) refuses NaN/Inf pixels, "repair"
+    equirect: require a 2:1 image, and refuse an unstitched dual-fisheye one (``checks.dual_fisheye``). nonfinite: "error" (default) refuses NaN/Inf pixels, "repair"
     sets NaN and -Inf to 0 and +Inf to the largest finite value, with a PanoLightWarning.
     negative: "clamp" (default) sets negative radiance to 0 with a PanoLightWarning, "error" refuses it.
     The size is checked from the header before pixels are decoded: at most ``max_megapixels`` (the
@@ -74,6 +75,9 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     except Exception as exc:  # decoder libraries raise many types for bad files
         raise ImageError(p, f"cannot decode {fmt.upper()} pixels (corrupt or truncated file): "
                             f"{' '.join(str(exc).split())}") from None
+    if equirect and not isinstance(img, PackedImage) and dual_fisheye(img):
+        raise ImageError(p, "two image circles on black: an unstitched dual-fisheye capture, not an "
+                            "equirectangular panorama; stitch it first (the camera maker's app or stitcher)")
     if img.dtype == np.uint8:
         return np.ascontiguousarray(img)
     if isinstance(img, PackedImage):  # RGBE holds only finite, non-negative values; half floats are checked in place,

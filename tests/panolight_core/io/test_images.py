@@ -488,3 +488,46 @@ def test_a_file_read_again_at_each_pass_is_refused_once_changed(tmp_path, pano):
     os.utime(p, ns=(1, 1))  # and a different time, whatever the clock's resolution
     with pytest.raises(ImageError, match="big.exr: was changed or removed while it was being estimated"):
         img[0:4]
+
+
+def _dual_fisheye(equirect: np.ndarray, h: int, fov_deg: float = 190.0) -> np.ndarray:
+    """(h, 2h, 3) float32: the two equidistant fisheye circles a 360 camera records of ``equirect``, front (+X) on the
+    left, back (-X) on the right, black outside the circles (nearest-pixel lookups, CONVENTIONS.md's frame)."""
+    eh, ew = equirect.shape[:2]
+    out = np.zeros((h, 2 * h, 3), np.float32)
+    y, x = np.mgrid[0:h, 0:h] + 0.5
+    u, v = (x - h / 2) / (h / 2), (h / 2 - y) / (h / 2)
+    r = np.hypot(u, v)
+    theta = r * np.radians(fov_deg) / 2  # the angle from the lens axis
+    for half, axis in ((0, 1.0), (1, -1.0)):
+        side = np.sin(theta) / np.maximum(r, 1e-9)
+        d = np.stack([axis * np.cos(theta), -axis * side * u, side * v], axis=-1)
+        phi, polar = np.arctan2(d[..., 1], d[..., 0]), np.arccos(np.clip(d[..., 2], -1, 1))
+        col = np.clip(((1 - phi / np.pi) * ew / 2).astype(int), 0, ew - 1)
+        row = np.clip((polar / np.pi * eh).astype(int), 0, eh - 1)
+        out[:, half * h:(half + 1) * h] = np.where((r <= 1.0)[..., None], equirect[row, col], 0.0)
+    return out
+
+
+def test_an_unstitched_dual_fisheye_capture_is_refused(tmp_path):
+    """Two image circles on black (a Theta's or an Insta360's unstitched frame, 2:1 like a panorama) would be taken
+    for a panorama and lit wrong: refused in one line, as a JPEG or as an EXR; the panorama it was made from, and a
+    night panorama whose sky and ground are black, are read."""
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.data import load_studio_hdri
+
+    city = load_studio_hdri("city")
+    fish = _dual_fisheye(city, 256)
+    write_image(tmp_path / "fish.exr", fish)
+    write_srgb8(tmp_path / "fish.jpg", hdr_to_ldr(fish, 0.0, 90))
+    for name in ("fish.exr", "fish.jpg"):
+        with pytest.raises(ImageError, match=rf"{name}: two image circles on black: an unstitched dual-fisheye"):
+            read_image(tmp_path / name)
+    assert read_image(tmp_path / "fish.jpg", equirect=False).shape == (256, 512, 3)  # asked for as it is
+    night = np.zeros((256, 512, 3), np.float32)
+    night[120:136] = 0.5  # a lit horizon under a black sky, over black ground
+    night[100, ::37] = 20.0  # street lamps
+    write_image(tmp_path / "night.exr", night)
+    assert read_image(tmp_path / "night.exr").shape == night.shape
+    write_image(tmp_path / "city.exr", city)
+    assert read_image(tmp_path / "city.exr").shape == city.shape
