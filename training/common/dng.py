@@ -15,23 +15,32 @@ def _rational(v) -> list[int]:
     return [f.numerator, f.denominator]
 
 
+FULL_WELL = 30000.0  # electrons at the sensor's white: a current full-frame sensor at base ISO ...
+READ_NOISE = 3.0  # ... and its read noise, in electrons
+
+
 def mosaic(scene: np.ndarray, scale: float = 1.0, neutral=(0.5, 1.0, 0.8), black: int = 512,
-           white: int = 15000) -> np.ndarray:
+           white: int = 15000, rng: np.random.Generator | None = None) -> np.ndarray:
     """(H, W) uint16 RGGB Bayer counts of the linear sRGB ``scene`` (H, W, 3): each channel's signal scene x scale
-    x the as-shot ``neutral`` of the sensor's range (white - black), over ``black``, clipped at ``white``."""
-    signal = black + np.asarray(scene, np.float64) * scale * np.asarray(neutral, np.float64) * (white - black)
-    signal = np.clip(signal, 0, white)
-    cfa = np.empty(signal.shape[:2])
-    cfa[0::2, 0::2] = signal[0::2, 0::2, 0]
-    cfa[0::2, 1::2] = signal[0::2, 1::2, 1]
-    cfa[1::2, 0::2] = signal[1::2, 0::2, 1]
-    cfa[1::2, 1::2] = signal[1::2, 1::2, 2]
-    return np.round(cfa).astype(np.uint16)
+    x the as-shot ``neutral`` of the sensor's range (white - black), over ``black``, clipped at ``white``. With
+    ``rng``, a sensor's noise: photon (Poisson) noise of FULL_WELL electrons at white, and READ_NOISE."""
+    fraction = np.asarray(scene, np.float64) * scale * np.asarray(neutral, np.float64)
+    cfa = np.empty(fraction.shape[:2])
+    cfa[0::2, 0::2] = fraction[0::2, 0::2, 0]
+    cfa[0::2, 1::2] = fraction[0::2, 1::2, 1]
+    cfa[1::2, 0::2] = fraction[1::2, 0::2, 1]
+    cfa[1::2, 1::2] = fraction[1::2, 1::2, 2]
+    if rng is not None:  # photons beyond the well are clipped anyway: draw at most twice the well
+        electrons = rng.poisson(np.minimum(cfa, 2.0) * FULL_WELL) + rng.normal(0.0, READ_NOISE, cfa.shape)
+        cfa = electrons / FULL_WELL
+    return np.round(np.clip(black + cfa * (white - black), 0, white)).astype(np.uint16)
 
 
 def write_dng(path, scene, *, scale: float = 1.0, neutral=(0.5, 1.0, 0.8), black: int = 512, white: int = 15000,
-              time_s: float | None = None, f_number: float | None = None, orientation: int = 1) -> str:
-    """Write a DNG of the linear sRGB ``scene`` (H, W, 3; H and W even) as an RGGB sensor records it (``mosaic``).
+              time_s: float | None = None, f_number: float | None = None, orientation: int = 1,
+              rng: np.random.Generator | None = None) -> str:
+    """Write a DNG of the linear sRGB ``scene`` (H, W, 3; H and W even) as an RGGB sensor records it (``mosaic``,
+    with its noise where ``rng`` is given).
     LibRaw, white-balancing by ``neutral``, gives back scene x scale, clipped at 1 (the sensor's white) where the
     least-amplified channel clips. ``time_s`` / ``f_number``: the exposure the file records. ``orientation``:
     TIFF's (6: the stored mosaic is shown turned 90 degrees clockwise). Returns the path as a string."""
@@ -50,6 +59,6 @@ def write_dng(path, scene, *, scale: float = 1.0, neutral=(0.5, 1.0, 0.8), black
         tags.append((33434, "2I", 1, _rational(time_s), True))
     if f_number is not None:
         tags.append((33437, "2I", 1, _rational(f_number), True))
-    tifffile.imwrite(path, mosaic(scene, scale, neutral, black, white), photometric=32803, extratags=tags,
+    tifffile.imwrite(path, mosaic(scene, scale, neutral, black, white, rng), photometric=32803, extratags=tags,
                      subfiletype=0)
     return str(path)
