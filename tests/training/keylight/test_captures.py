@@ -39,3 +39,21 @@ def test_a_clipped_hdr_through_the_ldr_path_gets_back_its_sun(tmp_path):
     rows = {r["capture"]: r for r in captures.scene_rows(_write_hdr(tmp_path, hdr), [2.0], as_ldr=True)}
     raw, ldr = rows["HDR clipped at +2 stops, as it is"], rows["HDR clipped at +2 stops, as an 8-bit picture"]
     assert abs(np.log2(ldr["ratio"])) < abs(np.log2(raw["ratio"])) and ldr["m_rmse"] < raw["m_rmse"]
+
+
+def test_a_camera_raw_is_scored_in_the_truth_s_units(tmp_path):
+    """--raw 2: the truth as a noisy DNG whose white is 2 stops over the JPEG's, read through LibRaw: its sun clips
+    at the sensor's white (1), the rest holds the truth / 4 (to the noise); restored, it scores as the HDR clipped at
+    +2 stops does (both nearer the truth than that file as it is)."""
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    hdr, _, _ = _clear_day()
+    px = captures.raw_capture(hdr, 2.0, seed=1)
+    assert px.max() == 1.0 and ((px == 1.0).sum(axis=-1) >= 2).sum() >= 3  # a plateau (camera.ceiling)
+    held = hdr.max(axis=-1) < 2.0
+    assert np.median(4 * px[held] / hdr[held]) == pytest.approx(1.0, abs=0.01)  # the units, through the noise
+    rows = {r["capture"]: r for r in captures.scene_rows(_write_hdr(tmp_path, hdr), [2.0], raws=[2.0])}
+    raw, clipped = rows["RAW, white at +2 stops, restored"], rows["HDR clipped at +2 stops, restored"]
+    as_is = rows["HDR clipped at +2 stops, as it is"]
+    assert abs(np.log2(raw["ratio"])) < abs(np.log2(as_is["ratio"])) and raw["angle_deg"] < 2.0
+    assert raw["m_rmse"] < as_is["m_rmse"] and raw["m_rmse"] < 1.5 * clipped["m_rmse"]
