@@ -1,8 +1,9 @@
 """Merging a bracket set: several 8-bit exposures of one scene (or camera RAWs) -> one linear HDR panorama (numpy
 only: Blender runs it too).
 
-Each frame is decoded through the sRGB curve (EVALUATION.md's camera; a set's own response curve is not recovered)
-and divided by its relative exposure; the frames are averaged with Debevec's hat weight of the pixel's **worst**
+Each frame is decoded through the set's own camera curve where it explains the frames better than sRGB
+(``camera.response``: Debevec and Malik's, recovered from three or more 8-bit frames), else through sRGB
+(EVALUATION.md's camera), and divided by its relative exposure; the frames are averaged with Debevec's hat weight of the pixel's **worst**
 channel, so a pixel clipped in one channel of a frame takes nothing from that frame (a clipped channel averaged in
 makes a dark sun or a magenta halo). A pixel clipped in every frame is clipped: it is set to the darkest frame's
 white in every channel, which makes the merged file an HDR that clips its own sun at exactly its ceiling
@@ -28,6 +29,7 @@ import numpy as np
 from .. import threads
 from ..errors import PanoLightError
 from .color import SRGB8_TO_LINEAR
+from .response import SRGB, recover_response
 
 CLIPPED_CODE = 250  # a channel at this 8-bit code or above is clipped: a JPEG's compression leaves a clipped sun's
 # pixels at 250-253 as often as at 255 (noon_grass at -2 ev, q90: 2812 pixels at 254 or more, 3138 at 250), and a
@@ -172,7 +174,8 @@ def linear_codes(frame: np.ndarray) -> np.ndarray:
     return out
 
 
-def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True) -> tuple[np.ndarray, dict]:
+def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, response: bool = True
+                   ) -> tuple[np.ndarray, dict]:
     """Merge 8-bit sRGB frames (each (H, W, 3) uint8, one scene), or linear float32 frames whose white is 1 (camera
     RAWs, ``io.read_raw``: weighed, tested for ghosts and aligned by their nearest sRGB codes, ``linear_codes``, and
     averaged in their own linear values), taken at relative ``exposures`` into a float32
@@ -180,7 +183,9 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True) -
     each frame's exposure over the reference's (in stops), the ceiling, the share of pixels clipped in every frame
     and, with ``align``, each frame's (dy, dx) shift onto the reference (``align_shift``: a hand-held set). With
     ``ghosts`` a frame gives nothing to a pixel it sees GHOST_RATIO brighter or darker than the reference frame does
-    where both see it well exposed (GHOST_CODES): what moved between the frames is the reference frame's alone."""
+    where both see it well exposed (GHOST_CODES): what moved between the frames is the reference frame's alone.
+    With ``response`` 8-bit frames are decoded through their own camera curve where it explains them better than
+    sRGB (``camera.response.recover_response``; the record's ``response`` says which and why), else sRGB."""
     e = check_exposures(exposures)
     shapes = {np.asarray(f).shape for f in frames}
     kinds = {np.asarray(f).dtype for f in frames}
@@ -197,9 +202,10 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True) -
     if linear is not None:
         linear = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(linear, shifts)]
     rel = e / e[ref]
-    ceiling = float(1.0 / rel.min())
+    ceiling = float(1.0 / rel.min())  # the darkest frame's white (the curve's code 255 is 1)
+    curve = recover_response(frames, rel, ref) if response and linear is None else SRGB
     weight = hat(np.arange(256, dtype=np.uint8))  # by code: a table lookup per pixel, not arithmetic
-    radiance = [(SRGB8_TO_LINEAR / np.float32(k)).astype(np.float32) for k in rel]  # each frame's code -> radiance
+    radiance = [(curve.table / np.float32(k)).astype(np.float32) for k in rel]  # each frame's code -> radiance
     # each frame's weight by (the reference's code, its own code) of a pixel's brightest channel: the hat, and 0 where
     # the two differ by GHOST_RATIO in radiance though both are well exposed (GHOST_CODES): one table lookup per pixel
     codes = np.arange(256)
@@ -208,7 +214,7 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True) -
     for i, k in enumerate(rel):
         table = np.broadcast_to(weight[None, :], (256, 256)).copy()  # [reference code, own code]
         if ghosts and i != ref:
-            level = SRGB8_TO_LINEAR.astype(np.float64)
+            level = curve.table.astype(np.float64)
             ratio = level[None, :] / (k * np.maximum(level[:, None], 1e-12))  # own radiance over the reference's
             table[sure[:, None] & sure[None, :] & ((ratio > GHOST_RATIO) | (ratio < 1.0 / GHOST_RATIO))] = 0.0
         weights.append(table.ravel())  # read at reference code x 256 + own code
@@ -234,5 +240,6 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True) -
 
     clipped = sum(threads.map_ordered(merge_rows, [(r, min(h, r + BLOCK_ROWS)) for r in range(0, h, BLOCK_ROWS)]))
     return out, {"reference": ref, "stops": [round(math.log2(k), 4) for k in rel], "ceiling": ceiling,
+                 **({"response": curve.describe()} if linear is None else {}),
                  "clipped_in_every_frame": clipped / float(out.shape[0] * out.shape[1]),
                  **({"shifts": [[int(dy), int(dx)] for dy, dx in shifts]} if align else {})}

@@ -116,7 +116,9 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     if isinstance(src, BracketSet):
         pixels, bracket = read_brackets(src.paths, src.evs, **budget)
         logger.info(f"merged {len(src.paths)} frames (exposures from {bracket['exposures_from']}; "
-                    f"{', '.join(f'{v:+g}' for v in bracket['stops'])} stops; ceiling {bracket['ceiling']:g}x the "
+                    f"{', '.join(f'{v:+g}' for v in bracket['stops'])} stops"
+                    f"{'; ' + bracket['response']['curve'] + ' curve' if 'response' in bracket else ''}; ceiling "
+                    f"{bracket['ceiling']:g}x the "
                     f"reference's white, {100 * bracket['clipped_in_every_frame']:.2g} % of pixels clipped in every "
                     f"frame)")
     elif sniff_format(src) == RAW_FORMAT:  # linear, in its sensor's white: an HDR whose ceiling is 1

@@ -909,9 +909,9 @@ def test_a_camera_raw_loads_decoded_by_the_core_and_estimates_as_on_the_command_
     restores its clipped sun to the CLI's numbers; without rawpy in Blender's Python it is refused in one line."""
     from panolight_core import metrics
     from panolight_core.apps.cli import main
+    from panolight_core.io.dng import write_dng
     from panolight_core.io.lighting import read_lighting
     from tests.panolight_core.estimators.sources.test_restore import _clear_day
-    from training.common.dng import write_dng
 
     truth, s, _ = _clear_day()
     path = write_dng(tmp_path / "day.dng", truth, scale=0.25)

@@ -6,7 +6,9 @@ ev-0 camera's exposure (the factor that puts its median luminance at 0.18: the J
 - the camera JPEG at ev 0 (q90), estimated as ``panolight estimate`` does (``keylight``);
 - bracket sets: the camera's JPEGs at each set's exposures (default {-2, 0, +2} and {-4, -2, 0, +2, +4}) merged
   (``camera.brackets``: an HDR whose ceiling is the darkest frame's white, then restored as any such file);
-- with ``--raw``, camera RAWs: a DNG of the truth (``training.common.dng``: an RGGB mosaic with a sensor's photon
+- with ``--bracket-curve``, the bracket sets shot by a camera with another tone curve: merged through the curve
+  recovered from each set (``camera.response``) and, for comparison, decoded as sRGB;
+- with ``--raw``, camera RAWs: a DNG of the truth (``panolight_core.io.dng``: an RGGB mosaic with a sensor's photon
   and read noise) whose white is 2^k times the JPEG's, read back through rawpy (LibRaw's demosaic) as
   ``panolight estimate`` reads a RAW, and restored;
 - the same truth clipped per channel at 2^k (k = 2, 4, 6 stops over the JPEG's white), as a float HDR file
@@ -16,7 +18,8 @@ Each is scored against the truth: m-RMSE at lmax 2 over the JPEG's naive project
 file's own projection, the dominant source's energy ratio r (on the estimate's hdr.exr), the shadow contrast
 C (EVALUATION.md) and the brightest light's direction error.
 
-    python -m training.keylight.captures [--stops 2 4 6] [--as-ldr] [--raw 2 3] [--fold-models PATTERN]
+    python -m training.keylight.captures [--stops 2 4 6] [--as-ldr] [--raw 2 3] [--bracket-curve contrast:1.6]
+        [--fold-models PATTERN]
         [--hdr-fold-models PATTERN]
         [--out docs/studies/captures.json] [--plot docs/studies/captures.png]
     python -m training.keylight.captures --from docs/studies/captures.json --plot docs/studies/captures.png
@@ -33,9 +36,9 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core import metrics, sh
-from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
+from panolight_core.camera import TONE_CURVES, auto_exposure, hdr_to_ldr, ldr_to_linear
 from panolight_core.camera.brackets import merge_brackets
-from panolight_core.camera.color import linear_to_srgb
+from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, scene_files
@@ -63,20 +66,24 @@ def raw_capture(truth: np.ndarray, stops: float, seed: int) -> np.ndarray:
     with a sensor's noise (seeded) and decoded by ``io.read_raw`` (units: the sensor's white)."""
     import tempfile
 
+    from panolight_core.io.dng import write_dng
     from panolight_core.io.read_raw import read_raw
-    from training.common.dng import write_dng
 
     with tempfile.TemporaryDirectory() as tmp:
         path = write_dng(Path(tmp) / "capture.dng", truth, scale=2.0 ** -stops, rng=np.random.default_rng(seed))
         return read_raw(path)[0]
 
 
-def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto", brackets=(), raws=()) -> list[dict]:
+def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto", brackets=(), raws=(),
+               curve: tuple | None = None) -> list[dict]:
     """The captures of one scene (none without a dominant source): the ev-0 JPEG, then the HDR clipped at each
     2^stops (with ``as_ldr`` also that file through the LDR path, its ceiling the white: a restoration tried by
     the machinery as it is), then each bracket set of ``brackets`` (tuples of evs: the camera's JPEGs at those
     exposures merged, ``camera.brackets``), then a camera RAW whose white is each 2^raws over the JPEG's
-    (``raw_capture``), each with the scene's true contrast."""
+    (``raw_capture``), each with the scene's true contrast. ``curve``: (name, parameter) of another camera's tone
+    curve (``camera.TONE_CURVES``) for the bracket sets' frames, each set merged through the curve recovered from
+    it and, for comparison, decoded as sRGB; their units (a convention for such a camera) matched to the truth's
+    median."""
     hdr = load_hdr(path)
     ds = metrics.dominant_source(hdr)
     if not ds["dominant"]:
@@ -92,8 +99,17 @@ def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto",
             ldr = np.round(linear_to_srgb(clipped / 2.0 ** s) * 255.0).astype(np.uint8)
             captures.append((f"HDR clipped at +{s:g} stops, as an 8-bit picture", ldr, 2.0 ** s, "auto"))
     for evs in brackets:  # the reference frame (ev 0) sets the units: the truth's
-        merged, _ = merge_brackets([hdr_to_ldr(hdr, ev, 90) for ev in evs], [2.0 ** ev for ev in evs])
-        captures.append((f"{len(evs)} brackets {{{', '.join(f'{ev:+g}' for ev in evs)}}}", merged, 1.0, "auto"))
+        name = f"{len(evs)} brackets {{{', '.join(f'{ev:+g}' for ev in evs)}}}"
+        if curve is None:
+            merged, _ = merge_brackets([hdr_to_ldr(hdr, ev, 90) for ev in evs], [2.0 ** ev for ev in evs])
+            captures.append((name, merged, 1.0, "auto"))
+            continue
+        frames = [hdr_to_ldr(hdr, ev, 90, curve=curve[0], curve_param=curve[1]) for ev in evs]
+        for own in (True, False):
+            merged, info = merge_brackets(frames, [2.0 ** ev for ev in evs], response=own)
+            scale = float(np.median(truth @ LUMINANCE_WEIGHTS) / np.median(merged @ LUMINANCE_WEIGHTS))
+            how = f"its {info['response']['curve']} curve" if own else "decoded as sRGB"
+            captures.append((f"{name}, {curve[0]} {curve[1]:g} camera, {how}", merged, scale, "auto"))
     for k in raws:  # the sensor's white is the unit: 2^k of the truth's
         seed = int.from_bytes(path.stem.encode()[:8], "little")
         captures.append((f"RAW, white at +{k:g} stops, restored", raw_capture(truth, k, seed), 2.0 ** k, "auto"))
@@ -187,6 +203,9 @@ def main(argv=None) -> int:
     ap.add_argument("--brackets", action="append", default=None, metavar="EVS",
                     help="a bracket set of the camera's JPEGs, merged, as --brackets=-2,0,2 (again for another set; "
                          "default: -2,0,2 and -4,-2,0,2,4; --brackets= alone: no sets)")
+    ap.add_argument("--bracket-curve", default=None, metavar="NAME:PARAM",
+                    help="the bracket sets' camera has this tone curve (camera.TONE_CURVES, e.g. contrast:1.6): each "
+                         "set merged through the curve recovered from it, and decoded as sRGB")
     ap.add_argument("--raw", type=float, nargs="*", default=[], metavar="STOPS",
                     help="also a camera RAW (a noisy DNG, demosaiced by LibRaw) whose sensor's white is 2^STOPS "
                          "times the JPEG's (e.g. --raw 2 3; default: none)")
@@ -212,18 +231,22 @@ def main(argv=None) -> int:
     clipped = clipped_truth(args.hdri)
     sets = args.brackets if args.brackets is not None else ["-2,0,2", "-4,-2,0,2,4"]
     brackets = [tuple(float(v) for v in b.split(",")) for b in sets if b.strip()]
+    curve = None
+    if args.bracket_curve:
+        name, _, param = args.bracket_curve.partition(":")
+        curve = (name, float(param) if param else TONE_CURVES[name][1])
     rows = []
     for i, path in enumerate(files, 1):
         if path.name in clipped:
             continue  # a truth that clips its own source is a lower bound, never a target
-        got = scene_rows(path, args.stops, args.as_ldr, estimator_of[path], brackets, args.raw)
+        got = scene_rows(path, args.stops, args.as_ldr, estimator_of[path], brackets, args.raw, curve)
         rows += got
         for r in got:
             print(f"[{i}/{len(files)}] {r['scene']:28s} {r['capture']:24s} angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  "
                   f"C {r['contrast']:6.2f} of {r['true_contrast']:6.2f}  m/naive {r['m_rmse_over_naive']:.3f}", flush=True)
     summ = summary(rows)
     print("\n".join(table(summ)))
-    save_study({"stops": args.stops, "brackets": sets, "raw": args.raw, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
+    save_study({"stops": args.stops, "brackets": sets, "raw": args.raw, "bracket_curve": args.bracket_curve, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
                 "summary": summ, "rows": rows}, args.out)
     if args.plot:
         print(f"wrote {plot(summ, args.plot)}")

@@ -10,8 +10,8 @@ from panolight_core.camera.ceiling import find_ceiling
 from panolight_core.errors import ImageError
 from panolight_core.io import read_image, sniff_format
 from panolight_core.io.capture import read_exposure
+from panolight_core.io.dng import write_dng
 from panolight_core.io.read_raw import read_raw
-from training.common.dng import write_dng
 
 
 def _scene(h=128, w=256):

@@ -9,8 +9,8 @@ from panolight_core import metrics
 from panolight_core.apps.cli import main
 from panolight_core.camera import hdr_to_ldr
 from panolight_core.io import read_image
+from panolight_core.io.dng import write_dng
 from tests.panolight_core.estimators.sources.test_restore import _clear_day
-from training.common.dng import write_dng
 
 RAW_WHITE = 4.0  # the sensor's white at the ev-0 JPEG's exposure: 2 stops of highlight headroom over its white
 

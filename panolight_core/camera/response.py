@@ -1,0 +1,194 @@
+"""A bracket set's camera response: the curve from 8-bit code to linear radiance its camera applied, recovered from
+the frames themselves (Debevec and Malik 1997, "Recovering high dynamic range radiance maps from photographs")
+where it explains them better than sRGB does, else sRGB (numpy only: Blender runs it too).
+
+A camera's JPEG is rarely pure sRGB: makers add a tone curve (an S-curve, a lifted shadow, a rolled-off
+highlight), and decoding such frames through sRGB makes each exposure disagree with the next, so the merge blurs
+them. With three or more exposures the curve can be solved for: log g(z) = ln E + ln t for every sampled pixel
+and frame, weighed by the hat, smooth in z. Only where the recovered curve leaves at most RESPONSE_GAIN of the
+frames' disagreement under sRGB is it used: a set the sRGB curve already explains (the evaluation's camera, and
+cameras set to a neutral profile) keeps sRGB, and merges exactly as before.
+
+Units: the recovered curve is scaled so that the reference frame's clip (the radiance at which its channels reach
+code 250, read from the darker frames; a curve's shoulder makes its extrapolated code 255 unreliable) is where
+sRGB puts code 250 (0.955): the reference frame's white is about 1, as with sRGB.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .color import SRGB8_TO_LINEAR
+
+RESPONSE_SAMPLES = 96  # pixels whose three channels the curve is solved on (256 + 3 x this unknowns)
+RESPONSE_SMOOTHNESS = 256.0  # the weight of g's second difference against the data (Debevec's lambda): 16-1024 tried on
+# three scenes x three camera curves at JPEG q90; lower follows the JPEG noise (10-20 % waves), higher bends the curve
+RESPONSE_GAIN = 0.35  # the recovered curve is used where the frames' disagreement under it is at most this share of
+# their disagreement under sRGB: over the 111 real HDRs' camera JPEGs at {-2, 0, +2} and {-4 .. +4} (sRGB sets) the
+# share was 0.99-5.1 (a smooth curve explains JPEG noise no better), against 0.03-0.08 for a gamma-2.8, S-curve or
+# highlight-shoulder camera (tests/panolight_core/camera/test_response.py)
+RESPONSE_CODES = (8, 247)  # codes a frame contributes to the solve and to the disagreement (the hat's reliable part)
+MIN_RESPONSE_FRAMES = 3  # two frames pin too little of the curve: sRGB
+MIN_RESPONSE_CODES = 64  # ... as do frames whose solved pixels hold fewer distinct codes (a flat scene: any curve
+# through its few codes explains it)
+CHECK_SAMPLES = 4096  # pixels the disagreement is measured on (other than the solve's)
+
+
+@dataclass(frozen=True)
+class Response:
+    """table: (256,) float32 code -> linear radiance (the reference's white about 1); name: "sRGB" or "recovered"; why:
+    one line; disagreement: the frames' median disagreement (natural log units) under each curve tried."""
+
+    table: np.ndarray
+    name: str
+    why: str
+    disagreement: dict
+
+    def describe(self) -> dict:
+        """For lighting.json's ``source.brackets.response``."""
+        return {"curve": self.name, "why": self.why,
+                "disagreement": {k: round(float(v), 5) for k, v in self.disagreement.items()}}
+
+
+SRGB = Response(SRGB8_TO_LINEAR, "sRGB", "the frames are taken as sRGB", {})
+
+
+def _smooth_pixels(gray: np.ndarray, step: int) -> np.ndarray:
+    """(n, 2) row, column of grid pixels (every ``step``-th) whose 3 x 3 neighbourhood in ``gray`` spans at most a
+    few codes: a misaligned frame or the demosaic moves them least."""
+    g = gray[::step, ::step].astype(np.int16)
+    if min(g.shape) < 3:
+        return np.zeros((0, 2), np.int64)
+    core = g[1:-1, 1:-1]
+    spread = np.zeros_like(core)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            spread = np.maximum(spread, np.abs(g[1 + dy:g.shape[0] - 1 + dy, 1 + dx:g.shape[1] - 1 + dx] - core))
+    rows, cols = np.nonzero(spread <= 3)
+    return np.stack([(rows + 1) * step, (cols + 1) * step], axis=1)
+
+
+def _pick(points: np.ndarray, gray: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Up to ``n`` of ``points``, spread over the reference's grey codes (16 bins, an equal share each, the rest
+    drawn from the others), so that every part of the curve is pinned."""
+    if len(points) <= n:
+        return points
+    codes = gray[points[:, 0], points[:, 1]].astype(np.int64) // 16
+    perm = rng.permutation(len(points))
+    idx = perm[np.argsort(codes[perm], kind="stable")]  # by bin, in a random order within each
+    bins = codes[idx]
+    rank = np.arange(idx.size) - np.searchsorted(bins, bins)  # each point's place in its bin
+    return points[idx[np.argsort(rank, kind="stable")[:n]]]  # every bin's first, then every bin's second ...
+
+
+def _hat(z: np.ndarray) -> np.ndarray:
+    lo, hi = RESPONSE_CODES
+    w = np.minimum(z - lo + 1.0, hi - z + 1.0)
+    return np.where((z >= lo) & (z <= hi), w, 0.0)
+
+
+def disagreement(table: np.ndarray, samples: np.ndarray, log_exposures: np.ndarray) -> float:
+    """The median, over sampled pixel channels seen well exposed in two or more frames, of the hat-weighted standard
+    deviation of ln(table[code] / exposure) across the frames: 0 for a curve that explains the set exactly.
+    samples: (n, frames, 3) codes; log_exposures: (frames,)."""
+    z = samples.astype(np.float64)
+    w = _hat(z)
+    value = np.log(np.maximum(table.astype(np.float64)[samples], 1e-12)) - log_exposures[None, :, None]
+    n = (w > 0).sum(axis=1)
+    total = np.maximum(w.sum(axis=1), 1e-12)
+    mean = (w * value).sum(axis=1) / total
+    var = (w * (value - mean[:, None, :]) ** 2).sum(axis=1) / total
+    sel = n >= 2
+    return float(np.median(np.sqrt(var[sel]))) if sel.any() else 0.0
+
+
+def solve_curve(samples: np.ndarray, log_exposures: np.ndarray) -> np.ndarray:
+    """(256,) float64 ln g: Debevec and Malik's least squares for codes ``samples`` (n, frames, 3) at
+    ``log_exposures`` (frames,): g(z_ij) - ln E_i = ln t_j weighed by the hat, lambda x the hat x g'' = 0, g(128) = 0;
+    one curve for the three channels (a camera's tone curve is the same on each), each channel of each pixel its
+    own radiance. Codes never seen follow the smoothness; the result is made non-decreasing."""
+    n, frames, _ = samples.shape
+    z = samples.transpose(0, 2, 1).reshape(-1, frames)  # (3n, frames): a pixel channel per row ...
+    w = _hat(z.astype(np.float64))
+    keep = (w > 0).sum(axis=1) >= 2  # ... seen well exposed twice or more (once says nothing of the curve)
+    z, w = z[keep], w[keep]
+    rows_data = int((w > 0).sum())
+    a = np.zeros((rows_data + 1 + 254, 256 + z.shape[0]))
+    b = np.zeros(a.shape[0])
+    i_pix, j_frame = np.nonzero(w > 0)
+    k = np.arange(rows_data)
+    wk = w[i_pix, j_frame]
+    a[k, z[i_pix, j_frame]] = wk
+    a[k, 256 + i_pix] = -wk
+    b[k] = wk * log_exposures[j_frame]
+    a[rows_data, 128] = 1.0  # g(128) = 0: the curve's scale (set again below)
+    zs = np.arange(1, 255)
+    ws = RESPONSE_SMOOTHNESS * np.maximum(_hat(zs.astype(np.float64)), 1.0)  # smooth where no data pins it, too
+    r = rows_data + 1 + np.arange(254)
+    a[r, zs - 1], a[r, zs], a[r, zs + 1] = ws, -2.0 * ws, ws
+    g = np.linalg.solve(a.T @ a, a.T @ b)[:256]  # the normal equations: full rank (g(128) and the smoothness pin
+    # the curve, each radiance its pixel's data), 10x faster than lstsq's SVD at this size
+    return np.maximum.accumulate(g)
+
+
+WHITE_PERCENTILE = 2.0  # the reference's clip: this percentile of the radiance its clipped channels hold
+
+
+def _white(table: np.ndarray, samples: np.ndarray, rel_exposures: np.ndarray, reference: int) -> float:
+    """Where the reference frame clips, in ``table``'s units: the WHITE_PERCENTILE-th percentile of the radiance
+    (table / exposure, from the frames that see it well exposed) of the sampled channels the reference has at
+    its clip (code 250 or more): the curve is then scaled to put that where sRGB puts code 250. Where the
+    reference clips nothing the sampled frames resolve, the curve's own extrapolated code 250."""
+    clipped = samples[:, reference, :] >= 250  # (n, 3)
+    values = []
+    for j, k in enumerate(rel_exposures):
+        z = samples[:, j, :]
+        sure = clipped & (z >= RESPONSE_CODES[0]) & (z <= RESPONSE_CODES[1])
+        values.append(table[z[sure]] / k)
+    values = np.concatenate(values)
+    if values.size < 16:
+        return float(table[250])
+    return float(np.percentile(values, WHITE_PERCENTILE))
+
+
+def recover_response(frames, rel_exposures, reference: int, seed: int = 0) -> Response:
+    """The ``Response`` of 8-bit frames (each (H, W, 3) uint8, aligned) at relative exposures ``rel_exposures``:
+    the recovered curve (``solve_curve``) where it leaves at most RESPONSE_GAIN of the frames' disagreement under
+    sRGB (``disagreement``, on other pixels than the solve's), else sRGB, with the reason."""
+    e = np.asarray(rel_exposures, dtype=np.float64)
+    if len(frames) < MIN_RESPONSE_FRAMES:
+        return Response(SRGB8_TO_LINEAR, "sRGB", f"{len(frames)} frames pin too little of a curve "
+                                                 f"(recovered from {MIN_RESPONSE_FRAMES} or more)", {})
+    h, w = frames[0].shape[:2]
+    ref = frames[reference]
+    gray = ((54 * ref[..., 0].astype(np.uint16) + 183 * ref[..., 1] + 19 * ref[..., 2]) >> 8).astype(np.uint8)
+    step = max(1, int(np.sqrt(h * w / 65536)))  # about 64 K grid pixels
+    points = _smooth_pixels(gray, step)
+    rng = np.random.default_rng(seed)
+    solve_at = _pick(points, gray, RESPONSE_SAMPLES, rng)
+    check_at = points[rng.choice(len(points), size=min(CHECK_SAMPLES, len(points)), replace=False)] \
+        if len(points) else points
+    if len(solve_at) < RESPONSE_SAMPLES // 4:
+        return Response(SRGB8_TO_LINEAR, "sRGB", "too few smooth pixels to recover a curve from", {})
+    log_e = np.log(e)
+
+    def codes(at):
+        return np.stack([f[at[:, 0], at[:, 1]] for f in frames], axis=1)  # (n, frames, 3)
+
+    solve = codes(solve_at)
+    lo, hi = RESPONSE_CODES
+    seen = np.unique(solve[(solve >= lo) & (solve <= hi)]).size
+    if seen < MIN_RESPONSE_CODES:
+        return Response(SRGB8_TO_LINEAR, "sRGB", f"the frames hold {seen} distinct codes, too few to pin a curve "
+                                                 f"({MIN_RESPONSE_CODES} or more)", {})
+    g = solve_curve(solve, log_e)
+    check = codes(check_at)
+    raw = np.exp(g - g[128])
+    table = (raw * (SRGB8_TO_LINEAR[250] / _white(raw, check, e, reference))).astype(np.float32)
+    table[0] = 0.0
+    found = {"sRGB": disagreement(SRGB8_TO_LINEAR, check, log_e), "recovered": disagreement(table, check, log_e)}
+    if found["recovered"] <= RESPONSE_GAIN * found["sRGB"]:
+        return Response(table, "recovered", f"the frames disagree {found['sRGB'] / max(found['recovered'], 1e-12):.1f}x "
+                                            f"less under their own curve (Debevec) than under sRGB", found)
+    return Response(SRGB8_TO_LINEAR, "sRGB", "sRGB explains the frames as well as their own curve does", found)
