@@ -202,8 +202,8 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     if linear is not None:
         linear = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(linear, shifts)]
     rel = e / e[ref]
-    ceiling = float(1.0 / rel.min())  # the darkest frame's white (the curve's code 255 is 1)
     curve = recover_response(frames, rel, ref) if response and linear is None else SRGB
+    ceiling = float(curve.table[255] / rel.min())  # the darkest frame's white: above every value a frame holds
     weight = hat(np.arange(256, dtype=np.uint8))  # by code: a table lookup per pixel, not arithmetic
     radiance = [(curve.table / np.float32(k)).astype(np.float32) for k in rel]  # each frame's code -> radiance
     # each frame's weight by (the reference's code, its own code) of a pixel's brightest channel: the hat, and 0 where

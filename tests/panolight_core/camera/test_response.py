@@ -4,6 +4,7 @@ import pytest
 
 from panolight_core.camera import auto_exposure, hdr_to_ldr, tone_curve
 from panolight_core.camera.brackets import merge_brackets
+from panolight_core.camera.ceiling import find_ceiling
 from panolight_core.camera.color import SRGB8_TO_LINEAR
 from panolight_core.camera.response import recover_response
 from panolight_core.data import load_studio_hdri
@@ -63,6 +64,9 @@ def test_a_camera_s_own_curve_is_recovered_and_merges_the_set_true(city, curve, 
     merged, info = merge_brackets(frames, [2.0 ** ev for ev in EVS])
     plain, _ = merge_brackets(frames, [2.0 ** ev for ev in EVS], response=False)
     assert info["response"]["curve"] == "recovered" and "less under their own curve" in info["response"]["why"]
+    # the sun, clipped in every frame, is the merged file's plateau: above every value a frame holds
+    assert info["clipped_in_every_frame"] > 0 and float(merged.max()) == pytest.approx(info["ceiling"])
+    assert find_ceiling(merged).rgb == pytest.approx((info["ceiling"],) * 3)
     assert _shape_error(merged, city) < min(0.03, 0.5 * _shape_error(plain, city))
     # units: the radiance at which the camera reaches code 250 comes out where sRGB puts it (0.955)
     held = city.max(axis=-1) < 3
