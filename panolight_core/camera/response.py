@@ -26,13 +26,13 @@ RESPONSE_SMOOTHNESS = 256.0  # the weight of g's second difference against the d
 # three scenes x three camera curves at JPEG q90; lower follows the JPEG noise (10-20 % waves), higher bends the curve
 RESPONSE_GAIN = 0.35  # the recovered curve is used where the frames' disagreement under it is at most this share of
 # their disagreement under sRGB: over the 111 real HDRs' camera JPEGs at {-2, 0, +2} and {-4 .. +4} (sRGB sets) the
-# share was 0.99-5.1 (a smooth curve explains JPEG noise no better), against 0.03-0.08 for a gamma-2.8, S-curve or
+# share was 0.93-7.0 (a smooth curve explains JPEG noise no better), against 0.03-0.08 for a gamma-2.8, S-curve or
 # highlight-shoulder camera (tests/panolight_core/camera/test_response.py)
 RESPONSE_CODES = (8, 247)  # codes a frame contributes to the solve and to the disagreement (the hat's reliable part)
 MIN_RESPONSE_FRAMES = 3  # two frames pin too little of the curve: sRGB
 MIN_RESPONSE_CODES = 64  # ... as do frames whose solved pixels hold fewer distinct codes (a flat scene: any curve
 # through its few codes explains it)
-CHECK_SAMPLES = 4096  # pixels the disagreement is measured on (other than the solve's)
+CHECK_SAMPLES = 2048  # pixels the disagreement is measured on (other than the solve's)
 
 
 @dataclass(frozen=True)
@@ -54,10 +54,10 @@ class Response:
 SRGB = Response(SRGB8_TO_LINEAR, "sRGB", "the frames are taken as sRGB", {})
 
 
-def _smooth_pixels(gray: np.ndarray, step: int) -> np.ndarray:
-    """(n, 2) row, column of grid pixels (every ``step``-th) whose 3 x 3 neighbourhood in ``gray`` spans at most a
-    few codes: a misaligned frame or the demosaic moves them least."""
-    g = gray[::step, ::step].astype(np.int16)
+def _smooth_pixels(gray: np.ndarray) -> np.ndarray:
+    """(n, 2) row, column of the pixels of ``gray`` (the reference's grey on a grid) whose 3 x 3 neighbourhood spans
+    at most a few codes: a misaligned frame or the demosaic moves them least."""
+    g = gray.astype(np.int16)
     if min(g.shape) < 3:
         return np.zeros((0, 2), np.int64)
     core = g[1:-1, 1:-1]
@@ -66,7 +66,7 @@ def _smooth_pixels(gray: np.ndarray, step: int) -> np.ndarray:
         for dx in (-1, 0, 1):
             spread = np.maximum(spread, np.abs(g[1 + dy:g.shape[0] - 1 + dy, 1 + dx:g.shape[1] - 1 + dx] - core))
     rows, cols = np.nonzero(spread <= 3)
-    return np.stack([(rows + 1) * step, (cols + 1) * step], axis=1)
+    return np.stack([rows + 1, cols + 1], axis=1)
 
 
 def _pick(points: np.ndarray, gray: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -103,33 +103,64 @@ def disagreement(table: np.ndarray, samples: np.ndarray, log_exposures: np.ndarr
     return float(np.median(np.sqrt(var[sel]))) if sel.any() else 0.0
 
 
+KNOT_STEP = 4  # the curve is solved at every 4th code and linear between (65 unknowns; lambda keeps it smoother)
+
+
 def solve_curve(samples: np.ndarray, log_exposures: np.ndarray) -> np.ndarray:
     """(256,) float64 ln g: Debevec and Malik's least squares for codes ``samples`` (n, frames, 3) at
     ``log_exposures`` (frames,): g(z_ij) - ln E_i = ln t_j weighed by the hat, lambda x the hat x g'' = 0, g(128) = 0;
     one curve for the three channels (a camera's tone curve is the same on each), each channel of each pixel its
-    own radiance. Codes never seen follow the smoothness; the result is made non-decreasing."""
+    own radiance; g is linear between knots every KNOT_STEP codes. Codes never seen follow the smoothness; the
+    result is made non-decreasing.
+
+    The normal equations are assembled term by term, each pixel's radiance eliminated (its block is diagonal), and
+    solved by ``_solve_spd``: no BLAS or LAPACK call (it woke OpenBLAS's threads, which then spun ~40 ms against
+    the merge's own on a 2-core machine)."""
     n, frames, _ = samples.shape
     z = samples.transpose(0, 2, 1).reshape(-1, frames)  # (3n, frames): a pixel channel per row ...
-    w = _hat(z.astype(np.float64))
-    keep = (w > 0).sum(axis=1) >= 2  # ... seen well exposed twice or more (once says nothing of the curve)
-    z, w = z[keep], w[keep]
-    rows_data = int((w > 0).sum())
-    a = np.zeros((rows_data + 1 + 254, 256 + z.shape[0]))
-    b = np.zeros(a.shape[0])
-    i_pix, j_frame = np.nonzero(w > 0)
-    k = np.arange(rows_data)
-    wk = w[i_pix, j_frame]
-    a[k, z[i_pix, j_frame]] = wk
-    a[k, 256 + i_pix] = -wk
-    b[k] = wk * log_exposures[j_frame]
-    a[rows_data, 128] = 1.0  # g(128) = 0: the curve's scale (set again below)
-    zs = np.arange(1, 255)
-    ws = RESPONSE_SMOOTHNESS * np.maximum(_hat(zs.astype(np.float64)), 1.0)  # smooth where no data pins it, too
-    r = rows_data + 1 + np.arange(254)
-    a[r, zs - 1], a[r, zs], a[r, zs + 1] = ws, -2.0 * ws, ws
-    g = np.linalg.solve(a.T @ a, a.T @ b)[:256]  # the normal equations: full rank (g(128) and the smoothness pin
-    # the curve, each radiance its pixel's data), 10x faster than lstsq's SVD at this size
-    return np.maximum.accumulate(g)
+    w2 = _hat(z.astype(np.float64)) ** 2
+    keep = (w2 > 0).sum(axis=1) >= 2  # ... seen well exposed twice or more (once says nothing of the curve)
+    z, w2 = z[keep], w2[keep]
+    knots = 256 // KNOT_STEP + 1
+    lo, t = z // KNOT_STEP, (z % KNOT_STEP) / KNOT_STEP  # g(z) = (1 - t) c[lo] + t c[lo + 1]
+    basis = ((lo, 1.0 - t), (lo + 1, t))
+    d = w2.sum(axis=1)  # each radiance's diagonal
+    mean = (w2 * log_exposures[None, :]).sum(axis=1) / d  # its data term over its diagonal
+    s = np.zeros((knots, knots))
+    r = np.zeros(knots)
+    for ka, ba in basis:
+        np.add.at(r, ka, ba * w2 * (log_exposures[None, :] - mean[:, None]))
+        for kb, bb in basis:
+            np.add.at(s, (ka, kb), ba * bb * w2)
+            for j in range(frames):  # minus the coupling through each radiance: w2_j w2_k / d
+                for k in range(frames):
+                    np.add.at(s, (ka[:, j], kb[:, k]), -ba[:, j] * bb[:, k] * w2[:, j] * w2[:, k] / d)
+    s[128 // KNOT_STEP, 128 // KNOT_STEP] += 1.0  # g(128) = 0: the curve's scale (set again by the caller)
+    ks = np.arange(1, knots - 1)
+    weight = RESPONSE_SMOOTHNESS * np.maximum(_hat(ks * float(KNOT_STEP)), 1.0) * (2.0 / KNOT_STEP ** 2)
+    for a, ca in ((ks - 1, 1.0), (ks, -2.0), (ks + 1, 1.0)):  # lambda x the hat x g'' at each inner knot
+        for b, cb in ((ks - 1, 1.0), (ks, -2.0), (ks + 1, 1.0)):
+            np.add.at(s, (a, b), weight ** 2 * ca * cb)
+    c = _solve_spd(s, r)
+    codes = np.arange(256)
+    lo, t = codes // KNOT_STEP, (codes % KNOT_STEP) / KNOT_STEP
+    return np.maximum.accumulate((1.0 - t) * c[lo] + t * c[lo + 1])
+
+
+def _solve_spd(s: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """x with s x = r for a symmetric positive definite (n, n) ``s``: Gaussian elimination without pivoting, in
+    numpy's element-wise operations. A LAPACK or BLAS call of this size woke OpenBLAS's threads, which then spun
+    for ~40 ms against the merge's own on a 2-core machine (the bracket set's time 2.9x -> 4.2x the JPEG's)."""
+    a = np.array(s, dtype=np.float64)
+    x = np.array(r, dtype=np.float64)
+    n = x.size
+    for k in range(n - 1):
+        f = a[k + 1:, k] / a[k, k]
+        a[k + 1:, k:] -= f[:, None] * a[k, k:][None, :]
+        x[k + 1:] -= f * x[k]
+    for k in range(n - 1, -1, -1):
+        x[k] = (x[k] - (a[k, k + 1:] * x[k + 1:]).sum()) / a[k, k]
+    return x
 
 
 WHITE_PERCENTILE = 2.0  # the reference's clip: this percentile of the radiance its clipped channels hold
@@ -161,13 +192,13 @@ def recover_response(frames, rel_exposures, reference: int, seed: int = 0) -> Re
         return Response(SRGB8_TO_LINEAR, "sRGB", f"{len(frames)} frames pin too little of a curve "
                                                  f"(recovered from {MIN_RESPONSE_FRAMES} or more)", {})
     h, w = frames[0].shape[:2]
-    ref = frames[reference]
-    gray = ((54 * ref[..., 0].astype(np.uint16) + 183 * ref[..., 1] + 19 * ref[..., 2]) >> 8).astype(np.uint8)
-    step = max(1, int(np.sqrt(h * w / 65536)))  # about 64 K grid pixels
-    points = _smooth_pixels(gray, step)
+    step = max(1, int(np.sqrt(h * w / 65536)))  # a grid of about 64 K pixels
+    grid = frames[reference][::step, ::step].astype(np.uint16)
+    gray = ((54 * grid[..., 0] + 183 * grid[..., 1] + 19 * grid[..., 2]) >> 8).astype(np.uint8)
+    points = _smooth_pixels(gray)
     rng = np.random.default_rng(seed)
-    solve_at = _pick(points, gray, RESPONSE_SAMPLES, rng)
-    check_at = points[rng.choice(len(points), size=min(CHECK_SAMPLES, len(points)), replace=False)] \
+    solve_at = _pick(points, gray, RESPONSE_SAMPLES, rng) * step
+    check_at = points[rng.choice(len(points), size=min(CHECK_SAMPLES, len(points)), replace=False)] * step \
         if len(points) else points
     if len(solve_at) < RESPONSE_SAMPLES // 4:
         return Response(SRGB8_TO_LINEAR, "sRGB", "too few smooth pixels to recover a curve from", {})

@@ -108,7 +108,7 @@ def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto",
         for own in (True, False):
             merged, info = merge_brackets(frames, [2.0 ** ev for ev in evs], response=own)
             scale = float(np.median(truth @ LUMINANCE_WEIGHTS) / np.median(merged @ LUMINANCE_WEIGHTS))
-            how = f"its {info['response']['curve']} curve" if own else "decoded as sRGB"
+            how = "its own curve where recovered" if own else "decoded as sRGB"
             captures.append((f"{name}, {curve[0]} {curve[1]:g} camera, {how}", merged, scale, "auto"))
     for k in raws:  # the sensor's white is the unit: 2^k of the truth's
         seed = int.from_bytes(path.stem.encode()[:8], "little")
