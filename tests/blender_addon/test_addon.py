@@ -875,10 +875,22 @@ def test_a_clipped_hdri_gets_its_sun_back_in_blender_as_on_the_command_line(tmp_
     _configure(restore_clipped=True)
 
 
+def _restored_as_on_the_command_line(want, sun):
+    """Estimate the loaded panorama: its clipped sun restored, the CLI's coefficients ``want``, the key light on
+    ``sun``."""
+    from panolight_core import metrics
+
+    _configure()
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    doc = store.stored_lighting(bpy.context.scene.world)
+    assert doc["estimator"]["restoration"]["restored"]
+    assert np.allclose(doc["coefficients"], want, rtol=1e-9, atol=1e-12)
+    assert metrics.angle_deg(metrics.brightest_light(doc["lights"])["direction"], sun) < 1.0
+
+
 def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp_path):
     """Load panorama with three frames selected: one background merged by the core (the CLI's numbers), whose sun,
     clipped in every frame, the estimate restores; a set whose exposures cannot be told apart is refused."""
-    from panolight_core import metrics
     from panolight_core.apps.cli import main
     from panolight_core.camera import hdr_to_ldr
     from panolight_core.io import write_srgb8
@@ -894,12 +906,7 @@ def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp
     assert bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="-2,0,2") == {"FINISHED"}
     image = bpy.context.scene.world[store.PANORAMA_KEY]
     assert image.name.startswith("shot_1 (3 brackets)") and image.is_float
-    _configure()
-    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
-    doc = store.stored_lighting(bpy.context.scene.world)
-    assert doc["estimator"]["restoration"]["restored"]
-    assert np.allclose(doc["coefficients"], want, rtol=1e-9, atol=1e-12)
-    assert metrics.angle_deg(metrics.brightest_light(doc["lights"])["direction"], s) < 1.0
+    _restored_as_on_the_command_line(want, s)
     with pytest.raises(RuntimeError, match="less than a third of a stop apart"):
         bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="0,0.1,2")
 
@@ -907,7 +914,6 @@ def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp
 def test_a_camera_raw_loads_decoded_by_the_core_and_estimates_as_on_the_command_line(tmp_path, monkeypatch):
     """Blender reads no RAW: Load panorama decodes it through the core (rawpy), upright and packed, and the estimate
     restores its clipped sun to the CLI's numbers; without rawpy in Blender's Python it is refused in one line."""
-    from panolight_core import metrics
     from panolight_core.apps.cli import main
     from panolight_core.io.dng import write_dng
     from panolight_core.io.lighting import read_lighting
@@ -920,12 +926,7 @@ def test_a_camera_raw_loads_decoded_by_the_core_and_estimates_as_on_the_command_
     assert bpy.ops.panolight.load_panorama(filepath=path) == {"FINISHED"}
     image = bpy.context.scene.world[store.PANORAMA_KEY]
     assert image.is_float and tuple(image.size) == (truth.shape[1], truth.shape[0])
-    _configure()
-    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
-    doc = store.stored_lighting(bpy.context.scene.world)
-    assert doc["estimator"]["restoration"]["restored"]
-    assert np.allclose(doc["coefficients"], want, rtol=1e-9, atol=1e-12)
-    assert metrics.angle_deg(metrics.brightest_light(doc["lights"])["direction"], s) < 1.0
+    _restored_as_on_the_command_line(want, s)
     monkeypatch.setitem(sys.modules, "rawpy", None)  # a stock Blender
     with pytest.raises(RuntimeError, match=r"day\.dng: a camera RAW needs rawpy"):
         bpy.ops.panolight.load_panorama(filepath=path)
