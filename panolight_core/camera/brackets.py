@@ -3,11 +3,11 @@ only: Blender runs it too).
 
 Each frame is decoded through the set's own camera curve where it explains the frames better than sRGB
 (``camera.response``: Debevec and Malik's, recovered from three or more 8-bit frames), else through sRGB
-(EVALUATION.md's camera), and divided by its relative exposure; the frames are averaged with Debevec's hat weight of the pixel's **worst**
-channel, so a pixel clipped in one channel of a frame takes nothing from that frame (a clipped channel averaged in
-makes a dark sun or a magenta halo). A pixel clipped in every frame is clipped: it is set to the darkest frame's
-white in every channel, which makes the merged file an HDR that clips its own sun at exactly its ceiling
-(``camera.ceiling``), and the restoration weighs it as for any such file.
+(EVALUATION.md's camera), and divided by its relative exposure; the frames are averaged with Debevec's hat weight
+of the pixel's **worst** channel, so a pixel clipped in one channel of a frame takes nothing from that frame (a
+clipped channel averaged in makes a dark sun or a magenta halo). A pixel clipped in every frame is clipped: it is
+set to the darkest frame's white in every channel, which makes the merged file an HDR that clips its own sun at
+exactly its ceiling (``camera.ceiling``), and the restoration weighs it as for any such file.
 
 What moves between the frames (a person, a leaf, a wave) is the reference frame's alone: a frame gives nothing to a
 pixel whose radiance it sees GHOST_RATIO off the reference's where both see it well exposed.
@@ -18,7 +18,8 @@ horizon is not undone).
 
 Units: the reference frame's white is 1 (the frame whose exposure is the set's median: the ev-0 JPEG of a
 {-2, 0, +2} set), so the merged panorama is in the same units as that JPEG's estimate; the ceiling is the
-reference's exposure over the darkest frame's (4 for {-2, 0, +2}).
+reference's exposure over the darkest frame's (4 for {-2, 0, +2}), times the curve's code 255 (1 for sRGB; a
+recovered curve puts its code 250 where sRGB does, ``camera.response``).
 """
 from __future__ import annotations
 

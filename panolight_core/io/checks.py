@@ -106,6 +106,13 @@ def dual_fisheye(pixels: np.ndarray) -> bool:
     return bool(dark[outside].mean() > 0.98 and dark[inside].mean() < 0.05)
 
 
+def check_stitched(path, pixels: np.ndarray) -> None:
+    """ImageError naming ``path`` when its pixels are an unstitched dual-fisheye capture (``dual_fisheye``)."""
+    if dual_fisheye(pixels):
+        raise ImageError(path, "two image circles on black: an unstitched dual-fisheye capture, not an "
+                               "equirectangular panorama; stitch it first (the camera maker's app or stitcher)")
+
+
 def check_jpeg_data(path, h: int, w: int) -> None:
     """ImageError when a JPEG's file is too small for the size its frame header claims (a patched or
     truncated header: decoders would pad the missing picture with grey)."""

@@ -29,7 +29,7 @@ from .checks import (  # noqa: F401
     _sanitise,
     check_jpeg_data,
     check_size,
-    dual_fisheye,
+    check_stitched,
     is_hdr,
     sanitise_pixels,
     sniff_format,
@@ -56,8 +56,9 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     of a 16K .hdr takes as long, of a half EXR 2-3 s more); an EXR whose values no code holds is left in its
     file (``packed.RowFile``: read again by rows at each pass, about twice the time); other files as float32
     arrays. PACKED_ABOVE_MEGAPIXELS is the CLI's choice.
-    equirect: require a 2:1 image, and refuse an unstitched dual-fisheye one (``checks.dual_fisheye``). nonfinite: "error" (default) refuses NaN/Inf pixels, "repair"
-    sets NaN and -Inf to 0 and +Inf to the largest finite value, with a PanoLightWarning.
+    equirect: require a 2:1 image, and refuse an unstitched dual-fisheye one (``checks.check_stitched``).
+    nonfinite: "error" (default) refuses NaN/Inf pixels, "repair" sets NaN and -Inf to 0 and +Inf to the largest
+    finite value, with a PanoLightWarning.
     negative: "clamp" (default) sets negative radiance to 0 with a PanoLightWarning, "error" refuses it.
     The size is checked from the header before pixels are decoded: at most ``max_megapixels`` (the
     documented decode budget, DEFAULT_MAX_MEGAPIXELS) and never above MAX_PIXELS; a JPEG whose data is
@@ -75,9 +76,8 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     except Exception as exc:  # decoder libraries raise many types for bad files
         raise ImageError(p, f"cannot decode {fmt.upper()} pixels (corrupt or truncated file): "
                             f"{' '.join(str(exc).split())}") from None
-    if equirect and not isinstance(img, PackedImage) and dual_fisheye(img):
-        raise ImageError(p, "two image circles on black: an unstitched dual-fisheye capture, not an "
-                            "equirectangular panorama; stitch it first (the camera maker's app or stitcher)")
+    if equirect and not isinstance(img, PackedImage) and fmt != RAW_FORMAT:  # io.read_raw checks its own
+        check_stitched(p, img)
     if img.dtype == np.uint8:
         return np.ascontiguousarray(img)
     if isinstance(img, PackedImage):  # RGBE holds only finite, non-negative values; half floats are checked in place,

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ImageError
-from .checks import BLOCK_ROWS, check_size
+from .checks import BLOCK_ROWS, check_size, check_stitched
 
 WHITE_16 = 65535  # LibRaw's 16-bit output: the sensor's white after white balance (highlight mode clip)
 
@@ -65,7 +65,8 @@ def read_raw(path, *, equirect: bool = True, max_megapixels: float | None = None
     """(pixels, record) of the camera RAW ``path``: float32 (H, W, 3) linear Rec.709 in sensor-white units (the
     module's docstring), upright; and what lighting.json keeps of it (``source.raw``: the reader, white and black
     levels, the white balance used, the share of pixels the sensor clipped). The size is checked from the header
-    before the pixels are unpacked. ImageError naming the file for anything LibRaw cannot read."""
+    before the pixels are unpacked, and with ``equirect`` (2:1) an unstitched dual-fisheye RAW is refused
+    (``checks.check_stitched``). ImageError naming the file for anything LibRaw cannot read."""
     from .checks import DEFAULT_MAX_MEGAPIXELS
 
     p = Path(path)
@@ -103,6 +104,8 @@ def read_raw(path, *, equirect: bool = True, max_megapixels: float | None = None
         block = rgb16[r:r + BLOCK_ROWS]
         np.multiply(block, scale, out=pixels[r:r + BLOCK_ROWS], dtype=np.float32)
         clipped += int((block == WHITE_16).all(axis=-1).sum())
+    if equirect:
+        check_stitched(p, pixels)
     record["sensor_clipped_fraction"] = clipped / float(h * w)
     return pixels, record
 

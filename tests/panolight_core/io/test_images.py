@@ -8,6 +8,7 @@ from panolight_core.camera.color import SRGB8_TO_LINEAR
 from panolight_core.errors import ImageError, PanoLightWarning
 from panolight_core.io import hdr as hdr_codec
 from panolight_core.io import read_image, sniff_format, write_image, write_srgb8
+from panolight_core.io.read_raw import read_raw
 
 
 @pytest.fixture
@@ -520,9 +521,14 @@ def test_an_unstitched_dual_fisheye_capture_is_refused(tmp_path):
     fish = _dual_fisheye(city, 256)
     write_image(tmp_path / "fish.exr", fish)
     write_srgb8(tmp_path / "fish.jpg", hdr_to_ldr(fish, 0.0, 90))
-    for name in ("fish.exr", "fish.jpg"):
+    from panolight_core.io.dng import write_dng
+
+    write_dng(tmp_path / "fish.dng", fish, scale=0.25)
+    for name in ("fish.exr", "fish.jpg", "fish.dng"):
         with pytest.raises(ImageError, match=rf"{name}: two image circles on black: an unstitched dual-fisheye"):
             read_image(tmp_path / name)
+    with pytest.raises(ImageError, match=r"fish\.dng: two image circles"):  # the job's own RAW read
+        read_raw(tmp_path / "fish.dng")
     assert read_image(tmp_path / "fish.jpg", equirect=False).shape == (256, 512, 3)  # asked for as it is
     night = np.zeros((256, 512, 3), np.float32)
     night[120:136] = 0.5  # a lit horizon under a black sky, over black ground
