@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ImageError
-from .checks import BLOCK_ROWS, check_size, check_stitched
+from .checks import BLOCK_ROWS, DEFAULT_MAX_MEGAPIXELS, check_size, check_stitched
 
 WHITE_16 = 65535  # LibRaw's 16-bit output: the sensor's white after white balance (highlight mode clip)
 
@@ -67,8 +67,6 @@ def read_raw(path, *, equirect: bool = True, max_megapixels: float | None = None
     levels, the white balance used, the share of pixels the sensor clipped). The size is checked from the header
     before the pixels are unpacked, and with ``equirect`` (2:1) an unstitched dual-fisheye RAW is refused
     (``checks.check_stitched``). ImageError naming the file for anything LibRaw cannot read."""
-    from .checks import DEFAULT_MAX_MEGAPIXELS
-
     p = Path(path)
     rawpy = _rawpy(p)
     raw = _open(p, rawpy)
