@@ -260,12 +260,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _command(sub, "estimate", run_estimate, estimate_options="auto", epilog=EPILOG_ESTIMATE,
                  help="estimate the lighting of one panorama",
-                 description="Estimate the lighting of an equirectangular panorama (2:1; .jpg/.png LDR or "
-                             ".exr/.hdr HDR) and write it with reconstructions and a preview.")
+                 description="Estimate the lighting of an equirectangular panorama (2:1; .jpg/.png LDR, "
+                             ".exr/.hdr HDR, or a camera RAW: .dng, .cr3, .nef, .arw ...) and write it with "
+                             "reconstructions and a preview.")
     p.add_argument("input", nargs="+",
-                   help="panorama file (equirectangular, width = 2 x height); several 8-bit files: a bracket set of "
-                        "one scene at different exposures, merged into one HDR first (its exposures from each "
-                        "file's EXIF, or --evs)")
+                   help="panorama file (equirectangular, width = 2 x height; a stitched one, not two fisheye "
+                        "circles); several 8-bit files or several RAWs: a bracket set of one scene at different "
+                        "exposures, merged into one HDR first (its exposures from each file's EXIF, or --evs; 8-bit "
+                        "frames through their camera's own curve where it can be told from sRGB)")
     p.add_argument("--evs", type=estimate_settings.argparse_type(parse_evs), default=None, metavar="EV,EV,...",
                    help="a bracket set's exposures in stops, one per file in their order (e.g. -2,0,2), where the "
                         "files' EXIF lacks or misstates them")
