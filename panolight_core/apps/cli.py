@@ -53,7 +53,7 @@ LDR results are relative to the camera's clip level (1 = white); --exposure EV s
 
 EPILOG_BATCH = """\
 examples:
-  panolight batch shots/ -o out/                         # every .exr .hdr .png .jpg in shots/
+  panolight batch shots/ -o out/                         # every .exr .hdr .png .jpg and camera RAW in shots/
   panolight batch --list todo.txt -o out/ --shard 2/4    # second of four farm jobs over the same list
 
 Each input gets OUTDIR/<name>/ with the files of 'panolight estimate'. Bad files are reported and
