@@ -231,7 +231,8 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
         for i, (frame, lut) in enumerate(zip(frames, radiance)):
             w = weights[i][row | top[i]]
             seen = lut[frame[r0:r1]] if linear is None else linear[i][r0:r1] * np.float32(1.0 / rel[i])
-            num += w[..., None] * seen
+            seen *= w[..., None]  # in place: a fresh array either way
+            num += seen
             den += w
         none = den == 0  # clipped in every frame: at the darkest frame's white
         num /= np.where(none, np.float32(1.0), den)[..., None]
