@@ -83,6 +83,8 @@ TOOLS = {
     "bench-estimate": ("training.benchmarks.bench_estimate", "benchmark: decode + estimate of a 2048 x 1024 JPEG"),
     "bench-restore": ("training.benchmarks.bench_restore", "benchmark: an 8K clipped HDR restored, and a 3-bracket "
                       "set, against their peers"),
+    "bench-captures": ("training.benchmarks.bench_captures", "benchmark: each capture's time to the estimate, beside "
+                       "its accuracy (JPEG, brackets, clipped HDRs, RAW)"),
     "bench-io": ("training.benchmarks.bench_io", "benchmark: decode time per format, peak memory per size"),
     "bench-neural": ("training.benchmarks.bench_neural", "benchmark: the learned estimator's network latency"),
     "bench-scale": ("training.benchmarks.bench_scale", "benchmark: 16K CLI, 8K/16K Blender and batch throughput"),
