@@ -25,11 +25,12 @@ READ_NOISE = 3.0  # ... and its read noise, in electrons
 @dataclass(frozen=True)
 class Sensor:
     """A sensor's counts: its as-shot neutral (the raw RGB of a white; LibRaw's white balance divides by it), black
-    and white levels (14-bit-like by default)."""
+    and white levels (14-bit-like by default), and whether the file records that neutral."""
 
     neutral: tuple = (0.5, 1.0, 0.8)
     black: int = 512
     white: int = 15000
+    as_shot: bool = True  # the file records the neutral (AsShotNeutral); False: it records no white balance
 
 
 def mosaic(scene: np.ndarray, scale: float = 1.0, sensor: Sensor = Sensor(),
@@ -70,8 +71,9 @@ def write_dng(path, scene, *, scale: float = 1.0, sensor: Sensor = Sensor(), tim
             (50708, "s", 0, "PanoLight test sensor", True), (50714, "H", 1, (black,), True),
             (50717, "I", 1, (white,), True),
             (50721, "2i", 9, sum((_rational(v) for v in XYZ_TO_SRGB.ravel()), []), True),
-            (50778, "H", 1, (21,), True),  # calibrated under D65
-            (50728, "2I", 3, sum((_rational(v) for v in neutral), []), True)]  # AsShotNeutral
+            (50778, "H", 1, (21,), True)]  # calibrated under D65
+    if sensor.as_shot:
+        tags.append((50728, "2I", 3, sum((_rational(v) for v in neutral), []), True))  # AsShotNeutral
     if time_s is not None:
         tags.append((33434, "2I", 1, _rational(time_s), True))
     if f_number is not None:

@@ -90,3 +90,15 @@ def test_without_rawpy_a_raw_is_refused_with_the_remedy(tmp_path, monkeypatch):
     with pytest.raises(ImageError, match=r"f\.dng: a camera RAW needs rawpy"):
         read_image(path)
     assert read_exposure(path) is None
+
+
+def test_a_raw_without_an_as_shot_white_balance_says_it_took_daylight(tmp_path):
+    """No AsShotNeutral: LibRaw's daylight balance from the colour matrix (here the identity, so the sensor's own
+    cast stays), and the record says so instead of claiming the camera's."""
+    from panolight_core.io.dng import Sensor
+
+    scene = _scene()
+    px, record = read_raw(write_dng(tmp_path / "g.dng", scene, scale=0.1, sensor=Sensor(as_shot=False)))
+    assert record["white_balance"].startswith("daylight") and record["multipliers"] is None
+    cast = (px[40:100, 20:236] / (0.1 * scene[40:100, 20:236])).reshape(-1, 3).mean(axis=0)
+    np.testing.assert_allclose(cast, Sensor().neutral, rtol=0.01)
