@@ -26,7 +26,7 @@ RESPONSE_SMOOTHNESS = 256.0  # the weight of g's second difference against the d
 # three scenes x three camera curves at JPEG q90; lower follows the JPEG noise (10-20 % waves), higher bends the curve
 RESPONSE_GAIN = 0.35  # the recovered curve is used where the frames' disagreement under it is at most this share of
 # their disagreement under sRGB: over the 111 real HDRs' camera JPEGs at {-2, 0, +2} and {-4 .. +4} (sRGB sets) the
-# share was 0.93-7.0 (a smooth curve explains JPEG noise no better), against 0.03-0.08 for a gamma-2.8, S-curve or
+# share was 0.91-6.8 (a smooth curve explains JPEG noise no better), against 0.03-0.08 for a gamma-2.8, S-curve or
 # highlight-shoulder camera (tests/panolight_core/camera/test_response.py)
 RESPONSE_CODES = (8, 247)  # codes a frame contributes to the solve and to the disagreement (the hat's reliable part)
 MIN_RESPONSE_FRAMES = 3  # two frames pin too little of the curve: sRGB
@@ -70,16 +70,16 @@ def _smooth_pixels(gray: np.ndarray) -> np.ndarray:
 
 
 def _pick(points: np.ndarray, gray: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-    """Up to ``n`` of ``points``, spread over the reference's grey codes (16 bins, an equal share each, the rest
-    drawn from the others), so that every part of the curve is pinned."""
+    """Indices of up to ``n`` of ``points``, spread over the reference's grey codes (16 bins, an equal share each,
+    the rest drawn from the others), so that every part of the curve is pinned."""
     if len(points) <= n:
-        return points
+        return np.arange(len(points))
     codes = gray[points[:, 0], points[:, 1]].astype(np.int64) // 16
     perm = rng.permutation(len(points))
     idx = perm[np.argsort(codes[perm], kind="stable")]  # by bin, in a random order within each
     bins = codes[idx]
     rank = np.arange(idx.size) - np.searchsorted(bins, bins)  # each point's place in its bin
-    return points[idx[np.argsort(rank, kind="stable")[:n]]]  # every bin's first, then every bin's second ...
+    return idx[np.argsort(rank, kind="stable")[:n]]  # every bin's first, then every bin's second ...
 
 
 def _hat(z: np.ndarray) -> np.ndarray:
@@ -150,7 +150,7 @@ def solve_curve(samples: np.ndarray, log_exposures: np.ndarray) -> np.ndarray:
 def _solve_spd(s: np.ndarray, r: np.ndarray) -> np.ndarray:
     """x with s x = r for a symmetric positive definite (n, n) ``s``: Gaussian elimination without pivoting, in
     numpy's element-wise operations. A LAPACK or BLAS call of this size woke OpenBLAS's threads, which then spun
-    for ~40 ms against the merge's own on a 2-core machine (the bracket set's time 2.9x -> 4.2x the JPEG's)."""
+    for ~40 ms against the merge's own on a 2-core machine (the bracket set's time 3.9x -> 4.2x the JPEG's)."""
     a = np.array(s, dtype=np.float64)
     x = np.array(r, dtype=np.float64)
     n = x.size
@@ -197,10 +197,11 @@ def recover_response(frames, rel_exposures, reference: int, seed: int = 0) -> Re
     gray = ((54 * grid[..., 0] + 183 * grid[..., 1] + 19 * grid[..., 2]) >> 8).astype(np.uint8)
     points = _smooth_pixels(gray)
     rng = np.random.default_rng(seed)
-    solve_at = _pick(points, gray, RESPONSE_SAMPLES, rng) * step
-    check_at = points[rng.choice(len(points), size=min(CHECK_SAMPLES, len(points)), replace=False)] * step \
-        if len(points) else points
-    if len(solve_at) < RESPONSE_SAMPLES // 4:
+    picked = _pick(points, gray, RESPONSE_SAMPLES, rng)
+    rest = np.setdiff1d(np.arange(len(points)), picked)  # the disagreement is measured on other pixels
+    solve_at = points[picked] * step
+    check_at = points[rng.choice(rest, size=min(CHECK_SAMPLES, rest.size), replace=False)] * step
+    if len(solve_at) < RESPONSE_SAMPLES // 4 or not check_at.size:
         return Response(SRGB8_TO_LINEAR, "sRGB", "too few smooth pixels to recover a curve from", {})
     log_e = np.log(e)
 
@@ -222,4 +223,5 @@ def recover_response(frames, rel_exposures, reference: int, seed: int = 0) -> Re
     if found["recovered"] <= RESPONSE_GAIN * found["sRGB"]:
         return Response(table, "recovered", f"the frames disagree {found['sRGB'] / max(found['recovered'], 1e-12):.1f}x "
                                             f"less under their own curve (Debevec) than under sRGB", found)
-    return Response(SRGB8_TO_LINEAR, "sRGB", "sRGB explains the frames as well as their own curve does", found)
+    return Response(SRGB8_TO_LINEAR, "sRGB", f"their own curve explains the frames less than "
+                                             f"{1 / RESPONSE_GAIN:.1f}x better than sRGB does", found)
