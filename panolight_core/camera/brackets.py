@@ -29,7 +29,7 @@ import numpy as np
 
 from .. import threads
 from ..errors import PanoLightError
-from .color import SRGB8_TO_LINEAR
+from .color import SRGB8_TO_LINEAR, gray8
 from .response import SRGB, recover_response
 
 CLIPPED_CODE = 250  # a channel at this 8-bit code or above is clipped: a JPEG's compression leaves a clipped sun's
@@ -80,12 +80,6 @@ ALIGN_MAX_ROWS = 8  # a frame tipped at most this many rows of the alignment's g
 # turns a 360 camera round its axis far more than it tips it, and a still set's lantern-lit studio found 47
 
 
-def _gray(frame: np.ndarray) -> np.ndarray:
-    """Ward's 8-bit grey of an sRGB frame: (54 R + 183 G + 19 B) / 256."""
-    f = frame.astype(np.uint16)
-    return ((54 * f[..., 0] + 183 * f[..., 1] + 19 * f[..., 2]) >> 8).astype(np.uint8)
-
-
 def _halve(g: np.ndarray) -> np.ndarray:
     h, w = (g.shape[0] // 2) * 2, (g.shape[1] // 2) * 2
     g = g[:h, :w].astype(np.uint16)
@@ -133,7 +127,7 @@ def align_shift(reference: np.ndarray, frame: np.ndarray, ratio: float = 1.0, le
     scale = 1
     while frame.shape[1] > scale * ALIGN_MAX_WIDTH:  # a large set: every scale-th pixel (what the grid holds)
         scale *= 2
-    gray_ref, gray = _gray(reference[::scale, ::scale]), _gray(frame[::scale, ::scale])
+    gray_ref, gray = gray8(reference[::scale, ::scale]), gray8(frame[::scale, ::scale])
     t_ref, t_frame = _thresholds(gray_ref, ratio)
     pyramid = [(gray_ref, gray)]
     for _ in range(levels - 1):

@@ -35,3 +35,10 @@ def linear_to_srgb(v):
 def luminance(rgb):
     """(..., 3) linear Rec.709 RGB -> (...) luminance."""
     return np.asarray(rgb)[..., :3] @ LUMINANCE_WEIGHTS.astype(np.asarray(rgb).dtype)
+
+
+def gray8(frame: np.ndarray) -> np.ndarray:
+    """(..., 3) uint8 sRGB -> (...) uint8: Ward's 8-bit grey, (54 R + 183 G + 19 B) / 256 (the bracket merge's
+    alignment bitmaps and its response curve's sampling read it)."""
+    f = frame.astype(np.uint16)
+    return ((54 * f[..., 0] + 183 * f[..., 1] + 19 * f[..., 2]) >> 8).astype(np.uint8)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .color import SRGB8_TO_LINEAR
+from .color import SRGB8_TO_LINEAR, gray8
 
 RESPONSE_SAMPLES = 96  # pixels whose three channels the curve is solved on (256 + 3 x this unknowns)
 RESPONSE_SMOOTHNESS = 256.0  # the weight of g's second difference against the data (Debevec's lambda): 16-1024 tried on
@@ -193,8 +193,7 @@ def recover_response(frames, rel_exposures, reference: int, seed: int = 0) -> Re
                                                  f"(recovered from {MIN_RESPONSE_FRAMES} or more)", {})
     h, w = frames[0].shape[:2]
     step = max(1, int(np.sqrt(h * w / 65536)))  # a grid of about 64 K pixels
-    grid = frames[reference][::step, ::step].astype(np.uint16)
-    gray = ((54 * grid[..., 0] + 183 * grid[..., 1] + 19 * grid[..., 2]) >> 8).astype(np.uint8)
+    gray = gray8(frames[reference][::step, ::step])
     points = _smooth_pixels(gray)
     rng = np.random.default_rng(seed)
     picked = _pick(points, gray, RESPONSE_SAMPLES, rng)

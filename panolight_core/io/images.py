@@ -1,4 +1,5 @@
-"""Reading and writing panoramas: OpenEXR, Radiance .hdr, PNG (8/16 bit) and JPEG.
+"""Reading and writing panoramas: OpenEXR, Radiance .hdr, PNG (8/16 bit) and JPEG; camera RAWs are read
+(io.read_raw: linear, in the sensor's white).
 
 read_image returns (H, W, 3) float32 *linear* RGB: 8/16-bit files are sRGB-decoded, HDR files are
 taken as linear Rec.709. Every failure raises ImageError naming the file and the problem. Reading goes

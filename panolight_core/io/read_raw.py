@@ -41,6 +41,11 @@ def _rawpy(path):
     return rawpy
 
 
+def _reason(exc) -> str:
+    """LibRaw's error, for a message: its class name and its text, if any."""
+    return f"{type(exc).__name__}{': ' + str(exc) if str(exc) else ''}"
+
+
 def _open(path, rawpy):
     """A rawpy.RawPy with ``path``'s header parsed (pixels not yet unpacked); ImageError for what LibRaw refuses."""
     raw = rawpy.RawPy()
@@ -50,8 +55,7 @@ def _open(path, rawpy):
         raise ImageError(path, "starts like a TIFF or camera RAW, but LibRaw cannot read it as a camera RAW (a plain "
                                "TIFF?): save the panorama as OpenEXR, Radiance .hdr, PNG or JPEG") from None
     except rawpy.LibRawError as exc:
-        raise ImageError(path, f"cannot read the camera RAW (corrupt or truncated file): {type(exc).__name__}"
-                               f"{': ' + str(exc) if str(exc) else ''}") from None
+        raise ImageError(path, f"cannot read the camera RAW (corrupt or truncated file): {_reason(exc)}") from None
     return raw
 
 
@@ -85,7 +89,7 @@ def read_raw(path, *, equirect: bool = True, max_megapixels: float | None = None
                                     no_auto_scale=False)
         except rawpy.LibRawError as exc:
             raise ImageError(p, f"cannot decode the camera RAW's pixels (corrupt or truncated file): "
-                                f"{type(exc).__name__}{': ' + str(exc) if str(exc) else ''}") from None
+                                f"{_reason(exc)}") from None
         record = {"reader": f"rawpy {rawpy.__version__} (LibRaw {'.'.join(map(str, rawpy.libraw_version))})",
                   "white_level": int(raw.white_level),
                   "black_level": [int(v) for v in raw.black_level_per_channel],

@@ -40,17 +40,17 @@ STUDY_ROWS = {"one JPEG": "JPEG", "3 brackets": "3 brackets {-2, +0, +2}", "5 br
 def capture_readers(folder: Path, scene: str) -> dict:
     """{capture: a function from its files to the pixels ``estimate_lighting`` takes} for the scene at 2048 x 1024,
     its files written into ``folder``."""
-    from panolight_core.camera import auto_exposure, hdr_to_ldr
-    from panolight_core.io import read_image, write_image, write_srgb8
+    from panolight_core.camera import auto_exposure
+    from panolight_core.io import read_image, write_image
     from panolight_core.io.dng import write_dng
     from panolight_core.io.read_raw import read_raw
     from panolight_core.pipeline.brackets import read_brackets
-    from training.common.real_hdri import DEFAULT_HDRI, load_hdr
+    from training.benchmarks.bench_restore import bracket_files, scene_2k
 
-    hdr = load_hdr(DEFAULT_HDRI / f"{scene}.hdr")
-    hdr = np.repeat(np.repeat(hdr, 2, axis=0), 2, axis=1)
+    hdr = scene_2k(scene)
     truth = (hdr * auto_exposure(hdr, 0.0)).astype(np.float32)
-    jpegs = {ev: write_srgb8(folder / f"{scene}_{ev:+g}.jpg", hdr_to_ldr(hdr, ev, 90)) for ev in (-4, -2, 0, 2, 4)}
+    evs = (-4, -2, 0, 2, 4)
+    jpegs = dict(zip(evs, bracket_files(folder, scene, evs)[1]))
     readers = {"one JPEG": lambda: read_image(jpegs[0], ldr_as_uint8=True)}
     for evs in ((-2, 0, 2), (-4, -2, 0, 2, 4)):
         readers[f"{len(evs)} brackets"] = lambda evs=evs: read_brackets([jpegs[ev] for ev in evs], evs)[0]

@@ -43,16 +43,23 @@ def make_file(folder: Path, scene: str, stops: float, scale: int) -> Path:
     return write_image(folder / f"{scene}_clipped.exr", big, compression="zip")
 
 
-def bracket_files(folder: Path, scene: str):
-    """(the ev-0 JPEG, the three JPEGs at -2, 0, +2) of the scene at 2048 x 1024 (EVALUATION.md's camera, q90)."""
-    from panolight_core.camera import hdr_to_ldr
-    from panolight_core.io import write_srgb8
+def scene_2k(scene: str) -> np.ndarray:
+    """The real HDR ``scene`` of ../shared/data/hdri upsampled 2x by pixel repetition: 2048 x 1024."""
     from training.common.real_hdri import DEFAULT_HDRI, load_hdr
 
     hdr = load_hdr(DEFAULT_HDRI / f"{scene}.hdr")
-    hdr = np.repeat(np.repeat(hdr, 2, axis=0), 2, axis=1)
-    frames = [write_srgb8(folder / f"{scene}_{ev:+g}.jpg", hdr_to_ldr(hdr, ev, 90)) for ev in (-2, 0, 2)]
-    return frames[1], frames
+    return np.repeat(np.repeat(hdr, 2, axis=0), 2, axis=1)
+
+
+def bracket_files(folder: Path, scene: str, evs=(-2, 0, 2)):
+    """(the ev-0 JPEG, the JPEGs at ``evs``) of the scene at 2048 x 1024 (``scene_2k``; EVALUATION.md's camera,
+    q90)."""
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.io import write_srgb8
+
+    hdr = scene_2k(scene)
+    frames = [write_srgb8(folder / f"{scene}_{ev:+g}.jpg", hdr_to_ldr(hdr, ev, 90)) for ev in evs]
+    return frames[list(evs).index(0)], frames
 
 
 def main(argv=None) -> int:
