@@ -75,6 +75,13 @@ def _peak_direction(full: np.ndarray, core: np.ndarray) -> np.ndarray | None:
     return d / n if n > 0 else None
 
 
+def _energy_bound(energy: np.ndarray | None, cells: np.ndarray) -> float:
+    """The most luminance energy (radiance x sr) a light taken from ``cells`` (h, w) bool can carry: their
+    own, ``energy`` (h, w) being the map's luminance x solid angle with no negative value (a light is its
+    cells' excess over a non-negative background); inf where ``energy`` is None (a map with negatives)."""
+    return math.inf if energy is None else float(energy[cells].sum())
+
+
 def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int = MAX_LIGHTS,
                    peak_ratio: float = PEAK_RATIO, max_radius_deg: float = MAX_RADIUS_DEG,
                    min_irradiance_share: float = MIN_IRRADIANCE_SHARE, threshold: float | None = None,
@@ -112,21 +119,36 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
     used = np.zeros((h, w), dtype=bool)
     for d, radius in exclude:
         used |= dirs @ np.asarray(d, dtype=np.float64) >= math.cos(radius)
-    lights, residual, reasons = [], rad.copy(), []
+    need = min_irradiance_share * total / 4.0  # the energy a light must carry (share x mean irradiance)
+    # a region that cannot carry it, or all that is left, is passed over unweighed: the same lights and
+    # residual as weighing it, without its threshold search
+    energy = lum * omega if float(rad.min()) >= 0.0 else None
+    lights, residual, reasons, weak, rest = [], rad.copy(), [], [], None
     for _ in range(4 * max(max_lights, 0)):
         if len(lights) == max_lights:
             break
         avail = (lum > base) & ~used
         if not avail.any():
             break
+        left = _energy_bound(energy, avail)
+        if left < need * (1.0 - 1e-9):
+            rest = left / (total / 4.0)
+            break
         y, x = np.unravel_index(np.argmax(np.where(avail, lum, -np.inf)), lum.shape)
         peak = float(lum[y, x])
         region = component_at(avail, y, x)
+        bound = _energy_bound(energy, region)
+        if bound < need * (1.0 - 1e-9):
+            weak.append(bound / (total / 4.0))
+            used |= region
+            continue
         tau = base
         while True:
-            core = component_at(avail & (lum > tau), y, x) if tau < peak else np.zeros_like(avail)
             if tau >= peak:
+                core = np.zeros_like(avail)
                 core[y, x] = True
+            else:  # at the base threshold the core is the region itself
+                core = region if tau == base else component_at(avail & (lum > tau), y, x)
             area = float((omega * core).sum())
             if math.sqrt(area / math.pi) <= max_radius or tau >= peak:
                 break
@@ -163,6 +185,13 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
                        "peak_direction": peak_dir.tolist(), "color": (e_rgb / intensity).tolist(),
                        "intensity": intensity, "angle": diameter})
     info["energy_fraction_in_lights"] = sum(l["intensity"] for l in lights) / total
+    if weak:
+        reasons.append(f"{len(weak)} bright regions add at most {max(weak):.1%} each" if len(weak) > 1 else
+                       f"a bright region adds at most {weak[0]:.1%}")
+    if rest is not None:
+        reasons.append(f"the {'other ' if reasons else ''}bright pixels add at most {rest:.1%} together")
+    if weak or rest is not None:
+        reasons[-1] += f" (a light needs {min_irradiance_share:.0%})"
     if not lights:
         info["reason"] = "; ".join(reasons) or (f"no region is brighter than {base:g}" if threshold is not None
                                                 else f"no region is brighter than {peak_ratio:g} x the median luminance")

@@ -71,6 +71,35 @@ def test_black_and_flat_maps_have_no_light_and_say_why():
         extract_lights(np.full((8, 16, 3), np.nan))
 
 
+def test_weak_regions_are_passed_over_with_the_lights_and_residual_of_weighing_them(rng, monkeypatch):
+    """A region whose own energy cannot make a light is not weighed (its threshold search skipped): the lights
+    and residual are bitwise those of weighing every region, and the reason counts the regions passed over."""
+    from panolight_core.lighting import lights as module
+
+    img = _map() + 0.01 * rng.random((128, 256, 3))
+    img[40:42, 60:62] = 2e4  # a compact source: a light
+    img[70:100, 150:200] = 30.0  # a wide flat bright wall: weighed, and refused as flat
+    for k in range(4):  # strips over 10 degrees wide with a peak, each far below a light's share
+        img[20 + 25 * k:22 + 25 * k, 100:190] = 5.5
+        img[20 + 25 * k, 140] = 20.0
+    calls = []
+    real = module.component_at
+    monkeypatch.setattr(module, "component_at", lambda *a: calls.append(1) or real(*a))
+    fast = extract_lights(img, max_lights=2)
+    n_fast = len(calls)
+    monkeypatch.setattr(module, "_energy_bound", lambda energy, cells: math.inf)  # weigh every region
+    slow = extract_lights(img, max_lights=2)
+    assert len(calls) - n_fast > n_fast, "passing over the strips must save their threshold searches"
+    assert len(fast[0]) == 1 and fast[0] == slow[0] and np.array_equal(fast[1], slow[1])
+    assert fast[2]["energy_fraction_in_lights"] == slow[2]["energy_fraction_in_lights"]
+    monkeypatch.undo()
+    glints = _map()
+    glints[30, 7::40] = 12.0  # 7 glints of 1.5 % each: together over a light's 5 %, each alone far under
+    lights, _, info = extract_lights(glints)
+    assert lights == [] and info["reason"] == ("4 bright regions add at most 1.5% each; the other bright pixels add "
+                                               "at most 4.6% together (a light needs 5%)")
+
+
 def test_light_irradiance_is_the_clamped_cosine():
     light = {"direction": [0, 0, 1.0], "color": [1.0, 0.5, 0.25], "intensity": 2.0}
     n = np.array([[0, 0, 1.0], [1.0, 0, 0], [0, 0, -1.0], [0, math.sqrt(0.5), math.sqrt(0.5)]])
