@@ -5,9 +5,11 @@ Each frame is decoded through the set's own camera curve where it explains the f
 (``camera.response``: Debevec and Malik's, recovered from three or more 8-bit frames), else through sRGB
 (EVALUATION.md's camera), and divided by its relative exposure; the frames are averaged with Debevec's hat weight
 of the pixel's **worst** channel, so a pixel clipped in one channel of a frame takes nothing from that frame (a
-clipped channel averaged in makes a dark sun or a magenta halo). A pixel clipped in every frame is clipped: it is
-set to the darkest frame's white in every channel, which makes the merged file an HDR that clips its own sun at
-exactly its ceiling (``camera.ceiling``), and the restoration weighs it as for any such file.
+clipped channel averaged in makes a dark sun or a magenta halo). A pixel clipped in every frame is clipped: it takes
+the darkest frame's channels, those it clipped at that frame's white (a lower bound), which makes the merged file an
+HDR that clips its own sun at exactly its ceiling (``camera.ceiling``), channel by channel as a file clipped there
+does, and the restoration weighs it as for any such file. (Every channel at the white made a sunset's red-clipped
+aureole part of a white plateau wider than the sun's, and drew the key light off the sun.)
 
 What moves between the frames (a person, a leaf, a wave) is the reference frame's alone: a frame gives nothing to a
 pixel whose radiance it sees GHOST_RATIO off the reference's where both see it well exposed.
@@ -199,6 +201,7 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     rel = e / e[ref]
     curve = recover_response(frames, rel, ref) if response and linear is None else SRGB
     ceiling = float(curve.table[255] / rel.min())  # the darkest frame's white: above every value a frame holds
+    dark = int(np.argmin(rel))
     weight = hat(np.arange(256, dtype=np.uint8))  # by code: a table lookup per pixel, not arithmetic
     radiance = [(curve.table / np.float32(k)).astype(np.float32) for k in rel]  # each frame's code -> radiance
     # each frame's weight by (the reference's code, its own code) of a pixel's brightest channel: the hat, and 0 where
@@ -228,9 +231,13 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
             seen *= w[..., None]  # in place: a fresh array either way
             num += seen
             den += w
-        none = den == 0  # clipped in every frame: at the darkest frame's white
+        none = den == 0  # clipped in every frame by its brightest channel: the darkest frame's channels, those it
+        # clipped at its white (a lower bound, which the restoration weighs as an HDR file's clipped channels)
         num /= np.where(none, np.float32(1.0), den)[..., None]
-        num[none] = np.float32(ceiling)
+        if none.any():
+            codes = frames[dark][r0:r1][none]
+            held = radiance[dark][codes] if linear is None else linear[dark][r0:r1][none] * np.float32(1.0 / rel[dark])
+            num[none] = np.where(codes >= CLIPPED_CODE, np.float32(ceiling), held)
         out[r0:r1] = num
         return int(none.sum())
 

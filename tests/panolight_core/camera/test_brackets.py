@@ -68,6 +68,22 @@ def test_a_channel_clipped_in_one_frame_takes_nothing_from_that_frame():
     assert merged[1, 2] == pytest.approx(truth[1, 2], rel=0.03)
 
 
+def test_a_warm_sun_keeps_the_channels_its_darkest_frame_holds():
+    """A sunset's aureole: red clips in every frame, green and blue not in the darkest. The pixel is clipped (by its
+    brightest channel: no frame is averaged into it), its red at the ceiling and its green and blue the darkest
+    frame's, as in an HDR file clipped there; a pixel every channel clips sits at the ceiling in all three. Set to
+    the ceiling in every channel, the aureole was a white plateau wider than the sun's, and its centroid drew the
+    key light off the sun (3 brackets of a sunset: 5.6 degrees, against 3.1 for the HDR clipped at +2 stops)."""
+    truth = np.full((4, 8, 3), 0.18, np.float32)
+    truth[1, 2] = (30.0, 3.0, 0.5)  # red 7.5x the -2 frame's white, green and blue under it
+    truth[2, 5] = (40.0, 30.0, 20.0)  # the sun: every channel clipped in every frame
+    frames = [hdr_to_ldr(truth, ev) for ev in (-2, 0, 2)]
+    merged, info = merge_brackets(frames, [0.25, 1.0, 4.0])
+    assert merged[1, 2, 0] == 4.0 and merged[1, 2, 1:] == pytest.approx(truth[1, 2, 1:], rel=0.03)
+    assert (merged[2, 5] == 4.0).all()
+    assert info["clipped_in_every_frame"] == pytest.approx(2 / 32)
+
+
 @pytest.mark.parametrize("frames, exposures, match", [
     ([np.zeros((4, 8, 3), np.uint8)] * 2, [1.0, 1.1], "less than a third of a stop apart"),
     ([np.zeros((4, 8, 3), np.uint8)], [1.0], "two or more positive exposures"),
