@@ -43,6 +43,7 @@ from .. import sh
 from ..camera.color import LUMINANCE_WEIGHTS
 from . import sky as clear_sky
 from . import sun_search
+from .highlights import region_centres, region_sums
 
 SUN_DIAMETER_DEG = 0.53  # the sun's angular diameter seen from the earth
 
@@ -411,9 +412,26 @@ def with_key_lights(rec, params: KeyLightParams = PARAMS):
     """A per-source recovery (``sources.Recovery``) with its key lights (``find_key_lights``) as explicit lights,
     and the account of the sun search (``sun_search_report``): what the ``keylight`` estimator ships. An HDR file's
     clipped plateau (``rec.source``) carries its belief (``KeyLightParams.belief``)."""
+    regions = rec.regions
     if rec.source is not None:
         params = replace(params, belief=True)
+        regions = at_cores(regions, rec.source.core_fraction(regions.labels.shape[0]))
     fits = {}
-    keys = find_key_lights(rec.maps, rec.regions, (rec.mu, rec.sigma, rec.log_ratio), params, fits)
-    return rec.with_keys(keys, sun_search_report(fits, keys, rec.regions, params))
+    keys = find_key_lights(rec.maps, regions, (rec.mu, rec.sigma, rec.log_ratio), params, fits)
+    return rec.with_keys(keys, sun_search_report(fits, keys, regions, params))
+
+
+def at_cores(regions, core: np.ndarray):
+    """``regions`` (``sources.Regions``) whose centres are moved to the centroid of their cells' ``core`` (h, w):
+    the share of an HDR file's pixels with every channel at the ceiling (``restore.Source.core_fraction``), where
+    a region holds any; the others keep theirs. A warm sun's plateau of two channels reaches out over the redder side
+    of its aureole, and its all-channel core is nearer the sun: out of fold, three brackets of a sunset placed it
+    3.5 degrees off at the plateau's centroid (docs/studies/captures.md)."""
+    if regions.count == 0:
+        return regions
+    held = region_sums(regions.labels, regions.count, core)[0] > 0
+    if not held.any():
+        return regions
+    centre = np.where(held[:, None], region_centres(regions.labels, core, regions.count), regions.centre)
+    return replace(regions, centre=centre)
 

@@ -86,7 +86,13 @@ class Recovery:
         no second light there (one light per physical source)."""
         cell = math.pi / self.work.shape[0]
         sr = self.regions.clipped_sr
-        return [(k.direction, (math.sqrt(float(sr[[k.region, *k.parts]].sum()) / math.pi) if k.region >= 0
+
+        def off(k):  # an HDR file's key light stands at its plateau's core (keylight.at_cores), off its centroid
+            if self.source is None or k.region < 0:
+                return 0.0
+            return math.acos(float(np.clip(np.dot(k.direction, self.regions.centre[k.region]), -1.0, 1.0)))
+
+        return [(k.direction, (math.sqrt(float(sr[[k.region, *k.parts]].sum()) / math.pi) + off(k) if k.region >= 0
                                else k.direction_68) + 2 * cell) for k in self.keys]
 
     def region_info(self) -> list[dict]:

@@ -28,7 +28,7 @@ class Source:
 
     pixels: object
     ceiling: Ceiling
-    _projections: dict = field(default_factory=dict, compare=False, repr=False)
+    _cache: dict = field(default_factory=dict, compare=False, repr=False)  # its projections and work fractions, made once
 
     @property
     def level(self) -> float:
@@ -36,9 +36,9 @@ class Source:
 
     def projection(self, lmax: int) -> np.ndarray:
         """(K, 3) float64: the exact SH projection of the pixels as they are (made once per order)."""
-        if lmax not in self._projections:
-            self._projections[lmax] = sh.project(self.pixels, lmax).astype(np.float64)
-        return self._projections[lmax]
+        if lmax not in self._cache:
+            self._cache[lmax] = sh.project(self.pixels, lmax).astype(np.float64)
+        return self._cache[lmax]
 
     def plateau_rows(self, r0: int, r1: int) -> np.ndarray:
         """(r1 - r0, W) bool: the plateau pixels of rows r0..r1 (the pixels the restoration fills)."""
@@ -48,21 +48,38 @@ class Source:
         """(rad (h, 2h, 3) float64 in clip units, frac_any, frac_all (h, 2h)) as ``highlights.work_maps`` makes
         them of a photo: the area means of the pixels over ``level``, of the pixels with a channel at its ceiling,
         and of the plateau's pixels; h = min(height, H). The fractions read only the ceiling's rows."""
-        H, W = self.pixels.shape[:2]
-        h = min(height, H)
-        w = 2 * h
+        h = min(height, self.pixels.shape[0])
         rad = area_downsample(self.pixels, h) / self.level
+        fractions = self._ceiling_fractions(h)
+        return rad, fractions[0], fractions[1]
+
+    def core_fraction(self, height: int = WORK_HEIGHT) -> np.ndarray:
+        """(h, 2h) the share of each work cell's pixels with every channel at its ceiling (a black channel has
+        none): a plateau's core. A warm sun clips red, then green, then blue, so the plateau of two channels
+        reaches out over the aureole toward the redder sky, and its core is nearer the sun."""
+        return self._ceiling_fractions(min(height, self.pixels.shape[0]))[2]
+
+    def _ceiling_fractions(self, h: int) -> np.ndarray:
+        """(3, h, 2h): per work cell, the share of its pixels with a channel, MIN_PLATEAU_CHANNELS and every
+        channel at the ceiling; made once per height (reads only the ceiling's rows)."""
+        if ("fractions", h) in self._cache:
+            return self._cache["fractions", h]
+        H, W = self.pixels.shape[:2]
+        w = 2 * h
         cell_pixels = np.diff(block_starts(H, h))[:, None] * np.diff(block_starts(W, w))[None, :]
-        counts = np.zeros((2, h, w))
+        counts = np.zeros((3, h, w))
         row_cell, col_cell = block_of(H, h), block_of(W, w)
+        every = sum(v > 0 for v in self.ceiling.rgb)
         for r0, r1 in row_runs(np.asarray(self.ceiling.rows, dtype=np.int64)):
             k = self.ceiling.at_ceiling(np.asarray(self.pixels[r0:r1], dtype=np.float32))
             y, x = np.nonzero(k)
-            cy = row_cell[y + r0]
-            np.add.at(counts[0], (cy, col_cell[x]), 1.0)
-            plateau = k[y, x] >= MIN_PLATEAU_CHANNELS
-            np.add.at(counts[1], (cy[plateau], col_cell[x[plateau]]), 1.0)
-        return rad, counts[0] / cell_pixels, counts[1] / cell_pixels
+            cy, cx, n = row_cell[y + r0], col_cell[x], k[y, x]
+            np.add.at(counts[0], (cy, cx), 1.0)
+            for level, least in ((1, MIN_PLATEAU_CHANNELS), (2, every)):
+                sel = n >= least
+                np.add.at(counts[level], (cy[sel], cx[sel]), 1.0)
+        self._cache["fractions", h] = counts / cell_pixels
+        return self._cache["fractions", h]
 
     def filled(self, rec, keys: bool) -> PackedImage:
         """The restored panorama in the file's units, read by row blocks: the pixels, plus on the plateau the

@@ -117,3 +117,32 @@ def test_a_bad_restore_setting_is_refused():
 
     with pytest.raises(PanoLightError, match="restore must be one of auto, none"):
         Settings(restore="always")
+
+
+def test_a_warm_sun_s_light_stands_at_its_plateau_s_core_not_its_aureole(day, monkeypatch):
+    """A sunset's glow leans 5 degrees to one side of the sun and clips red and green, not blue, at the file's
+    ceiling: the plateau of two channels is mostly glow, and its centroid about 4 degrees off the sun. The key light
+    stands at the core every channel clips (the sun's disk), and the glow makes no second light beside it."""
+    from panolight_core.estimators import keylight
+
+    truth, s, _ = day
+    h, w = truth.shape[:2]
+    d = sh.pixel_directions(h, w)
+    side = np.cross(s, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    glow_at = math.cos(math.radians(5.0)) * s + math.sin(math.radians(5.0)) * side
+    t = np.degrees(np.arccos(np.clip(d @ glow_at, -1.0, 1.0)))
+    warm = truth + (np.exp(-0.5 * (t / 3.0) ** 2)[..., None] * np.array([20.0, 12.0, 0.5])).astype(np.float32)
+    clipped = np.minimum(warm, np.float32(4.0))  # 2 stops over the JPEG's white
+    plateau = (clipped >= 4.0).sum(axis=-1) >= 2
+    om = sh.pixel_solid_angles(h, w)
+    centroid = (d[plateau] * om[plateau, None]).sum(0)
+    assert metrics.angle_deg(centroid / np.linalg.norm(centroid), s) > 3.0  # the plateau is mostly glow
+    res = estimate_lighting(clipped)
+    key = metrics.brightest_light(res.model.lights)
+    assert metrics.angle_deg(key["peak_direction"], s) < 1.0
+    assert not [light for light in res.model.lights if light is not key
+                and metrics.angle_deg(light["direction"], s) < 15.0]
+    monkeypatch.setattr(keylight, "at_cores", lambda regions, core: regions)  # at the plateau's centroid instead
+    off = metrics.brightest_light(estimate_lighting(clipped).model.lights)
+    assert metrics.angle_deg(off["peak_direction"], s) > 2.0
