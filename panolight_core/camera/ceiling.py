@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .. import threads
-from ..sh.grid import row_solid_angles
+from ..sh.grid import directions_at, row_solid_angles
 from .color import LUMINANCE_WEIGHTS
 
 CEILING_TOL = 2e-4  # a channel at (1 - this) of its largest value or above sits at the ceiling: float32 and half
@@ -43,6 +43,7 @@ class Ceiling:
     solid_angle: float
     headroom: float
     rows: tuple = ()
+    declared: str = ""  # why an artist's pointer declared this ceiling (``pointed_ceiling``); "" for one found
 
     @property
     def level(self) -> float:
@@ -74,7 +75,8 @@ class Ceiling:
     def describe(self) -> dict:
         """For lighting.json: the ceiling per channel, the plateau's pixels and solid angle, the headroom."""
         return {"ceiling": [float(v) for v in self.rgb], "plateau_pixels": int(self.pixels),
-                "plateau_sr": round(float(self.solid_angle), 8), "headroom": round(float(self.headroom), 3)}
+                "plateau_sr": round(float(self.solid_angle), 8), "headroom": round(float(self.headroom), 3),
+                **({"declared": self.declared} if self.declared else {})}
 
 
 def row_runs(rows: np.ndarray):
@@ -109,20 +111,31 @@ def find_ceiling(pixels) -> Ceiling | None:
     when it clips nothing: fewer than MIN_PLATEAU_PIXELS plateau pixels, or a ceiling under MIN_HEADROOM times the
     median luminance (over the pixels of every 8th row and column: a gate, not a measurement). One pass over every
     row (each row's largest value per channel, on every thread), then one over the rows that reach a ceiling."""
-    h, w = pixels.shape[:2]
+    row_max, median = _scan(pixels)
+    top = row_max.max(axis=0).astype(np.float64)
+    if not np.all(np.isfinite(top)) or (top > 0).sum() < MIN_PLATEAU_CHANNELS:
+        return None
+    return _ceiling_at(pixels, row_max, top, median)
 
+
+def _scan(pixels) -> tuple[np.ndarray, float]:
+    """(each row's largest value per channel (H, 3), the median luminance of every 8th row and column)."""
     def scan(rows):
         block = np.asarray(pixels[rows[0]:rows[1]], dtype=np.float32)
         return row_channel_max(block), block[::8, ::8].reshape(-1, 3)  # BLOCK_ROWS is a multiple of 8
 
-    parts = threads.map_ordered(scan, _blocks(h))
-    row_max = np.concatenate([m for m, _ in parts])  # (H, 3)
-    top = row_max.max(axis=0).astype(np.float64)
-    if not np.all(np.isfinite(top)) or (top > 0).sum() < MIN_PLATEAU_CHANNELS:
-        return None
+    parts = threads.map_ordered(scan, _blocks(pixels.shape[0]))
+    return (np.concatenate([m for m, _ in parts]),
+            float(np.median(np.concatenate([sample for _, sample in parts]) @ LUMINANCE_WEIGHTS)))
+
+
+def _ceiling_at(pixels, row_max: np.ndarray, top: np.ndarray, median: float, declared: str = "") -> Ceiling | None:
+    """The Ceiling of ``pixels`` clipped at the per-channel ``top`` (3,), given their row maxima (H, 3) and median
+    luminance: its plateau counted over the rows that reach it; None under MIN_PLATEAU_PIXELS or MIN_HEADROOM."""
+    h, w = pixels.shape[:2]
     reach = (row_max >= (top * (1.0 - CEILING_TOL)).astype(np.float32)) & (top > 0)  # (H, 3)
     ceiling = Ceiling(tuple(float(v) for v in top), 0, 0.0, 0.0,
-                      tuple(np.flatnonzero(reach.any(axis=1)).tolist()))
+                      tuple(np.flatnonzero(reach.any(axis=1)).tolist()), declared)
     omega = row_solid_angles(h, w)
     count, sr = 0, 0.0
     for a, b in row_runs(np.flatnonzero(reach.sum(axis=1) >= MIN_PLATEAU_CHANNELS)):
@@ -131,8 +144,50 @@ def find_ceiling(pixels) -> Ceiling | None:
         sr += float(per_row @ omega[a:b])
     if count < MIN_PLATEAU_PIXELS:
         return None
-    median = float(np.median(np.concatenate([sample for _, sample in parts]) @ LUMINANCE_WEIGHTS))
     headroom = float(top @ LUMINANCE_WEIGHTS) / median if median > 0 else math.inf
     if headroom < MIN_HEADROOM:
         return None
     return replace(ceiling, pixels=count, solid_angle=sr, headroom=headroom)
+
+
+POINTED_REACH_DEG = 10.0  # an artist's pointer finds the bright patch whose peak lies within this of it
+POINTED_LEVEL = 0.5  # ... and declares the file clipped at this share of the patch's peak (its half-maximum)
+
+
+def pointed_ceiling(pixels, direction) -> tuple[Ceiling | None, str]:
+    """The Ceiling an artist's pointer declares where ``find_ceiling`` finds none: a downloaded HDRI resampled
+    after its merge has no exact ties left on its clipped sun, only a soft bump at 10-40x the median (four of the
+    six in ../shared/data/hdri that clip their sun). The brightest pixel within POINTED_REACH_DEG of unit
+    ``direction`` (CONVENTIONS.md frame) is the patch's peak; the file is declared clipped at POINTED_LEVEL of it,
+    channel by channel, so the plateau is the bump's top (and any pixel of the file as bright). Returns (the
+    Ceiling, or None, and one sentence on what was declared or why nothing was)."""
+    d = np.asarray(direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    h, w = pixels.shape[:2]
+    reach = math.radians(POINTED_REACH_DEG)
+    polar = math.acos(float(np.clip(d[2], -1.0, 1.0)))
+    r0, r1 = max(0, int((polar - reach) / math.pi * h) - 1), min(h, int((polar + reach) / math.pi * h) + 2)
+    best = (-math.inf, 0, 0, None)  # the patch's peak: (luminance, row, column, RGB)
+    cols = np.arange(w)
+    for a in range(r0, r1, 64):  # the rows the cone crosses, a few at a time (a 16K file's band is 900 rows)
+        b = min(r1, a + 64)
+        block = np.asarray(pixels[a:b], dtype=np.float32)
+        rows = np.repeat(np.arange(a, b), w)
+        near = (directions_at(rows, np.tile(cols, b - a), h, w) @ d >= math.cos(reach)).reshape(b - a, w)
+        lum = np.where(near, block @ LUMINANCE_WEIGHTS.astype(np.float32), -np.inf)
+        y, x = np.unravel_index(int(np.argmax(lum)), lum.shape)
+        if lum[y, x] > best[0]:
+            best = (float(lum[y, x]), a + y, x, block[y, x].astype(np.float64))
+    row_max, median = _scan(pixels)
+    over = best[0] / median if median > 0 else math.inf
+    if not POINTED_LEVEL * best[0] >= MIN_HEADROOM * median:
+        return None, (f"there is no bright patch within {POINTED_REACH_DEG:g} deg of it (its brightest pixel is "
+                      f"{max(over, 0.0):.1f}x the median; a clipped sun's is {MIN_HEADROOM / POINTED_LEVEL:g}x or "
+                      f"more): the file holds no clipped sun there")
+    why = (f"the artist's sun points at a bright patch ({over:.0f}x the median) with no exact plateau (a file "
+           f"resampled after its merge): the file is taken as clipped at {POINTED_LEVEL:g} of its peak")
+    ceiling = _ceiling_at(pixels, row_max, POINTED_LEVEL * best[3], median, why)
+    if ceiling is None:
+        return None, (f"the bright patch it points at ({over:.0f}x the median) has fewer than {MIN_PLATEAU_PIXELS} "
+                      f"pixels at half its peak: a peaked source, which the file holds whole")
+    return ceiling, why

@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import __version__, sh
 from ..camera import linear
-from ..camera.ceiling import find_ceiling
+from ..camera.ceiling import find_ceiling, pointed_ceiling
 from ..errors import PanoLightError
 from .highlights import recover_highlights
 
@@ -85,21 +85,23 @@ def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
 
 
 def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_path=None, restore: bool = True,
-               hdr_model_path=None) -> Estimate:
+               hdr_model_path=None, ceiling=None) -> Estimate:
     """The per-source estimate (``keylight`` with key lights, else ``sources``) with the shipped per-source
     energy model or the one in ``model_path``. An HDR file is its exact projection, unless it clips its own source
     (``camera.ceiling``): then, with ``restore``, its plateau is weighed as a photo's clipped sun is
     (``sources.restore``), and every other pixel kept, by the model in ``hdr_model_path`` (default: ``model_path``
-    when given, else the shipped ``sources.HDR_MODEL_PATH``, trained on clipped HDR files too)."""
+    when given, else the shipped ``sources.HDR_MODEL_PATH``, trained on clipped HDR files too). ceiling: the
+    ``camera.ceiling.Ceiling`` to restore instead of the one found (an artist's pointer declared it:
+    ``restored_where_pointed``)."""
     name = "keylight" if key_lights else "sources"
     from . import sources
-    from .sources.restore import Source
+    from .sources.restore import declared_source
 
     if pixels.dtype == np.uint8:
         model = sources.load_source_model(sources.MODEL_PATH if model_path is None else model_path)
         rec, info = sources.recover(pixels, model), {"input": "ldr"}
     else:
-        ceiling = find_ceiling(pixels)
+        ceiling = find_ceiling(pixels) if ceiling is None else ceiling
         if ceiling is None or not restore:
             est = _exact_hdr(pixels, lmax, name)
             if ceiling is not None:
@@ -107,7 +109,7 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
                                            "why": "--restore none: the file as it is, its clipped plateau unweighed"}
             return est
         model = sources.load_source_model(hdr_model_path or model_path or sources.HDR_MODEL_PATH)
-        rec, info = sources.recover_hdr(Source(pixels, ceiling), model), {"input": "hdr"}
+        rec, info = sources.recover_hdr(declared_source(pixels, ceiling), model), {"input": "hdr"}
     if key_lights:  # also without regions: a sun the photo does not show
         from .keylight import with_key_lights
 
@@ -132,8 +134,8 @@ def _recovery_estimate(rec, lmax: int, name: str, info: dict) -> Estimate:
     lights = [dict(light, intensity=light["intensity"] * level, energy_68=[v * level for v in light["energy_68"]])
               for light in rec.lights()]
     restoration = {**src.ceiling.describe(), "restored": True, "clip_level": level,
-                   "why": "the file clips its own source: its plateau is weighed as a photo's clipped sun is, and "
-                          "every other pixel kept"}
+                   "why": (src.ceiling.declared or "the file clips its own source") + ": its plateau is weighed as a "
+                          "photo's clipped sun is, and every other pixel kept"}
     return Estimate(coeffs, name, {**info, "restoration": restoration, "clipped_regions": regions,
                                    **({"sun_search": rec.sun_search} if rec.sun_search is not None else {})},
                     src.filled(rec, keys=False), rec, lights, rec.key_exclusions())
@@ -181,8 +183,29 @@ def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, or
     return replace(est, info={**est.info, "sun_metadata": {**said, "used": False, "why": why}})
 
 
-def per_source_key_lights(pixels: np.ndarray, lmax: int, restore: bool = True) -> Estimate:
-    return per_source(pixels, lmax, key_lights=True, restore=restore)
+def restored_where_pointed(pixels: np.ndarray, est: Estimate, direction) -> Estimate:
+    """An HDR file's estimate ``est`` (the per-source estimators': its exact projection, no plateau found) made
+    again with the plateau the artist's sun at unit ``direction`` points at (``camera.ceiling.pointed_ceiling``: a
+    file resampled after its merge keeps its clipped sun as a soft bump, no exact plateau), restored as a found one
+    is; ``with_pointed_sun`` then puts the sun there. Where the pointer finds nothing to restore, ``est`` with the
+    reason in its info (``pointed_restoration``). Made by the same estimator (``Entry.restores``: its own
+    models); any other estimate is returned as it is."""
+    entry = _REGISTRY.get(est.info.get("name"))
+    if (entry is None or not entry.restores or est.recovery is not None or pixels.dtype == np.uint8
+            or "restoration" in est.info):
+        return est
+    t0 = time.perf_counter()
+    ceiling, why = pointed_ceiling(pixels, direction)
+    if ceiling is None:
+        return replace(est, info={**est.info, "pointed_restoration": why})
+    out = entry.run(pixels, est.lmax, restore=True, ceiling=ceiling)  # the same estimator, its own models
+    out.info.update({k: est.info[k] for k in ("name", "version") if k in est.info},
+                    estimate_s=est.info.get("estimate_s", 0.0) + time.perf_counter() - t0)
+    return out
+
+
+def per_source_key_lights(pixels: np.ndarray, lmax: int, restore: bool = True, ceiling=None) -> Estimate:
+    return per_source(pixels, lmax, key_lights=True, restore=restore, ceiling=ceiling)
 
 
 def neural_estimator(weights=None, label: str = "neural"):

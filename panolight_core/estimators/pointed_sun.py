@@ -4,14 +4,16 @@ estimate found (issue 46; docs/keylight.md "The artist's sun")."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from .. import sh
+from ..camera.ceiling import POINTED_REACH_DEG
 from ..camera.color import LUMINANCE_WEIGHTS
 from ..errors import PanoLightError
 from . import sky as clear_sky
-from .keylight import PARAMS, SUN_DIAMETER_DEG, KeyLight, KeyLightParams, camera_colour
+from .keylight import PARAMS, SUN_DIAMETER_DEG, KeyLight, KeyLightParams, camera_colour, key_energy
 
 POINTED_CELLS = 1.0  # a pointed sun stands for the clipped region it lies in, or within this many work cells of
 METADATA_DEFERS_DEG = 5.0  # a sun from the capture's metadata gives way to one the photo shows and places within this
@@ -45,7 +47,9 @@ def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyL
     found sun's), or, with ``contrast`` R (lit / shadow of a white surface facing it, the photo's own ground), so
     that the sun carries 1 - 1/R of that surface's irradiance (EVALUATION.md's shadow contrast) against the rest of
     the lighting to SH order 2. A sun in (or next to) a clipped region stands for it: its energy comes out of the
-    region's fill first, so the total stays honest; elsewhere (a sun the photo hides) it is added.
+    region's fill first, so the total stays honest; elsewhere (a sun the photo hides) it is added. An HDR file's
+    restored plateau (``rec.source``) is weighed as the restoration weighs a found one (its belief: the trees' mean,
+    and with a clear sky the geometric mean of it and the fit's), only placed where the artist says.
     PanoLightError when the sky cannot weigh it (below the horizon, no clear sky): give ``contrast`` then."""
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
@@ -56,7 +60,10 @@ def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyL
     if regions.count:
         apart = np.arccos(np.clip(regions.centre @ d, -1.0, 1.0))
         near = apart - np.sqrt(regions.clipped_sr / math.pi)
-        if near.min() <= POINTED_CELLS * math.pi / h:
+        reach = POINTED_CELLS * math.pi / h
+        if rec.source is not None:  # an HDR file's plateau: the one the click is on or next to (pointed_ceiling's)
+            reach = max(reach, math.radians(POINTED_REACH_DEG))
+        if near.min() <= reach:
             region = int(np.argmin(near))
     others = [k for k in rec.keys if not (k.method.startswith(("clear-sky", "hidden sun")) or
                                           (region >= 0 and region in (k.region, *k.parts)))]
@@ -72,6 +79,17 @@ def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyL
         color = camera_colour(fit.sun_rgb, elevation, params) if fit is not None and fit.clear else np.ones(3)
         method = f"the artist's direction, weighed by the lit/shadow contrast {contrast:g}"
         physical = None
+    elif rec.source is not None and region >= 0:  # an HDR file's restored plateau: weighed as a found one is,
+        # at its belief (the trees' mean, for a clear-sky sun the geometric mean of it and the fit's), only placed here
+        clear = fit is not None and fit.clear
+        physical = params.sky_correction * fit.sun_energy if clear else None
+        learned = regions.added_energy(np.maximum(rec.mu, 0.0), [region])  # a plateau holds at most its source
+        energy = key_energy(physical, learned, 0.0, False, replace(params, belief=True))
+        own = [k for k in rec.keys if region in (k.region, *k.parts)]
+        color = (camera_colour(fit.sun_rgb, elevation, params) if clear else
+                 max(own, key=lambda k: k.energy).color if own else np.ones(3))
+        method = ("the artist's direction, weighed as the file's clipped plateau" +
+                  (f" and its clear-sky fit (turbidity {fit.turbidity:g})" if clear else ""))
     else:
         if fit is None or not fit.clear:
             why = "it is below the horizon" if d[2] <= 0 else "no clear sky fits the photo with the sun there"

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import sh, threads
 from ..errors import PanoLightError
-from ..estimators import Estimate, estimate, with_key_strength, with_pointed_sun
+from ..estimators import Estimate, estimate, restored_where_pointed, with_key_strength, with_pointed_sun
 from ..estimators.highlights import CLIP_LEVEL
 from ..estimators.solar import sun_position
 from ..io.lighting import make_lighting
@@ -47,6 +47,8 @@ def estimate_pixels(pixels: np.ndarray, lmax="auto", estimator: str = "auto", *,
     threads.check_cancelled()
     est = estimate(pixels, DEFAULT_MAX_ORDER if str(lmax) == "auto" else int(lmax), estimator, restore)
     if pointed_sun is not None:
+        if restore and len(pointed_sun) < 3:  # the artist's sun on an HDR file: the clipped patch it points at
+            est = restored_where_pointed(pixels, est, pointed_sun[0])
         est = with_pointed_sun(est, *pointed_sun)
     est = with_key_strength(est, sun_strength)
     threads.check_cancelled()
@@ -196,7 +198,7 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), captu
                         f"(a sun or lamp weighed in a clipped photo) to scale")
     if settings.sun_direction is not None and "pointed_sun" not in est.info:
         warnings.append("the sun's direction changes nothing: " + (
-            "an HDR input holds its own sun in its pixels" if hdr else
+            est.info.get("pointed_restoration", "an HDR input holds its own sun in its pixels") if hdr else
             f"the {est.estimator} estimator weighs no key light (use --estimator keylight or sources)"))
     return Result(doc, model, est, tuple(warnings))
 

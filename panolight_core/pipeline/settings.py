@@ -240,8 +240,10 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                            help="the sun is there (degrees: azimuth 0 at the panorama's centre, positive to the right "
                                 "in the image; elevation above the horizon): for a sun the photo hides (trees, a "
                                 "retouched sky) or shows only by its shadows. It replaces the sun the estimate found, "
-                                "weighed by the clear sky's fit with the sun fixed there, or by --sun-contrast. A "
-                                "negative azimuth needs the = form: --sun=-40,5")
+                                "weighed by the clear sky's fit with the sun fixed there, or by --sun-contrast. On "
+                                "an HDR file whose clipped sun lost its exact plateau (resized after its merge), the "
+                                "bright patch within 10 degrees of it is restored there. A negative azimuth needs the "
+                                "= form: --sun=-40,5")
         where.add_argument("--sun-direction", type=argparse_type(_xyz), default=None, metavar="X,Y,Z",
                            help="the same as --sun, as a direction in the world frame (Z up, the panorama's centre "
                                 "+X; docs/CONVENTIONS.md)")

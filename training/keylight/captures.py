@@ -39,6 +39,7 @@ from panolight_core import metrics, sh
 from panolight_core.camera import TONE_CURVES, auto_exposure, hdr_to_ldr, ldr_to_linear
 from panolight_core.camera.brackets import merge_brackets
 from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
+from panolight_core.errors import PanoLightError
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, scene_files
@@ -46,11 +47,12 @@ from training.common.study import fold_estimators, fold_models_option, save_stud
 
 
 def score(truth: np.ndarray, ds: dict, pixels: np.ndarray, scale: float = 1.0, estimator: str = "auto",
-          restore: str = "auto") -> dict:
-    """One capture's estimate (``estimate_lighting`` of uint8 or float ``pixels`` by ``estimator``, with ``restore``,
-    its units times ``scale`` in the truth's) scored against ``truth`` (the HDR at the camera's exposure) and its
-    dominant source ``ds``."""
-    res = estimate_lighting(pixels, Settings(estimator=estimator, restore=restore))
+          restore: str = "auto", sun=None) -> dict:
+    """One capture's estimate (``estimate_lighting`` of uint8 or float ``pixels`` by ``estimator``, with ``restore``
+    and the artist's sun at unit ``sun`` if given, its units times ``scale`` in the truth's) scored against
+    ``truth`` (the HDR at the camera's exposure) and its dominant source ``ds``."""
+    res = estimate_lighting(pixels, Settings(estimator=estimator, restore=restore,
+                                             sun_direction=None if sun is None else tuple(float(v) for v in sun)))
     key = metrics.brightest_light(res.model.lights)
     gt = sh.project(truth, 2)
     own = ldr_to_linear(pixels) if pixels.dtype == np.uint8 else pixels
@@ -74,8 +76,29 @@ def raw_capture(truth: np.ndarray, stops: float, seed: int) -> np.ndarray:
         return read_raw(path)[0]
 
 
+CLICK_DEG = 1.0  # --pointed: the artist's click lands this far from the true source, in a direction drawn per scene
+TIE_NOISE = 1e-3  # ... on a file whose plateau lost its exact ties (resampled after its merge): each pixel times
+# 1 + this x a uniform draw in [-1, 1], five times camera.ceiling's tolerance
+
+
+def untied(clipped: np.ndarray, seed: int) -> np.ndarray:
+    """A clipped HDR (H, W, 3) whose plateau lost its exact ties, as a file resampled after its merge has: every
+    value times 1 + TIE_NOISE x U(-1, 1) (float32)."""
+    rng = np.random.default_rng(seed)
+    return (clipped * (1.0 + TIE_NOISE * rng.uniform(-1.0, 1.0, clipped.shape))).astype(np.float32)
+
+
+def clicked(direction, seed: int) -> np.ndarray:
+    """Unit ``direction`` moved CLICK_DEG toward a direction drawn from ``seed``: an artist's click on the sun."""
+    d = np.asarray(direction, dtype=np.float64)
+    v = np.cross(d, np.random.default_rng(seed).normal(size=3))
+    v /= np.linalg.norm(v)
+    a = math.radians(CLICK_DEG)
+    return math.cos(a) * d + math.sin(a) * v
+
+
 def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto", brackets=(), raws=(),
-               curve: tuple | None = None) -> list[dict]:
+               curve: tuple | None = None, pointed=()) -> list[dict]:
     """The captures of one scene (none without a dominant source): the ev-0 JPEG, then the HDR clipped at each
     2^stops (with ``as_ldr`` also that file through the LDR path, its ceiling the white: a restoration tried by
     the machinery as it is), then each bracket set of ``brackets`` (tuples of evs: the camera's JPEGs at those
@@ -110,13 +133,22 @@ def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto",
             scale = float(np.median(truth @ LUMINANCE_WEIGHTS) / np.median(merged @ LUMINANCE_WEIGHTS))
             how = "its own curve where recovered" if own else "decoded as sRGB"
             captures.append((f"{name}, {curve[0]} {curve[1]:g} camera, {how}", merged, scale, "auto"))
+    seed = int.from_bytes(path.stem.encode()[:8], "little")
     for k in raws:  # the sensor's white is the unit: 2^k of the truth's
-        seed = int.from_bytes(path.stem.encode()[:8], "little")
         captures.append((f"RAW, white at +{k:g} stops, restored", raw_capture(truth, k, seed), 2.0 ** k, "auto"))
+    suns = {}
+    for k in pointed:  # the file lost its plateau's ties: found by the artist's click, or taken as it is
+        untied_file = untied(np.minimum(truth, 2.0 ** k), seed)
+        captures.append((f"HDR clipped at +{k:g} stops, ties lost, as it is", untied_file, 1.0, "auto"))
+        captures.append((f"HDR clipped at +{k:g} stops, ties lost, the sun clicked", untied_file, 1.0, "auto"))
+        suns[len(captures) - 1] = clicked(ds["direction"], seed)
     rows = []
-    for name, pixels, scale, restore in captures:
-        row = {"scene": path.stem, "capture": name, "true_contrast": true_c,
-               **score(truth, ds, pixels, scale, estimator, restore)}
+    for i, (name, pixels, scale, restore) in enumerate(captures):
+        row = {"scene": path.stem, "capture": name, "true_contrast": true_c}
+        try:
+            row.update(score(truth, ds, pixels, scale, estimator, restore, suns.get(i)))
+        except PanoLightError as exc:  # the click refused in one line (no plateau near it, no sky to weigh it):
+            row.update(score(truth, ds, pixels, scale, estimator, restore), refused=str(exc))  # the file as it is
         rows.append(row)
     jpeg = rows[0]["own_projection_m_rmse"]  # the JPEG's naive projection: the EVALUATION.md baseline
     for row in rows:
@@ -206,6 +238,10 @@ def main(argv=None) -> int:
     ap.add_argument("--bracket-curve", default=None, metavar="NAME:PARAM",
                     help="the bracket sets' camera has this tone curve (camera.TONE_CURVES, e.g. contrast:1.6): each "
                          "set merged through the curve recovered from it, and decoded as sRGB")
+    ap.add_argument("--pointed", type=float, nargs="*", default=[], metavar="STOPS",
+                    help="also the HDR clipped at 2^STOPS with its plateau's exact ties lost (a file resampled after "
+                         "its merge, which camera.ceiling cannot find), as it is and with the artist's click on its "
+                         f"sun ({CLICK_DEG:g} deg off the truth's direction; e.g. --pointed 2 4; default: none)")
     ap.add_argument("--raw", type=float, nargs="*", default=[], metavar="STOPS",
                     help="also a camera RAW (a noisy DNG, demosaiced by LibRaw) whose sensor's white is 2^STOPS "
                          "times the JPEG's (e.g. --raw 2 3; default: none)")
@@ -239,14 +275,14 @@ def main(argv=None) -> int:
     for i, path in enumerate(files, 1):
         if path.name in clipped:
             continue  # a truth that clips its own source is a lower bound, never a target
-        got = scene_rows(path, args.stops, args.as_ldr, estimator_of[path], brackets, args.raw, curve)
+        got = scene_rows(path, args.stops, args.as_ldr, estimator_of[path], brackets, args.raw, curve, args.pointed)
         rows += got
         for r in got:
             print(f"[{i}/{len(files)}] {r['scene']:28s} {r['capture']:24s} angle {r['angle_deg']:6.1f}  r {r['ratio']:7.3f}  "
                   f"C {r['contrast']:6.2f} of {r['true_contrast']:6.2f}  m/naive {r['m_rmse_over_naive']:.3f}", flush=True)
     summ = summary(rows)
     print("\n".join(table(summ)))
-    save_study({"stops": args.stops, "brackets": sets, "raw": args.raw, "bracket_curve": args.bracket_curve, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
+    save_study({"stops": args.stops, "brackets": sets, "raw": args.raw, "pointed": args.pointed, "bracket_curve": args.bracket_curve, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
                 "summary": summ, "rows": rows}, args.out)
     if args.plot:
         print(f"wrote {plot(summ, args.plot)}")

@@ -108,3 +108,27 @@ class FilledRows(RowFile):
         block = np.array(self.source.pixels[r0:r1], dtype=np.float32)
         self.fill.apply(block, r0, self.source.plateau_rows(r0, r1))
         return block
+
+
+class ClippedRows(RowFile):
+    """The rows of HDR ``pixels`` whose plateau is clipped at a declared ``ceiling`` (``camera.ceiling.pointed_ceiling``:
+    its pixels with MIN_PLATEAU_CHANNELS or more channels at or over it, each channel at most its ceiling): what the
+    file would hold had its merge clipped its source there, as the trees saw clipped files in training. Every other
+    pixel is the file's. A ``packed.PackedImage`` store (kind "file"), made again at each access (no full copy)."""
+
+    def __init__(self, pixels, ceiling: Ceiling):
+        super().__init__(None, *pixels.shape[:2])
+        self.pixels, self.ceiling = pixels, ceiling
+        self.rgb = np.asarray(ceiling.rgb, dtype=np.float32)
+
+    def _rows(self, r0: int, r1: int) -> np.ndarray:
+        block = np.array(self.pixels[r0:r1], dtype=np.float32)
+        plateau = self.ceiling.plateau(block)
+        block[plateau] = np.minimum(block[plateau], self.rgb)
+        return block
+
+
+def declared_source(pixels, ceiling: Ceiling) -> Source:
+    """The ``Source`` of an HDR whose ``ceiling`` an artist's pointer declared (``Ceiling.declared``): its plateau
+    clipped there (``ClippedRows``); a found ceiling's pixels as they are."""
+    return Source(PackedImage(ClippedRows(pixels, ceiling), "file") if ceiling.declared else pixels, ceiling)

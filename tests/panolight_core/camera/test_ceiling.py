@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from panolight_core import sh
-from panolight_core.camera.ceiling import CEILING_TOL, MIN_HEADROOM, find_ceiling
+from panolight_core.camera.ceiling import CEILING_TOL, MIN_HEADROOM, find_ceiling, pointed_ceiling
 from panolight_core.packed import PackedImage, RowFile
 
 
@@ -41,6 +41,29 @@ def test_a_warm_sun_clipped_in_two_channels_is_a_plateau_one_channel_alone_is_no
     one[..., 0] = np.minimum(one[..., 0], 300.0)  # only red ties: a coloured lamp's channel, not a clipped source
     one[..., 1] = img[..., 1]
     assert find_ceiling(one) is None
+
+
+def test_an_artist_s_pointer_declares_the_plateau_a_resampled_file_lost():
+    """A clipped sun whose ties are gone (each value times 1 +- 0.1 %, as resampling leaves it) is no plateau
+    ``find_ceiling`` can find; the artist's pointer, a degree off it, declares one at half the patch's peak: the
+    bump's top and nothing else, every channel's ceiling half the peak pixel's. A pointer at plain sky declares
+    nothing, and says why."""
+    img, s = _sky_with_sun()
+    rng = np.random.default_rng(3)
+    untied = (np.minimum(img, np.float32(100.0)) * (1 + 1e-3 * rng.uniform(-1, 1, img.shape))).astype(np.float32)
+    assert find_ceiling(untied) is None
+    side = np.cross(s, [0.0, 0.0, 1.0])
+    click = math.cos(math.radians(1.0)) * s + math.sin(math.radians(1.0)) * side / np.linalg.norm(side)
+    c, why = pointed_ceiling(untied, click)
+    lum = untied @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    peak = untied.reshape(-1, 3)[int(np.argmax(lum))]
+    assert c is not None and c.rgb == pytest.approx(tuple(0.5 * peak), rel=1e-6) and c.declared == why
+    top = (untied >= 0.5 * peak * (1 - CEILING_TOL)).sum(axis=-1) >= 2
+    assert c.pixels == int(top.sum()) >= (untied >= 99.0).all(axis=-1).sum()  # the whole clipped disk, at least
+    assert "half" not in why and "0.5 of its peak" in why and c.describe()["declared"] == why
+    nothing, reason = pointed_ceiling(untied, -s)  # the sky opposite the sun
+    assert nothing is None and reason.startswith("there is no bright patch within 10 deg")
+    assert pointed_ceiling(PackedImage(untied, "half"), click)[0].pixels == c.pixels  # read by rows alike
 
 
 def test_flat_and_black_images_have_no_ceiling():

@@ -146,3 +146,39 @@ def test_a_warm_sun_s_light_stands_at_its_plateau_s_core_not_its_aureole(day, mo
     monkeypatch.setattr(keylight, "at_cores", lambda regions, core: regions)  # at the plateau's centroid instead
     off = metrics.brightest_light(estimate_lighting(clipped).model.lights)
     assert metrics.angle_deg(off["peak_direction"], s) > 2.0
+
+
+def test_the_artist_s_click_restores_a_sun_whose_plateau_lost_its_ties(day):
+    """A file resampled after its merge keeps its clipped sun as a bump with no exact ties: nothing is restored,
+    and it casts no shadow. Clicked a degree off, the sun is restored there: a key light on the click that casts a
+    shadow, hdr.exr holding its energy, every pixel under half the bump's peak kept to the bit (but the sun's own,
+    on the click), and lighting.json
+    saying what was declared. ``--restore none`` keeps the file as it is; a click on plain sky says why nothing
+    changed."""
+    truth, s, _ = day
+    rng = np.random.default_rng(5)
+    untied = (np.minimum(truth, np.float32(16.0)) * (1 + 1e-3 * rng.uniform(-1, 1, truth.shape))).astype(np.float32)
+    as_is = estimate_lighting(untied)
+    assert "restoration" not in as_is.document["estimator"]
+    assert metrics.model_shadow_contrast(as_is.model, s) < 1.2
+    side = np.cross(s, [0.0, 0.0, 1.0])
+    click = math.cos(math.radians(1.0)) * s + math.sin(math.radians(1.0)) * side / np.linalg.norm(side)
+    res = estimate_lighting(untied, Settings(sun_direction=tuple(click)))
+    info = res.document["estimator"]["restoration"]
+    assert info["restored"] and "the artist's sun points at a bright patch" in info["declared"]
+    assert info["why"].startswith("the artist's sun points at") and not res.warnings
+    key = metrics.brightest_light(res.model.lights)
+    assert metrics.angle_deg(key["direction"], click) < 1e-6 and "the artist's direction" in key["source"]
+    assert metrics.model_shadow_contrast(res.model, s) > 1.5
+    out = res.hdr_panorama(untied)
+    peak = float((untied @ LUMINANCE_WEIGHTS.astype(np.float32)).max())
+    on_click = sh.pixel_directions(*untied.shape[:2]) @ click > math.cos(math.radians(1.0))  # the sun, put there
+    kept = ((untied @ LUMINANCE_WEIGHTS.astype(np.float32)) < 0.4 * peak) & ~on_click
+    assert out[kept].tobytes() == untied[kept].tobytes()
+    assert metrics.cone_energy(out, s) > 5 * metrics.cone_energy(untied, s)
+    none = estimate_lighting(untied, Settings(sun_direction=tuple(click), restore="none"))
+    assert none.model.coeffs.tobytes() == as_is.model.coeffs.tobytes()
+    assert any("changes nothing" in w for w in none.warnings)
+    sky = estimate_lighting(untied, Settings(sun_direction=tuple(-s)))
+    assert sky.model.coeffs.tobytes() == as_is.model.coeffs.tobytes()
+    assert any("there is no bright patch within 10 deg" in w for w in sky.warnings)
