@@ -57,3 +57,22 @@ def test_a_camera_raw_is_scored_in_the_truth_s_units(tmp_path):
     as_is = rows["HDR clipped at +2 stops, as it is"]
     assert abs(np.log2(raw["ratio"])) < abs(np.log2(as_is["ratio"])) and raw["angle_deg"] < 2.0
     assert raw["m_rmse"] < as_is["m_rmse"] and raw["m_rmse"] < 1.5 * clipped["m_rmse"]
+
+
+def test_a_file_that_lost_its_ties_is_found_by_the_click(tmp_path):
+    """--pointed 4: the clear day clipped at +4 stops, its plateau's ties broken (camera.ceiling finds nothing), taken
+    as it is and with the artist's click a degree off the sun: the click restores it (the sun's energy and shadow
+    nearer the truth), and the click lands CLICK_DEG from the truth."""
+    from panolight_core import metrics
+    from panolight_core.camera.ceiling import find_ceiling
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    hdr, s, _ = _clear_day()
+    assert find_ceiling(captures.untied(np.minimum(hdr, 16.0), seed=1)) is None
+    assert metrics.angle_deg(captures.clicked(s, seed=1), s) == pytest.approx(captures.CLICK_DEG, abs=1e-9)
+    rows = {r["capture"]: r for r in captures.scene_rows(_write_hdr(tmp_path, hdr), [4.0], pointed=[4.0])}
+    as_is, click = rows["HDR clipped at +4 stops, ties lost, as it is"], rows["HDR clipped at +4 stops, ties lost, " 
+                                                                                "the sun clicked"]
+    assert "refused" not in click and click["angle_deg"] == pytest.approx(captures.CLICK_DEG, abs=0.2)
+    assert abs(np.log2(click["ratio"])) < abs(np.log2(as_is["ratio"])) and click["contrast"] > as_is["contrast"]
+    assert click["m_rmse"] < as_is["m_rmse"]
