@@ -167,7 +167,7 @@ def pointed_ceiling(pixels, direction) -> tuple[Ceiling | None, str]:
     reach = math.radians(POINTED_REACH_DEG)
     polar = math.acos(float(np.clip(d[2], -1.0, 1.0)))
     r0, r1 = max(0, int((polar - reach) / math.pi * h) - 1), min(h, int((polar + reach) / math.pi * h) + 2)
-    best = (-math.inf, 0, 0, None)  # the patch's peak: (luminance, row, column, RGB)
+    best = (-math.inf, None)  # the patch's peak: (luminance, RGB)
     cols = np.arange(w)
     for a in range(r0, r1, 64):  # the rows the cone crosses, a few at a time (a 16K file's band is 900 rows)
         b = min(r1, a + 64)
@@ -177,7 +177,7 @@ def pointed_ceiling(pixels, direction) -> tuple[Ceiling | None, str]:
         lum = np.where(near, block @ LUMINANCE_WEIGHTS.astype(np.float32), -np.inf)
         y, x = np.unravel_index(int(np.argmax(lum)), lum.shape)
         if lum[y, x] > best[0]:
-            best = (float(lum[y, x]), a + y, x, block[y, x].astype(np.float64))
+            best = (float(lum[y, x]), block[y, x].astype(np.float64))
     row_max, median = _scan(pixels)
     over = best[0] / median if median > 0 else math.inf
     if not POINTED_LEVEL * best[0] >= MIN_HEADROOM * median:
@@ -186,7 +186,7 @@ def pointed_ceiling(pixels, direction) -> tuple[Ceiling | None, str]:
                       f"more): the file holds no clipped sun there")
     why = (f"the artist's sun points at a bright patch ({over:.0f}x the median) with no exact plateau (a file "
            f"resampled after its merge): the file is taken as clipped at {POINTED_LEVEL:g} of its peak")
-    ceiling = _ceiling_at(pixels, row_max, POINTED_LEVEL * best[3], median, why)
+    ceiling = _ceiling_at(pixels, row_max, POINTED_LEVEL * best[1], median, why)
     if ceiling is None:
         return None, (f"the bright patch it points at ({over:.0f}x the median) has fewer than {MIN_PLATEAU_PIXELS} "
                       f"pixels at half its peak: a peaked source, which the file holds whole")
