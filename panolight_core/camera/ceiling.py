@@ -152,6 +152,9 @@ def _ceiling_at(pixels, row_max: np.ndarray, top: np.ndarray, median: float, dec
 
 POINTED_REACH_DEG = 10.0  # an artist's pointer finds the bright patch whose peak lies within this of it
 POINTED_LEVEL = 0.5  # ... and declares the file clipped at this share of the patch's peak (its half-maximum)
+POINTED_MAX_OVER = 1000.0  # ... unless the patch peaks above this times the median: a source the file holds whole.
+# A merge without an ND filter clips at its darkest frame's white, 20-400x the median for 3-7 brackets (the shared
+# files that clip their sun: 42-116x); an un-clipped sun is thousands of times it (the shared ones: 3,870-10^6x)
 
 
 def pointed_ceiling(pixels, direction) -> tuple[Ceiling | None, str]:
@@ -159,7 +162,9 @@ def pointed_ceiling(pixels, direction) -> tuple[Ceiling | None, str]:
     after its merge has no exact ties left on its clipped sun, only a soft bump at 10-40x the median (four of the
     six in ../shared/data/hdri that clip their sun). The brightest pixel within POINTED_REACH_DEG of unit
     ``direction`` (CONVENTIONS.md frame) is the patch's peak; the file is declared clipped at POINTED_LEVEL of it,
-    channel by channel, so the plateau is the bump's top (and any pixel of the file as bright). Returns (the
+    channel by channel, so the plateau is the bump's top (and any pixel of the file as bright). A peak under
+    2 x MIN_HEADROOM or over POINTED_MAX_OVER times the median declares nothing (no source there, or an un-clipped
+    one the file holds whole). Returns (the
     Ceiling, or None, and one sentence on what was declared or why nothing was)."""
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
@@ -184,6 +189,10 @@ def pointed_ceiling(pixels, direction) -> tuple[Ceiling | None, str]:
         return None, (f"there is no bright patch within {POINTED_REACH_DEG:g} deg of it (its brightest pixel is "
                       f"{max(over, 0.0):.1f}x the median; a clipped sun's is {MIN_HEADROOM / POINTED_LEVEL:g}x or "
                       f"more): the file holds no clipped sun there")
+    if over > POINTED_MAX_OVER:
+        return None, (f"the bright patch it points at peaks at {over:.3g}x the median: a source the file holds whole "
+                      f"(a merge that clips its sun clips it under {POINTED_MAX_OVER:g}x), its light already in its "
+                      f"pixels")
     why = (f"the artist's sun points at a bright patch ({over:.0f}x the median) with no exact plateau (a file "
            f"resampled after its merge): the file is taken as clipped at {POINTED_LEVEL:g} of its peak")
     ceiling = _ceiling_at(pixels, row_max, POINTED_LEVEL * best[1], median, why)

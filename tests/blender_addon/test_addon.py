@@ -758,6 +758,37 @@ def test_the_artist_points_at_the_sun_in_the_panel(tmp_path):
         p.sun_pointed, p.sun_contrast = False, 0.0
 
 
+def test_sun_is_here_restores_an_hdri_resized_after_its_merge(tmp_path):
+    """An .exr whose clipped sun lost its exact plateau (as a resized download has): Estimate alone finds no sun to
+    restore; with Sun is here on it, the bright patch is restored, the sun lamp stands on the click, and the
+    reconstructed HDRI holds the restored sun (panolight estimate --sun on an HDR file)."""
+    from panolight_core.io import write_image
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    truth, s, _ = _clear_day()
+    rng = np.random.default_rng(5)
+    untied = (np.minimum(truth, np.float32(16.0)) * (1 + 1e-2 * rng.uniform(-1, 1, truth.shape))).astype(np.float32)
+    exr = write_image(tmp_path / "resized.exr", untied)
+    assert bpy.ops.panolight.load_panorama(filepath=str(exr)) == {"FINISHED"}
+    _configure()
+    p = bpy.context.scene.panolight
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    assert "restoration" not in store.stored_lighting(bpy.context.scene.world)["estimator"]
+    p.sun_pointed, p.sun_azimuth, p.sun_elevation = True, -math.atan2(s[1], s[0]), math.asin(s[2])
+    try:
+        assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+        doc = store.stored_lighting(bpy.context.scene.world)
+        assert doc["estimator"]["restoration"]["declared"].startswith("the artist's sun points at a bright patch")
+        (sun,) = [light for light in doc["lights"] if light["source"].startswith("the artist's")]
+        assert metrics.angle_deg(sun["direction"], s) < 1e-3
+        assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+        lamp = next(o for o in bpy.data.objects if o.type == "LIGHT" and o.data.type == "SUN")
+        beam = np.asarray(lamp.matrix_world.to_3x3() @ __import__("mathutils").Vector((0.0, 0.0, 1.0)))
+        assert metrics.angle_deg(beam, s) < 1e-3
+    finally:
+        p.sun_pointed = False
+
+
 def test_pick_sun_turns_a_click_into_the_sun_the_panorama_shows_there(tmp_path):
     """Pick sun: a click in a 3D viewport is a world view direction; the world's background is turned by Background
     rotation, so the picked pixel is that direction turned back. The panel's Sun is here takes it, and the estimate

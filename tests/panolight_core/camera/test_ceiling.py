@@ -46,8 +46,8 @@ def test_a_warm_sun_clipped_in_two_channels_is_a_plateau_one_channel_alone_is_no
 def test_an_artist_s_pointer_declares_the_plateau_a_resampled_file_lost():
     """A clipped sun whose ties are gone (each value times 1 +- 0.1 %, as resampling leaves it) is no plateau
     ``find_ceiling`` can find; the artist's pointer, a degree off it, declares one at half the patch's peak: the
-    bump's top and nothing else, every channel's ceiling half the peak pixel's. A pointer at plain sky declares
-    nothing, and says why."""
+    bump's top and nothing else, every channel's ceiling half the peak pixel's. A pointer at plain sky, or at the
+    same sun un-clipped (a peak, not a bump), declares nothing, and says why."""
     img, s = _sky_with_sun()
     rng = np.random.default_rng(3)
     untied = (np.minimum(img, np.float32(100.0)) * (1 + 1e-3 * rng.uniform(-1, 1, img.shape))).astype(np.float32)
@@ -64,6 +64,8 @@ def test_an_artist_s_pointer_declares_the_plateau_a_resampled_file_lost():
     nothing, reason = pointed_ceiling(untied, -s)  # the sky opposite the sun
     assert nothing is None and reason.startswith("there is no bright patch within 10 deg")
     assert pointed_ceiling(PackedImage(untied, "half"), click)[0].pixels == c.pixels  # read by rows alike
+    peaked, reason = pointed_ceiling(img, click)  # the same sun un-clipped: a peak the file holds whole
+    assert peaked is None and "a source the file holds whole" in reason
 
 
 def test_flat_and_black_images_have_no_ceiling():

@@ -153,8 +153,8 @@ def test_the_artist_s_click_restores_a_sun_whose_plateau_lost_its_ties(day):
     and it casts no shadow. Clicked a degree off, the sun is restored there: a key light on the click that casts a
     shadow, hdr.exr holding its energy, every pixel under half the bump's peak kept to the bit (but the sun's own,
     on the click), and lighting.json
-    saying what was declared. ``--restore none`` keeps the file as it is; a click on plain sky says why nothing
-    changed."""
+    saying what was declared. ``--restore none`` keeps the file as it is; a click on plain sky, or on the un-clipped
+    file's own sun, says why nothing changed."""
     truth, s, _ = day
     rng = np.random.default_rng(5)
     untied = (np.minimum(truth, np.float32(16.0)) * (1 + 1e-3 * rng.uniform(-1, 1, truth.shape))).astype(np.float32)
@@ -182,3 +182,6 @@ def test_the_artist_s_click_restores_a_sun_whose_plateau_lost_its_ties(day):
     sky = estimate_lighting(untied, Settings(sun_direction=tuple(-s)))
     assert sky.model.coeffs.tobytes() == as_is.model.coeffs.tobytes()
     assert any("there is no bright patch within 10 deg" in w for w in sky.warnings)
+    whole = estimate_lighting(truth, Settings(sun_direction=tuple(click)))  # the un-clipped file: its sun is its own
+    assert whole.model.coeffs.tobytes() == estimate_lighting(truth).model.coeffs.tobytes()
+    assert any("a source the file holds whole" in w for w in whole.warnings)
