@@ -103,7 +103,9 @@ def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto",
     2^stops (with ``as_ldr`` also that file through the LDR path, its ceiling the white: a restoration tried by
     the machinery as it is), then each bracket set of ``brackets`` (tuples of evs: the camera's JPEGs at those
     exposures merged, ``camera.brackets``), then a camera RAW whose white is each 2^raws over the JPEG's
-    (``raw_capture``), each with the scene's true contrast. ``curve``: (name, parameter) of another camera's tone
+    (``raw_capture``), then the HDR clipped at each 2^pointed with its ties lost (``untied``), as it is and with the
+    artist's click (``clicked``; a click the pipeline refuses is scored without it, its row saying why under
+    ``refused``), each with the scene's true contrast. ``curve``: (name, parameter) of another camera's tone
     curve (``camera.TONE_CURVES``) for the bracket sets' frames, each set merged through the curve recovered from
     it and, for comparison, decoded as sRGB; their units (a convention for such a camera) matched to the truth's
     median."""
