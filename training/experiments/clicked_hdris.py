@@ -20,7 +20,7 @@ import numpy as np
 from panolight_core import metrics, sh
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.pipeline.estimate import estimate_lighting
-from panolight_core.pipeline.preview import exposure_for, tonemap
+from panolight_core.pipeline.preview import diffuse_sphere, exposure_for, tonemap
 from panolight_core.pipeline.settings import Settings
 from training.common.real_hdri import DEFAULT_HDRI, manifest
 
@@ -29,20 +29,17 @@ SIZE = 200
 
 def side_sphere(model, sun: np.ndarray, size: int = SIZE) -> np.ndarray:
     """(size, size, 3) linear image of a white Lambertian sphere (albedo 0.8) lit by ``model`` (an
-    adaptive.LightingModel), seen from the horizon 90 degrees round from the sun: the sun lights its left half."""
-    t = (np.arange(size) + 0.5) / size * 2.0 - 1.0
-    a, b = np.meshgrid(t, -t)
-    r2 = a * a + b * b
-    inside = r2 < 1.0
-    c = np.sqrt(np.clip(1.0 - r2, 0.0, 1.0))
+    adaptive.LightingModel), seen from the horizon 90 degrees round from the sun: the sun lights its left half.
+    The preview's sphere (``preview.diffuse_sphere``, camera along +X), its normals turned about Z to that view."""
     yaw = math.atan2(sun[1], sun[0]) - math.pi / 2  # the camera looks along this azimuth, the sun to its left
-    view, left = np.array([math.cos(yaw), math.sin(yaw), 0.0]), np.array([-math.sin(yaw), math.cos(yaw), 0.0])
-    normals = (-c[..., None] * view + (-a)[..., None] * left + b[..., None] * np.array([0.0, 0.0, 1.0]))[inside]
-    out = np.zeros((size, size, 3))
-    shade = 0.8 / np.pi * model.irradiance(normals)
-    out[inside] = shade
-    out[~inside] = 0.5 * float(np.median(shade.mean(axis=1)))
-    return out
+    turn = np.array([[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+
+    class Turned:  # the model as the turned camera's sphere sees it
+        @staticmethod
+        def irradiance(normals):
+            return model.irradiance(normals @ turn.T)
+
+    return diffuse_sphere(Turned, size)
 
 
 def main(argv=None) -> int:
