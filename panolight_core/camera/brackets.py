@@ -98,12 +98,19 @@ def _code(value: float) -> int:
     return int(np.clip(np.searchsorted(SRGB8_TO_LINEAR, np.float32(value)), 0, 255))
 
 
-def _thresholds(gray_ref: np.ndarray, ratio: float) -> tuple[int, int]:
+def _median_code(grey: np.ndarray) -> int:
+    """``int(np.median(grey))`` of uint8 ``grey``, read from its histogram (no sort)."""
+    below = np.cumsum(np.bincount(grey.ravel(), minlength=256))
+    lo, hi = np.searchsorted(below, [(grey.size - 1) // 2, grey.size // 2], side="right")
+    return int(lo + hi) // 2
+
+
+def _thresholds(median_code: int, ratio: float) -> tuple[int, int]:
     """The codes of one radiance in the reference and in a frame ``ratio`` times as exposed (through the sRGB
-    curve): the reference's median (Ward's), moved so that the frame's code, then the reference's, stays inside
-    ALIGN_CODES."""
+    curve): the reference's median code (Ward's), moved so that the frame's code, then the reference's, stays
+    inside ALIGN_CODES."""
     lo, hi = (float(SRGB8_TO_LINEAR[c]) for c in ALIGN_CODES)
-    level = float(SRGB8_TO_LINEAR[int(np.median(gray_ref))])
+    level = float(SRGB8_TO_LINEAR[median_code])
     level = min(max(level, lo / ratio), hi / ratio)
     level = min(max(level, lo), hi)
     return _code(level), _code(level * ratio)
@@ -119,39 +126,54 @@ def shift_frame(a: np.ndarray, dy: int, dx: int) -> np.ndarray:
     return out
 
 
+class AlignmentReference:
+    """A set's reference frame ((H, W, 3) uint8 sRGB) as the alignment reads it, made once for all its frames: the
+    grid (every ``scale``-th pixel, at most ALIGN_MAX_WIDTH wide), Ward's grey there halved up to ``levels`` times
+    (finest first, none under 16 pixels) and its median code."""
+
+    def __init__(self, reference: np.ndarray, levels: int = ALIGN_LEVELS):
+        self.scale = 1
+        while reference.shape[1] > self.scale * ALIGN_MAX_WIDTH:  # a large set: every scale-th pixel
+            self.scale *= 2
+        self.levels = levels
+        self.pyramid = self.grey_pyramid(reference)
+        self.median = _median_code(self.pyramid[0])
+
+    def grey_pyramid(self, frame: np.ndarray) -> list[np.ndarray]:
+        pyramid = [gray8(frame[::self.scale, ::self.scale])]
+        while len(pyramid) < self.levels and min(pyramid[-1].shape) >= 16:
+            pyramid.append(_halve(pyramid[-1]))
+        return pyramid
+
+    def shift_of(self, frame: np.ndarray, ratio: float = 1.0) -> tuple[int, int]:
+        """``align_shift`` of ``frame`` onto this reference."""
+        t_ref, t_frame = _thresholds(self.median, ratio)
+        dy = dx = 0
+        for level, (ref, cur) in reversed(list(enumerate(zip(self.pyramid, self.grey_pyramid(frame))))):
+            dy, dx = 2 * dy, 2 * dx
+            (rb, re), (cb, ce) = _bitmaps(ref, t_ref), _bitmaps(cur, t_frame)
+            best = None  # the shift so far first: a move must do strictly better (a flat sky ties everywhere)
+            limit = ALIGN_MAX_ROWS >> level  # the rows' reach on this level's grid (level 0 the finest)
+            for ty, tx in [(dy, dx)] + [(dy + a, dx + b) for a in (-1, 0, 1) for b in (-1, 0, 1)
+                                        if (a or b) and abs(dy + a) <= limit]:
+                cost = int(((rb ^ shift_frame(cb, ty, tx)) & re & shift_frame(ce, ty, tx)).sum())
+                if best is None or cost < best[0]:
+                    best = (cost, ty, tx)
+            _, dy, dx = best
+        unmoved = int(((rb ^ cb) & re & ce).sum())  # the finest level's mismatch with no shift
+        if best[0] > ALIGN_MIN_GAIN * unmoved:  # no shift explains the two frames better than none
+            return 0, 0
+        return self.scale * dy, (self.scale * dx) % frame.shape[1]
+
+
 def align_shift(reference: np.ndarray, frame: np.ndarray, ratio: float = 1.0, levels: int = ALIGN_LEVELS
                 ) -> tuple[int, int]:
     """(dy, dx) pixels that move ``frame`` onto ``reference`` (both (H, W, 3) uint8 sRGB, exposures of one scene):
     Ward's median threshold bitmaps compared over an image pyramid, one pixel each way per level, the columns round
     the panorama (a 360 camera turned in the hand), the rows within ALIGN_MAX_ROWS of where they were; on a grid at
     most ALIGN_MAX_WIDTH wide. (0, 0) for a frame mostly clipped white or black, and where no shift matches the
-    frames better than none by ALIGN_MIN_GAIN."""
-    scale = 1
-    while frame.shape[1] > scale * ALIGN_MAX_WIDTH:  # a large set: every scale-th pixel (what the grid holds)
-        scale *= 2
-    gray_ref, gray = gray8(reference[::scale, ::scale]), gray8(frame[::scale, ::scale])
-    t_ref, t_frame = _thresholds(gray_ref, ratio)
-    pyramid = [(gray_ref, gray)]
-    for _ in range(levels - 1):
-        if min(pyramid[-1][0].shape) < 16:
-            break
-        pyramid.append(tuple(_halve(g) for g in pyramid[-1]))
-    dy = dx = 0
-    for level, (ref, cur) in reversed(list(enumerate(pyramid))):
-        dy, dx = 2 * dy, 2 * dx
-        (rb, re), (cb, ce) = _bitmaps(ref, t_ref), _bitmaps(cur, t_frame)
-        best = None  # the shift so far first: a move must do strictly better (a flat sky ties everywhere)
-        limit = ALIGN_MAX_ROWS >> level  # the rows' reach on this level's grid (level 0 the finest)
-        for ty, tx in [(dy, dx)] + [(dy + a, dx + b) for a in (-1, 0, 1) for b in (-1, 0, 1)
-                                    if (a or b) and abs(dy + a) <= limit]:
-            cost = int(((rb ^ shift_frame(cb, ty, tx)) & re & shift_frame(ce, ty, tx)).sum())
-            if best is None or cost < best[0]:
-                best = (cost, ty, tx)
-        _, dy, dx = best
-        unmoved = int(((rb ^ cb) & re & ce).sum())
-    if best[0] > ALIGN_MIN_GAIN * unmoved:  # no shift explains the two frames better than none
-        return 0, 0
-    return scale * dy, (scale * dx) % frame.shape[1]
+    frames better than none by ALIGN_MIN_GAIN. A set's frames share one ``AlignmentReference``."""
+    return AlignmentReference(reference, levels).shift_of(frame, ratio)
 
 
 GHOST_RATIO = 2.0  # a pixel whose brightest channel's radiance in a frame is this far from the reference frame's ...
@@ -193,7 +215,8 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     linear = [np.asarray(f) for f in frames] if kinds == {np.dtype(np.float32)} else None
     frames = [linear_codes(f) for f in linear] if linear is not None else frames
     ref = int(np.argsort(e)[(e.size - 1) // 2])
-    shifts = threads.map_ordered(lambda i: align_shift(frames[ref], frames[i], e[i] / e[ref]) if align and i != ref
+    grid = AlignmentReference(frames[ref]) if align else None
+    shifts = threads.map_ordered(lambda i: grid.shift_of(frames[i], e[i] / e[ref]) if align and i != ref
                                  else (0, 0), range(len(frames)))
     frames = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(frames, shifts)]
     if linear is not None:

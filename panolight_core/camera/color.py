@@ -40,5 +40,8 @@ def luminance(rgb):
 def gray8(frame: np.ndarray) -> np.ndarray:
     """(..., 3) uint8 sRGB -> (...) uint8: Ward's 8-bit grey, (54 R + 183 G + 19 B) / 256 (the bracket merge's
     alignment bitmaps and its response curve's sampling read it)."""
-    f = frame.astype(np.uint16)
-    return ((54 * f[..., 0] + 183 * f[..., 1] + 19 * f[..., 2]) >> 8).astype(np.uint8)
+    grey = np.multiply(frame[..., 0], 54, dtype=np.uint16)  # channel by channel: no (..., 3) uint16 copy (a
+    grey += np.multiply(frame[..., 1], 183, dtype=np.uint16)  # strided view's was 6x slower); 256 x 255 fits
+    grey += np.multiply(frame[..., 2], 19, dtype=np.uint16)
+    grey >>= 8
+    return grey.astype(np.uint8)

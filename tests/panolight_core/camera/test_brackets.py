@@ -116,6 +116,17 @@ def test_a_hand_held_set_is_aligned_round_the_panorama_and_merges_as_the_still_o
     assert "shifts" not in raw_info and not np.array_equal(raw[4:-4], still[4:-4])
 
 
+def test_the_alignment_s_median_code_is_numpy_s_median_read_from_the_histogram():
+    from panolight_core.camera.brackets import _median_code
+
+    rng = np.random.default_rng(5)
+    for shape in ((7, 9), (8, 10), (1, 1), (2, 1)):  # odd and even counts (an even one averages its middle pair)
+        for high in (2, 256):
+            grey = rng.integers(0, high, shape, dtype=np.uint8)
+            assert _median_code(grey) == int(np.median(grey))
+    assert _median_code(np.array([[3, 4]], np.uint8)) == 3 and _median_code(np.array([[255]], np.uint8)) == 255
+
+
 def test_what_moves_between_frames_is_the_reference_frame_s_alone():
     """A passer-by in the +2 frame only (a dark coat over a grey wall): that frame gives the patch nothing, and the
     merge there is the still set's, not a half-dark ghost; with ghosts off it is darkened."""

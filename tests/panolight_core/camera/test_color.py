@@ -1,7 +1,14 @@
 import numpy as np
 import pytest
 
-from panolight_core.camera.color import LUMINANCE_WEIGHTS, SRGB8_TO_LINEAR, linear_to_srgb, luminance, srgb_to_linear
+from panolight_core.camera.color import (
+    LUMINANCE_WEIGHTS,
+    SRGB8_TO_LINEAR,
+    gray8,
+    linear_to_srgb,
+    luminance,
+    srgb_to_linear,
+)
 
 
 def test_srgb_round_trip_and_the_iec_breakpoints():
@@ -28,6 +35,17 @@ def test_encoding_clips_and_dtype_follows_the_input():
 def test_uint8_table_is_the_curve():
     assert np.allclose(SRGB8_TO_LINEAR, srgb_to_linear(np.arange(256) / 255.0), atol=1e-7)
     assert not SRGB8_TO_LINEAR.flags.writeable
+
+
+def test_gray8_is_wards_grey_on_any_view_and_at_white():
+    rng = np.random.default_rng(3)
+    frame = rng.integers(0, 256, (40, 60, 3), dtype=np.uint8)
+    frame[0, :, :] = 255  # the largest sum, 256 x 255: no uint16 overflow
+    for view in (frame, frame[::2, ::3], frame[5:9]):
+        want = np.floor((view.astype(np.int64) @ np.array([54, 183, 19])) / 256.0).astype(np.uint8)
+        got = gray8(view)
+        assert got.dtype == np.uint8 and got.shape == view.shape[:2] and np.array_equal(got, want)
+    assert (gray8(frame)[0] == 255).all()
 
 
 def test_luminance_is_rec709():
