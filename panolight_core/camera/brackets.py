@@ -26,6 +26,7 @@ recovered curve puts its code 250 where sRGB does, ``camera.response``).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -181,6 +182,87 @@ GHOST_CODES = (20, 235)  # ... where both frames see it well exposed (these code
 # leaf, a wave): that frame gives it nothing. A still scene's frames agree within JPEG's few per cent there
 
 
+AGREE_GRID_WIDTH = 512  # ``frame_agreement`` reads every s-th pixel of a frame, a grid at most this wide, ...
+AGREE_CODES = (20, 200)  # ... where both frames hold the pixel within these codes (by its brightest channel): a
+# JPEG rings 10-20 codes round a clipped patch, which put a dark studio's still +4 frame below its +2 frame on 23 %
+# of the pixels compared up to 235 (1 % up to 200)
+MIN_RANK_CODES = 16  # the rank test reads frames holding at least this many codes there (a real scene: hundreds)
+ORDER_NOISE_CODES = 8  # a pixel contradicts the exposures' order when the frame exposed more holds it this many codes
+# darker than the one exposed less (or the less exposed this much brighter): beyond JPEG's noise of a few codes
+
+
+@dataclass(frozen=True)
+class Agreement:
+    """How two frames of a set agree with their exposures' order, over the pixels both see well exposed
+    (AGREE_CODES, by the brightest channel; ``compared`` of them on the grid). Whatever curve the camera applied, a
+    still scene's pixel is never darker in the frame exposed more, and the two frames rank their pixels alike:
+    ``contradicting`` is the share that runs against the order (frames listed in another order than their
+    exposures), ``rank_correlation`` Spearman's of their codes (another scene: near 0; None where either frame
+    holds fewer than MIN_RANK_CODES codes there, too few to rank: a flat wall)."""
+
+    contradicting: float
+    rank_correlation: float | None
+    compared: int
+
+
+def _code_ranks(codes: np.ndarray) -> np.ndarray:
+    """The rank of each of int ``codes`` (0-255) among them, ties given their mean rank (from the histogram)."""
+    counts = np.bincount(codes, minlength=256)
+    return ((np.cumsum(counts) - counts) + (counts - 1) / 2.0)[codes]
+
+
+def frame_agreement(reference: np.ndarray, frame: np.ndarray, ratio: float) -> Agreement:
+    """The ``Agreement`` of ``frame`` with ``reference`` (both (H, W, 3) uint8 codes, aligned), exposed ``ratio``
+    times as much, read on a grid at most AGREE_GRID_WIDTH wide."""
+    s = max(1, reference.shape[1] // AGREE_GRID_WIDTH)
+    a, b = (np.maximum(np.maximum(f[::s, ::s, 0], f[::s, ::s, 1]), f[::s, ::s, 2]) for f in (reference, frame))
+    lo, hi = AGREE_CODES
+    both = (a >= lo) & (a <= hi) & (b >= lo) & (b <= hi)
+    a, b = a[both].astype(np.int16), b[both].astype(np.int16)
+    if a.size == 0:
+        return Agreement(0.0, None, 0)
+    contra = float(((b < a - ORDER_NOISE_CODES) if ratio > 1.0 else (b > a + ORDER_NOISE_CODES)).mean())
+    if min(np.count_nonzero(np.bincount(a)), np.count_nonzero(np.bincount(b))) < MIN_RANK_CODES:
+        return Agreement(contra, None, int(a.size))
+    ra, rb = _code_ranks(a), _code_ranks(b)
+    ra -= ra.mean()
+    rb -= rb.mean()
+    return Agreement(contra, float(ra @ rb) / float(np.sqrt((ra @ ra) * (rb @ rb))), int(a.size))
+
+
+MIN_AGREE_PIXELS = 500  # fewer pixels than this (of the grid's) seen well exposed in both frames: no agreement test
+BAD_SET_CONTRADICTING = 0.25  # two frames neighbours in exposure whose pixels run against its order over more than
+# this share ...
+BAD_SET_RANK = 0.5  # ... or whose codes rank correlate less than this are refused (measured over the real HDRs'
+# sets, right and wrong, through four camera curves: training/experiments/bracket_agreement.py)
+
+
+def check_agreement(frames, rel: np.ndarray, names=None) -> list[Agreement]:
+    """The ``Agreement`` of each pair of (aligned) 8-bit ``frames`` neighbours in exposure (``rel``: relative
+    exposures), darker first. PanoLightError in one line naming the pair (``names``, else the frames' numbers)
+    whose pixels run against their exposures' order (BAD_SET_CONTRADICTING: listed in another order than their
+    exposures) or do not rank alike (BAD_SET_RANK: not one scene) where at least MIN_AGREE_PIXELS compare: merged,
+    either makes a wrong HDR with no sign of it."""
+    names = [f"frame {i + 1}" for i in range(len(frames))] if names is None else [str(n) for n in names]
+    order = np.argsort(rel, kind="stable")
+    found = []
+    for i, j in zip(order[:-1], order[1:]):
+        agree = frame_agreement(frames[i], frames[j], float(rel[j] / rel[i]))
+        found.append(agree)
+        if agree.compared < MIN_AGREE_PIXELS:
+            continue
+        pair = f"{names[j]} (exposed {math.log2(float(rel[j] / rel[i])):.3g} stops more than {names[i]})"
+        if agree.contradicting > BAD_SET_CONTRADICTING:
+            raise PanoLightError(f"{pair} is darker than {names[i]} on {100 * agree.contradicting:.0f} % of the "
+                                 f"pixels both expose well: the exposures are not the frames' (give them in the "
+                                 f"files' order with --evs, or check the EXIF)")
+        if agree.rank_correlation is not None and agree.rank_correlation < BAD_SET_RANK:
+            raise PanoLightError(f"{pair} does not show the scene {names[i]} shows (its pixels rank alike with "
+                                 f"{agree.rank_correlation:.2f} correlation, a still set's 0.9 or more): a set grouped "
+                                 f"across two scenes, or a camera moved further than the alignment reaches")
+    return found
+
+
 _CODE_EDGES = ((SRGB8_TO_LINEAR[1:].astype(np.float64) + SRGB8_TO_LINEAR[:-1]) / 2).astype(np.float32)
 
 
@@ -193,7 +275,7 @@ def linear_codes(frame: np.ndarray) -> np.ndarray:
     return out
 
 
-def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, response: bool = True
+def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, response: bool = True, names=None
                    ) -> tuple[np.ndarray, dict]:
     """Merge 8-bit sRGB frames (each (H, W, 3) uint8, one scene), or linear float32 frames whose white is 1 (camera
     RAWs, ``io.read_raw``: weighed, tested for ghosts and aligned by their nearest sRGB codes, ``linear_codes``, and
@@ -204,7 +286,9 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     ``ghosts`` a frame gives nothing to a pixel it sees GHOST_RATIO brighter or darker than the reference frame does
     where both see it well exposed (GHOST_CODES): what moved between the frames is the reference frame's alone.
     With ``response`` 8-bit frames are decoded through their own camera curve where it explains them better than
-    sRGB (``camera.response.recover_response``; the record's ``response`` says which and why), else sRGB."""
+    sRGB (``camera.response.recover_response``; the record's ``response`` says which and why), else sRGB. Frames
+    that contradict their exposures' order or show another scene are refused, named by ``names`` (file names; else
+    their numbers), before anything is merged (``check_agreement``; the record's ``agreement``)."""
     e = check_exposures(exposures)
     shapes = {np.asarray(f).shape for f in frames}
     kinds = {np.asarray(f).dtype for f in frames}
@@ -222,6 +306,7 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     if linear is not None:
         linear = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(linear, shifts)]
     rel = e / e[ref]
+    agreement = check_agreement(frames, rel, names)
     curve = recover_response(frames, rel, ref) if response and linear is None else SRGB
     ceiling = float(curve.table[255] / rel.min())  # the darkest frame's white: above every value a frame holds
     dark = int(np.argmin(rel))
@@ -268,4 +353,7 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     return out, {"reference": ref, "stops": [round(math.log2(k), 4) for k in rel], "ceiling": ceiling,
                  **({"response": curve.describe()} if linear is None else {}),
                  "clipped_in_every_frame": clipped / float(out.shape[0] * out.shape[1]),
+                 "agreement": [{"contradicting": round(a.contradicting, 4), "compared": a.compared,
+                                "rank_correlation": None if a.rank_correlation is None else round(a.rank_correlation, 4)}
+                               for a in agreement],
                  **({"shifts": [[int(dy), int(dx)] for dy, dx in shifts]} if align else {})}

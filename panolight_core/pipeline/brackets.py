@@ -111,5 +111,5 @@ def read_brackets(paths, evs=None, **read_options) -> tuple[np.ndarray, dict]:
             raise PanoLightError(f"{p}: {frame.shape[1]}x{frame.shape[0]}, but {paths[0].name} is "
                                  f"{frames[0].shape[1]}x{frames[0].shape[0]}: a bracket set's frames have one size")
         frames.append(frame)
-    merged, info = merge_brackets(frames, exposures)
+    merged, info = merge_brackets(frames, exposures, names=[p.name for p in paths])
     return merged, {"files": [str(p) for p in paths], "exposures_from": origin, **info}

@@ -45,6 +45,37 @@ def test_three_exposures_merge_to_the_truth_and_the_sun_clips_at_the_darkest_whi
     assert ceiling is not None and ceiling.rgb == (4.0, 4.0, 4.0)
 
 
+def test_frames_that_contradict_their_exposures_or_show_another_scene_are_refused_before_the_merge():
+    """Blender's city at -2, 0, +2 (a camera's S-curve too): a still set's neighbours in exposure agree (none of
+    their pixels darker in the frame exposed more, ranked alike), recorded; listed the other way round, or with
+    the forest's frame in it (a set grouped across two scenes), it is refused naming the frames, nothing merged.
+    A wrong step (a 1-stop set told 2) is not caught: a camera's steeper curve reads the same."""
+    from panolight_core.camera.brackets import check_agreement
+    from panolight_core.camera.resample import area_downsample
+    from panolight_core.data import load_studio_hdri
+
+    city = load_studio_hdri("city")
+    for curve in ("srgb", "contrast"):
+        frames = [hdr_to_ldr(city, ev, 90, curve=curve) for ev in (-2, 0, 2)]
+        _, info = merge_brackets(frames, [0.25, 1.0, 4.0])
+        assert len(info["agreement"]) == 2
+        assert all(a["contradicting"] <= 0.01 and a["rank_correlation"] >= 0.9 for a in info["agreement"])
+    names = ["dark.jpg", "mid.jpg", "bright.jpg"]
+    with pytest.raises(PanoLightError, match=r"^mid.jpg \(exposed 2 stops more than bright.jpg\) is darker than "
+                                             r"bright.jpg on 100 % of the pixels both expose well"):
+        merge_brackets(frames[::-1], [0.25, 1.0, 4.0], names=names[::-1])
+    forest = area_downsample(load_studio_hdri("forest"), city.shape[0]).astype(np.float32)
+    with pytest.raises(PanoLightError, match=r"^frame 3 \(exposed 2 stops more than frame 2\) does not show the "
+                                             r"scene frame 2 shows"):
+        merge_brackets([frames[0], frames[1], hdr_to_ldr(forest, 2, 90)], [0.25, 1.0, 4.0])
+    one_stop = [hdr_to_ldr(city, ev, 90) for ev in (-1, 0, 1)]
+    assert len(check_agreement(one_stop, np.array([0.25, 1.0, 4.0]))) == 2  # passes: see the docstring
+    flat = np.full((16, 32, 3), 120, np.uint8)  # too few pixels to compare, or codes to rank: no test, no refusal
+    assert check_agreement([flat, flat + 60], np.array([1.0, 4.0]))[0].compared == 16 * 32
+    wall = np.full((64, 64, 3), 120, np.uint8)
+    assert check_agreement([wall, wall + 60], np.array([1.0, 4.0]))[0].rank_correlation is None
+
+
 def test_linear_frames_merge_as_the_8_bit_frames_they_decode_from(day):
     """Camera RAWs are merged in their own linear values, weighed by their nearest sRGB codes: frames that are
     exactly the 8-bit frames' decoded values merge to the same HDR (to float32 rounding), shifts and ghosts alike."""
@@ -112,8 +143,8 @@ def test_a_hand_held_set_is_aligned_round_the_panorama_and_merges_as_the_still_o
     w = truth.shape[1]
     assert info["shifts"] == [[-3, 40], [0, 0], [2, w - 25]]
     assert np.array_equal(merged[4:-4], still[4:-4])
-    raw, raw_info = merge_brackets(moved, [0.25, 1.0, 4.0], align=False)
-    assert "shifts" not in raw_info and not np.array_equal(raw[4:-4], still[4:-4])
+    with pytest.raises(PanoLightError, match=r"does not show the scene .* moved further than the alignment"):
+        merge_brackets(moved, [0.25, 1.0, 4.0], align=False)  # unaligned, the frames disagree: refused
 
 
 def test_the_alignment_s_median_code_is_numpy_s_median_read_from_the_histogram():

@@ -28,6 +28,14 @@ def _frame(path, ldr, time_s=None, f_number=None, iso=None):
     return str(path)
 
 
+def _city(rows: int) -> np.ndarray:
+    """Blender's city panorama at ``rows`` x 2 rows: another scene than the clear day's."""
+    from panolight_core.camera.resample import area_downsample
+    from panolight_core.data import load_studio_hdri
+
+    return area_downsample(load_studio_hdri("city"), rows).astype(np.float32)
+
+
 @pytest.fixture(scope="module")
 def day():
     return _clear_day()
@@ -66,6 +74,8 @@ def test_evs_give_the_exposures_where_the_files_have_none(tmp_path, day):
     ("same exposures", r"less than a third of a stop apart"),
     ("sizes", r"small.jpg: 32x16, but g0.jpg is .*one size"),
     ("hdr frame", r"frame.exr: a bracket frame must be an 8-bit picture"),
+    ("listed out of order", r"g1.jpg \(exposed 2 stops more than g2.jpg\) is darker than g2.jpg on 100 % .*--evs"),
+    ("another scene", r"city.jpg \(exposed 2 stops more than g0.jpg\) does not show the scene g0.jpg shows"),
 ])
 def test_bad_sets_are_refused_in_one_line(tmp_path, day, capsys, case, match):
     truth, _, _ = day
@@ -73,7 +83,10 @@ def test_bad_sets_are_refused_in_one_line(tmp_path, day, capsys, case, match):
     args = {"no exif": files, "one with evs": [files[0], "--evs=-2"], "evs count": [*files, "--evs=-2,0"],
             "same exposures": [*files, "--evs=0,0.1,2"],
             "sizes": [files[0], _frame(tmp_path / "small.jpg", np.zeros((16, 32, 3), np.uint8)), "--evs=-2,0"],
-            "hdr frame": [files[0], str(write_image(tmp_path / "frame.exr", truth)), "--evs=-2,0"]}[case]
+            "hdr frame": [files[0], str(write_image(tmp_path / "frame.exr", truth)), "--evs=-2,0"],
+            "listed out of order": [files[2], files[1], files[0], "--evs=-2,0,2"],  # the files' order, not theirs
+            "another scene": [files[0], _frame(tmp_path / "city.jpg", hdr_to_ldr(_city(truth.shape[0]), 0)),
+                              files[2], "--evs=-2,0,2"]}[case]
     assert main(["estimate", *args, "-o", str(tmp_path / "out"), "-q"]) != 0
     err = capsys.readouterr().err
     assert len([line for line in err.splitlines() if line.startswith("panolight: error")]) == 1

@@ -1,0 +1,22 @@
+"""training.experiments.bracket_agreement: right sets pass the check, reversed and mixed-scene ones are refused."""
+
+from panolight_core.camera.resample import area_downsample
+from panolight_core.data import load_studio_hdri
+from training.experiments import bracket_agreement
+
+
+def test_right_pairs_pass_and_reversed_or_mixed_ones_are_refused():
+    city = area_downsample(load_studio_hdri("city"), 256)
+    forest = area_downsample(load_studio_hdri("forest"), 256)
+    rows = bracket_agreement.scene_rows(city, forest, "city")
+    by = {case: [r for r in rows if r["case"] == case] for case in {r["case"] for r in rows}}
+    assert len(by["right"]) == 4 * 4 and len(by["another scene"]) == 4 * 2  # 4 pairs (2 for another) x 4 curves
+    assert not any(map(bracket_agreement.refused, by["right"]))
+    assert all(map(bracket_agreement.refused, by["reversed"]))
+    assert all(map(bracket_agreement.refused, by["another scene"]))
+    assert not any(map(bracket_agreement.refused, by["steps halved"] + by["one stop off"]))  # not caught: the docstring
+    srgb = [r for r in by["steps halved"] if r["curve"] == "srgb"]
+    assert all(abs(r["stops_off"] + 1.0) < 0.1 for r in srgb)  # a 1-stop set told 2 reads 1 stop short through sRGB
+    kept = bracket_agreement.evidence(rows, bracket_agreement.summary(rows))
+    assert kept["wrong_passed"] == [] and len(kept["right_least_alike"]) == 10
+    assert kept["table"][2].startswith("| right | srgb | 4 | 0 |")
