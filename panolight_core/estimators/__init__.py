@@ -85,14 +85,16 @@ def analytic(pixels: np.ndarray, lmax: int) -> Estimate:
 
 
 def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_path=None, restore: bool = True,
-               hdr_model_path=None, ceiling=None) -> Estimate:
+               hdr_model_path=None, pointer=None) -> Estimate:
     """The per-source estimate (``keylight`` with key lights, else ``sources``) with the shipped per-source
     energy model or the one in ``model_path``. An HDR file is its exact projection, unless it clips its own source
     (``camera.ceiling``): then, with ``restore``, its plateau is weighed as a photo's clipped sun is
     (``sources.restore``), and every other pixel kept, by the model in ``hdr_model_path`` (default: ``model_path``
-    when given, else the shipped ``sources.HDR_MODEL_PATH``, trained on clipped HDR files too). ceiling: the
-    ``camera.ceiling.Ceiling`` to restore instead of the one found (an artist's pointer declared it:
-    ``restored_where_pointed``)."""
+    when given, else the shipped ``sources.HDR_MODEL_PATH``, trained on clipped HDR files too). pointer: the unit
+    direction of the artist's sun (CONVENTIONS.md frame): where the file holds no plateau (a file resampled after its
+    merge keeps its clipped sun as a soft bump, no exact ties), the patch it points at is declared clipped
+    (``camera.ceiling.pointed_ceiling``) and restored as a found one is; where it finds nothing to restore, the
+    exact projection says why in its info (``pointed_restoration``)."""
     name = "keylight" if key_lights else "sources"
     from . import sources
     from .sources.restore import declared_source
@@ -101,12 +103,17 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
         model = sources.load_source_model(sources.MODEL_PATH if model_path is None else model_path)
         rec, info = sources.recover(pixels, model), {"input": "ldr"}
     else:
-        ceiling = find_ceiling(pixels) if ceiling is None else ceiling
+        ceiling, why_not = find_ceiling(pixels), None
+        if ceiling is None and pointer is not None and restore:
+            ceiling, said = pointed_ceiling(pixels, pointer)
+            why_not = None if ceiling is not None else said
         if ceiling is None or not restore:
             est = _exact_hdr(pixels, lmax, name)
             if ceiling is not None:
                 est.info["restoration"] = {**ceiling.describe(), "restored": False,
                                            "why": "--restore none: the file as it is, its clipped plateau unweighed"}
+            if why_not is not None:
+                est.info["pointed_restoration"] = why_not
             return est
         model = sources.load_source_model(hdr_model_path or model_path or sources.HDR_MODEL_PATH)
         rec, info = sources.recover_hdr(declared_source(pixels, ceiling), model), {"input": "hdr"}
@@ -183,29 +190,9 @@ def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, or
     return replace(est, info={**est.info, "sun_metadata": {**said, "used": False, "why": why}})
 
 
-def restored_where_pointed(pixels: np.ndarray, est: Estimate, direction) -> Estimate:
-    """An HDR file's estimate ``est`` (the per-source estimators': its exact projection, no plateau found) made
-    again with the plateau the artist's sun at unit ``direction`` points at (``camera.ceiling.pointed_ceiling``: a
-    file resampled after its merge keeps its clipped sun as a soft bump, no exact plateau), restored as a found one
-    is; ``with_pointed_sun`` then puts the sun there. Where the pointer finds nothing to restore, ``est`` with the
-    reason in its info (``pointed_restoration``). Made by the same estimator (``Entry.restores``: its own
-    models); any other estimate is returned as it is."""
-    entry = _REGISTRY.get(est.info.get("name"))
-    if (entry is None or not entry.restores or est.recovery is not None or pixels.dtype == np.uint8
-            or "restoration" in est.info):
-        return est
-    t0 = time.perf_counter()
-    ceiling, why = pointed_ceiling(pixels, direction)
-    if ceiling is None:
-        return replace(est, info={**est.info, "pointed_restoration": why})
-    out = entry.run(pixels, est.lmax, restore=True, ceiling=ceiling)  # the same estimator, its own models
-    out.info.update({k: est.info[k] for k in ("name", "version") if k in est.info},
-                    estimate_s=est.info.get("estimate_s", 0.0) + time.perf_counter() - t0)
-    return out
+def per_source_key_lights(pixels: np.ndarray, lmax: int, restore: bool = True, pointer=None) -> Estimate:
+    return per_source(pixels, lmax, key_lights=True, restore=restore, pointer=pointer)
 
-
-def per_source_key_lights(pixels: np.ndarray, lmax: int, restore: bool = True, ceiling=None) -> Estimate:
-    return per_source(pixels, lmax, key_lights=True, restore=restore, ceiling=ceiling)
 
 
 def neural_estimator(weights=None, label: str = "neural"):
@@ -310,16 +297,18 @@ def resolve(name: str) -> str:
     return name
 
 
-def estimate(pixels: np.ndarray, lmax: int = 2, estimator: str = "auto", restore: bool = True) -> Estimate:
+def estimate(pixels: np.ndarray, lmax: int = 2, estimator: str = "auto", restore: bool = True, pointer=None
+             ) -> Estimate:
     """Run an estimator on panorama pixels (uint8 sRGB LDR or float linear HDR); records its time. restore: an HDR
     file that clips its own source has it weighed by the estimators that can (``Entry.restores``); an estimator that
-    cannot records that it took the file as it is."""
+    cannot records that it took the file as it is. pointer: the artist's sun (a unit direction), which points such an
+    estimator at the clipped patch of a file that lost its plateau (``per_source``)."""
     name = resolve(estimator)
     if pixels.ndim != 3 or pixels.shape[-1] != 3:
         raise PanoLightError(f"panorama pixels must be (H, W, 3), got {pixels.shape}")
     t0 = time.perf_counter()
     entry = _REGISTRY[name]
-    est = entry.run(pixels, lmax, restore=restore) if entry.restores else entry.run(pixels, lmax)
+    est = entry.run(pixels, lmax, restore=restore, pointer=pointer) if entry.restores else entry.run(pixels, lmax)
     if not entry.restores and pixels.dtype != np.uint8 and (ceiling := find_ceiling(pixels)) is not None:
         est.info["restoration"] = {**ceiling.describe(), "restored": False,
                                    "why": f"the {name} estimator takes an HDR file as it is (keylight and sources "

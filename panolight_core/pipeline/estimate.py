@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import sh, threads
 from ..errors import PanoLightError
-from ..estimators import Estimate, estimate, restored_where_pointed, with_key_strength, with_pointed_sun
+from ..estimators import Estimate, estimate, with_key_strength, with_pointed_sun
 from ..estimators.highlights import CLIP_LEVEL
 from ..estimators.solar import sun_position
 from ..io.lighting import make_lighting
@@ -45,10 +45,10 @@ def estimate_pixels(pixels: np.ndarray, lmax="auto", estimator: str = "auto", *,
     ``sun_strength`` (``estimators.with_key_strength``). restore: an HDR file that clips its own source has it
     weighed (``estimators.estimate``)."""
     threads.check_cancelled()
-    est = estimate(pixels, DEFAULT_MAX_ORDER if str(lmax) == "auto" else int(lmax), estimator, restore)
+    artist = pointed_sun is not None and len(pointed_sun) < 3  # on an HDR file, the clipped patch it points at
+    est = estimate(pixels, DEFAULT_MAX_ORDER if str(lmax) == "auto" else int(lmax), estimator, restore,
+                   pointed_sun[0] if artist and restore else None)
     if pointed_sun is not None:
-        if restore and len(pointed_sun) < 3:  # the artist's sun on an HDR file: the clipped patch it points at
-            est = restored_where_pointed(pixels, est, pointed_sun[0])
         est = with_pointed_sun(est, *pointed_sun)
     est = with_key_strength(est, sun_strength)
     threads.check_cancelled()
