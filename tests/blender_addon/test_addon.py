@@ -921,7 +921,8 @@ def _restored_as_on_the_command_line(want, sun):
 
 def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp_path):
     """Load panorama with three frames selected: one background merged by the core (the CLI's numbers), whose sun,
-    clipped in every frame, the estimate restores; a set whose exposures cannot be told apart is refused."""
+    clipped in every frame, the estimate restores; a set whose exposures cannot be told apart, or that contradicts
+    them, is refused, and what was loaded stays."""
     from panolight_core.apps.cli import main
     from panolight_core.camera import hdr_to_ldr
     from panolight_core.io import write_srgb8
@@ -940,6 +941,9 @@ def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp
     _restored_as_on_the_command_line(want, s)
     with pytest.raises(RuntimeError, match="less than a third of a stop apart"):
         bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="0,0.1,2")
+    with pytest.raises(RuntimeError, match=r"shot_1.png \(exposed 2 stops more than shot_2.png\) is darker"):
+        bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="2,0,-2")  # told the other way
+    assert bpy.context.scene.world[store.PANORAMA_KEY] == image  # the set loaded before stays
 
 
 def test_a_camera_raw_loads_decoded_by_the_core_and_estimates_as_on_the_command_line(tmp_path, monkeypatch):
