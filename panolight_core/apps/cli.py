@@ -15,7 +15,7 @@ from pathlib import Path
 from .. import __version__
 from ..errors import PanoLightError, PanoLightWarning, printable
 from ..pipeline import settings as estimate_settings
-from ..pipeline.brackets import BracketSet, group_brackets, parse_evs
+from ..pipeline.brackets import BracketSet, group_brackets, group_by_exposure, parse_evs
 from .options import HelpFormatter, progress_to_stderr, resolution
 
 PLUGIN_GROUP = "panolight.commands"  # entry points: register(subparsers) adds a plugin's commands
@@ -55,6 +55,7 @@ EPILOG_BATCH = """\
 examples:
   panolight batch shots/ -o out/                         # every .exr .hdr .png .jpg and camera RAW in shots/
   panolight batch --list todo.txt -o out/ --shard 2/4    # second of four farm jobs over the same list
+  panolight batch shoot/ -o out/ --brackets auto        # bracket sets of any size, grouped by their EXIF
 
 Each input gets OUTDIR/<name>/ with the files of 'panolight estimate'. Bad files are reported and
 skipped; the exit status is 1 if any input failed. A report goes to OUTDIR/batch_report.json
@@ -119,6 +120,13 @@ def run_project(args) -> int:
     return run_estimate(args)
 
 
+def _bracket_count(text: str):
+    """--brackets: "auto", or a set's frame count (2-64)."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    return estimate_settings.number("--brackets", 2, 64, integer=True)(text)
+
+
 def run_batch(args) -> int:
     import dataclasses
     import functools
@@ -133,7 +141,12 @@ def run_batch(args) -> int:
     inputs = collect_inputs(args.inputs, args.list, args.recursive, exclude=args.output)
     if not inputs:
         raise PanoLightError("no input panoramas found (give files, folders, or --list FILE)")
-    if args.brackets:
+    if args.brackets == "auto":
+        if args.evs is not None:
+            raise PanoLightError("--brackets auto groups the files by their EXIF exposures: give --brackets N with "
+                                 "--evs")
+        inputs = group_by_exposure(inputs)
+    elif args.brackets:
         inputs = group_brackets(inputs, args.brackets, args.evs)
     elif args.evs is not None:
         raise PanoLightError("--evs gives each bracket set's exposures: give --brackets N too")
@@ -280,9 +293,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--list", help="a text file with one input path per line ('#' comments allowed)")
     b.add_argument("--recursive", action="store_true", help="also search sub-folders of the given folders")
     b.add_argument("--shard", help="run only shard I of N, written I/N (1 <= I <= N)")
-    b.add_argument("--brackets", type=estimate_settings.number("--brackets", 2, 64, integer=True), default=None,
-                   metavar="N", help="the inputs are bracket sets of N frames: sorted by name, each N consecutive "
-                                     "files one scene, merged into one HDR (its folder named after the first frame)")
+    b.add_argument("--brackets", type=_bracket_count, default=None, metavar="N|auto",
+                   help="the inputs are bracket sets of N frames: sorted by name, each N consecutive files one scene, "
+                        "merged into one HDR (its folder named after the first frame); auto: sets of any size by the "
+                        "files' EXIF exposures, a new set where an exposure repeats (a lone frame estimated alone)")
     b.add_argument("--evs", type=estimate_settings.argparse_type(parse_evs), default=None, metavar="EV,EV,...",
                    help="with --brackets: every set's exposures in stops, in name order (default: each file's EXIF)")
     b.add_argument("--jobs", type=estimate_settings.number("--jobs", 0, 256, integer=True), default=0, metavar="N",

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import threads
-from ..camera.brackets import check_exposures, exposure, merge_brackets
+from ..camera.brackets import MIN_EXPOSURE_STEP, check_exposures, exposure, merge_brackets
 from ..errors import PanoLightError
 from ..io.capture import read_exposure
 from ..io.images import RAW_FORMAT, read_image, sniff_format
@@ -45,6 +45,31 @@ def group_brackets(files, size: int, evs=None) -> list[BracketSet]:
     if evs is not None and len(evs) != size:
         raise PanoLightError(f"--evs gives {len(evs)} exposure(s) for sets of {size} frames: one per frame")
     return [BracketSet(files[i:i + size], evs) for i in range(0, len(files), size)]
+
+
+def group_by_exposure(files) -> list:
+    """Sorted ``files`` grouped by each file's EXIF exposure (``--brackets auto``): consecutive frames make one set
+    until a frame's exposure repeats one the set holds (within MIN_EXPOSURE_STEP: the camera's bracket sequence began
+    again), so sets of any size share a folder. A set of one frame is that file alone (a single shot between the
+    sets: estimated as it is). PanoLightError naming a file that records no exposure."""
+    files = sorted((Path(f) for f in files), key=str)
+    sets, current, seen = [], [], []
+    for path in files:
+        exif = read_exposure(path)
+        if exif is None:
+            raise PanoLightError(f"{path}: records no exposure (EXIF ExposureTime and FNumber), which --brackets auto "
+                                 f"groups the files by; give --brackets N and --evs instead")
+        try:
+            e = exposure(exif["time_s"], exif["f_number"], exif["iso"])
+        except PanoLightError as exc:
+            raise PanoLightError(f"{path}: {exc}") from None
+        if any(max(e, v) / min(e, v) < MIN_EXPOSURE_STEP for v in seen):
+            sets.append(current)
+            current, seen = [], []
+        current.append(path)
+        seen.append(e)
+    sets.append(current)
+    return [BracketSet(s) if len(s) > 1 else s[0] for s in sets if s]
 
 
 def parse_evs(text: str) -> tuple[float, ...]:

@@ -115,3 +115,29 @@ def test_batch_groups_sorted_files_into_sets_and_resumes_them(tmp_path, day, cap
     assert "6 file(s) do not make whole sets of 4 frames" in capsys.readouterr().err
     assert main(["batch", str(shots), "-o", str(tmp_path / "y"), "--evs=-2,0,2"]) != 0
     assert "give --brackets N too" in capsys.readouterr().err
+
+
+def test_batch_auto_groups_sets_of_any_size_by_their_exif_exposures(tmp_path, day, capsys):
+    """--brackets auto: a 3-frame set, a 5-frame set and a lone shot in one folder (sorted by name, each camera
+    sequence starting at ev 0): a new set where an exposure repeats, the lone shot estimated alone; a file with no
+    EXIF exposure, or --evs given too, is refused before any work."""
+    truth, _, _ = day
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    for scene, evs in (("a", (0, -2, 2)), ("b", (0, -2, 2, -4, 4)), ("c", (0,))):
+        for i, ev in enumerate(evs):
+            _frame(shots / f"{scene}_{i}.jpg", hdr_to_ldr(truth, ev), 2.0 ** ev / 250, 8.0, 100)
+    out = tmp_path / "out"
+    assert main(["batch", str(shots), "-o", str(out), "--brackets", "auto", "--jobs", "1", "-q"]) == 0
+    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == ["a_0", "b_0", "c_0"]
+    frames = {d: json.loads((out / d / "lighting.json").read_text())["source"].get("brackets")
+              for d in ("a_0", "b_0", "c_0")}
+    assert len(frames["a_0"]["files"]) == 3 and frames["b_0"]["stops"] == pytest.approx([0, -2, 2, -4, 4], abs=0.05)
+    assert frames["c_0"] is None  # the lone shot: one JPEG
+    _frame(shots / "d_0.jpg", hdr_to_ldr(truth, 0))  # no EXIF
+    assert main(["batch", str(shots), "-o", str(tmp_path / "x"), "--brackets", "auto"]) != 0
+    err = capsys.readouterr().err
+    assert "d_0.jpg: records no exposure (EXIF ExposureTime and FNumber), which --brackets auto" in err
+    assert main(["batch", str(shots), "-o", str(tmp_path / "y"), "--brackets", "auto", "--evs=-2,0,2"]) != 0
+    assert "--brackets auto groups the files by their EXIF exposures" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
