@@ -55,7 +55,7 @@ EPILOG_BATCH = """\
 examples:
   panolight batch shots/ -o out/                         # every .exr .hdr .png .jpg and camera RAW in shots/
   panolight batch --list todo.txt -o out/ --shard 2/4    # second of four farm jobs over the same list
-  panolight batch shoot/ -o out/ --brackets auto        # bracket sets of any size, grouped by their EXIF
+  panolight batch shoot/ -o out/ --brackets auto         # bracket sets of any size, grouped by their EXIF
 
 Each input gets OUTDIR/<name>/ with the files of 'panolight estimate'. Bad files are reported and
 skipped; the exit status is 1 if any input failed. A report goes to OUTDIR/batch_report.json
