@@ -3,7 +3,8 @@ HDRs: each scene's camera JPEGs (q90, EVALUATION.md's camera and three other ton
 at {-2, 0, +2} and {-4, -2, 0, +2, +4}, each frame against its neighbour in exposure (the pairs the check compares),
 as a set is taken and as a set goes wrong:
 
-- right: the exposures the frames were shot at;
+- right: the exposures the frames were shot at; and the same with the brighter frame 1 or 2 pixels off (what the
+  alignment leaves of a hand-held set's move);
 - reversed: the frames in the opposite order to their exposures (the files listed the other way round);
 - steps halved / doubled: a set shot 1 stop apart told 2 (``--evs=-2,0,2``), and one shot 2 apart told 1;
 - one stop off: the +2 frame shot at +3;
@@ -30,8 +31,9 @@ from panolight_core.camera.brackets import (
     AGREE_CODES,
     BAD_SET_CONTRADICTING,
     BAD_SET_RANK,
-    MIN_AGREE_PIXELS,
+    MIN_AGREE_BLOCKS,
     frame_agreement,
+    shift_frame,
 )
 from panolight_core.camera.color import SRGB8_TO_LINEAR
 from training.common.real_hdri import DEFAULT_HDRI, load_hdr, scene_files
@@ -55,7 +57,10 @@ def scene_rows(hdr, other, scene: str) -> list[dict]:
         name = curve[0] if curve[1] is None else f"{curve[0]} {curve[1]:g}"
         cases = []  # (case, set, stated evs of the pair, the pair's frames as shown)
         for a, b in ((-4, -2), (-2, 0), (0, 2), (2, 4)):
-            cases.append(("right", "5 brackets" if 4 in (abs(a), abs(b)) else "3 brackets", (a, b), shot[a], shot[b]))
+            kind = "5 brackets" if 4 in (abs(a), abs(b)) else "3 brackets"
+            cases.append(("right", kind, (a, b), shot[a], shot[b]))
+            for dy, dx in ((1, 1), (2, 0)):  # what an alignment leaves of a hand-held set's move
+                cases.append((f"right, {max(dy, dx)} px off", kind, (a, b), shot[a], shift_frame(shot[b], dy, dx)))
         cases += [("reversed", "3 brackets", (a, b), shot[-a], shot[-b]) for a, b in ((-2, 0), (0, 2))]
         cases += [("steps halved", "3 brackets", (a, b), shot[a // 2], shot[b // 2]) for a, b in ((-2, 0), (0, 2))]
         cases += [("steps doubled", "3 brackets", (a, b), shot[2 * a], shot[2 * b]) for a, b in ((-1, 0), (0, 1))]
@@ -86,7 +91,7 @@ def srgb_stops_off(darker: np.ndarray, brighter: np.ndarray, stops: float) -> fl
 def refused(row: dict) -> bool:
     """Whether ``check_agreement`` refuses the pair of ``row`` (the shipped thresholds)."""
     rho = row["rank_correlation"]
-    return row["compared"] >= MIN_AGREE_PIXELS and (row["contradicting"] > BAD_SET_CONTRADICTING
+    return row["compared"] >= MIN_AGREE_BLOCKS and (row["contradicting"] > BAD_SET_CONTRADICTING
                                                     or (rho is not None and rho < BAD_SET_RANK))
 
 
@@ -98,11 +103,11 @@ def summary(rows: list[dict]) -> list[str]:
     for case in dict.fromkeys(r["case"] for r in rows):
         for curve in dict.fromkeys(r["curve"] for r in rows):
             sel = [r for r in rows if r["case"] == case and r["curve"] == curve]
-            c = np.array([r["contradicting"] for r in sel if r["compared"] >= MIN_AGREE_PIXELS])
+            c = np.array([r["contradicting"] for r in sel if r["compared"] >= MIN_AGREE_BLOCKS])
             rho = np.array([r["rank_correlation"] for r in sel
-                            if r["compared"] >= MIN_AGREE_PIXELS and r["rank_correlation"] is not None])
+                            if r["compared"] >= MIN_AGREE_BLOCKS and r["rank_correlation"] is not None])
             off = np.abs([r["stops_off"] for r in sel])
-            right = case == "right"
+            right = case.startswith("right")
             lines.append(f"| {case} | {curve} | {len(sel)} | {sum(map(refused, sel))} | "
                          f"{np.median(c):.3f}, {(c.max() if right else c.min()):.3f} | "
                          f"{np.median(rho):.3f}, {(rho.min() if right else rho.max()):.3f} | "
@@ -116,10 +121,10 @@ def evidence(rows: list[dict], table: list[str]) -> dict:
     another order or scene the check lets through, each row's measures rounded."""
     def short(row):
         return {k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}
-    right = [r for r in rows if r["case"] == "right" and r["compared"] >= MIN_AGREE_PIXELS]
+    right = [r for r in rows if r["case"].startswith("right") and r["compared"] >= MIN_AGREE_BLOCKS]
     ranked = [r for r in right if r["rank_correlation"] is not None]
     return {"table": table, "thresholds": {"contradicting": BAD_SET_CONTRADICTING, "rank": BAD_SET_RANK,
-                                           "min_pixels": MIN_AGREE_PIXELS},
+                                           "min_blocks": MIN_AGREE_BLOCKS},
             "right_most_contradicting": [short(r) for r in sorted(right, key=lambda r: -r["contradicting"])[:10]],
             "right_least_alike": [short(r) for r in sorted(ranked, key=lambda r: r["rank_correlation"])[:10]],
             "wrong_passed": [short(r) for r in rows if r["case"] in ("reversed", "another scene") and not refused(r)]}

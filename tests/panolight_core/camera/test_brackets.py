@@ -62,7 +62,7 @@ def test_frames_that_contradict_their_exposures_or_show_another_scene_are_refuse
         assert all(a["contradicting"] <= 0.01 and a["rank_correlation"] >= 0.9 for a in info["agreement"])
     names = ["dark.jpg", "mid.jpg", "bright.jpg"]
     with pytest.raises(PanoLightError, match=r"^mid.jpg \(exposed 2 stops more than bright.jpg\) is darker than "
-                                             r"bright.jpg on 100 % of the pixels both expose well"):
+                                             r"bright.jpg over 100 % of what both expose well"):
         merge_brackets(frames[::-1], [0.25, 1.0, 4.0], names=names[::-1])
     forest = area_downsample(load_studio_hdri("forest"), city.shape[0]).astype(np.float32)
     with pytest.raises(PanoLightError, match=r"^frame 3 \(exposed 2 stops more than frame 2\) does not show the "
@@ -74,6 +74,20 @@ def test_frames_that_contradict_their_exposures_or_show_another_scene_are_refuse
     assert check_agreement([flat, flat + 60], np.array([1.0, 4.0]))[0].compared == 16 * 32
     wall = np.full((64, 64, 3), 120, np.uint8)
     assert check_agreement([wall, wall + 60], np.array([1.0, 4.0]))[0].rank_correlation is None
+
+
+def test_block_codes_are_the_brightest_channel_s_block_means_on_the_sampled_grid():
+    from panolight_core.camera.brackets import AGREE_GRID_WIDTH, block_codes
+
+    rng = np.random.default_rng(7)
+    for width, step, k in ((2048, 4, 4), (1024, 2, 4), (512, 1, 4), (300, 1, 2), (64, 1, 1)):
+        frame = rng.integers(0, 256, (width // 2 + 3, width, 3), dtype=np.uint8)  # rows not a multiple of k
+        top = frame[::step, ::step].max(axis=-1).astype(np.float64)
+        h, w = top.shape[0] // k, top.shape[1] // k
+        want = top[:h * k, :w * k].reshape(h, k, w, k).mean(axis=(1, 3))
+        got = block_codes(frame)
+        assert got.dtype == np.float32 and got.shape == (h, w) and np.allclose(got, want, atol=1e-4)
+        assert width < 4 * AGREE_GRID_WIDTH or w == AGREE_GRID_WIDTH
 
 
 def test_linear_frames_merge_as_the_8_bit_frames_they_decode_from(day):
@@ -143,8 +157,9 @@ def test_a_hand_held_set_is_aligned_round_the_panorama_and_merges_as_the_still_o
     w = truth.shape[1]
     assert info["shifts"] == [[-3, 40], [0, 0], [2, w - 25]]
     assert np.array_equal(merged[4:-4], still[4:-4])
-    with pytest.raises(PanoLightError, match=r"does not show the scene .* moved further than the alignment"):
-        merge_brackets(moved, [0.25, 1.0, 4.0], align=False)  # unaligned, the frames disagree: refused
+    far = [frames[0], frames[1], shift_frame(frames[2], 0, 300)]  # turned 105 degrees: beyond the alignment's reach
+    with pytest.raises(PanoLightError, match=r"frame 3 .* does not show the scene .* moved further than the alignment"):
+        merge_brackets(far, [0.25, 1.0, 4.0])
 
 
 def test_the_alignment_s_median_code_is_numpy_s_median_read_from_the_histogram():

@@ -74,7 +74,7 @@ def test_evs_give_the_exposures_where_the_files_have_none(tmp_path, day):
     ("same exposures", r"less than a third of a stop apart"),
     ("sizes", r"small.jpg: 32x16, but g0.jpg is .*one size"),
     ("hdr frame", r"frame.exr: a bracket frame must be an 8-bit picture"),
-    ("listed out of order", r"g1.jpg \(exposed 2 stops more than g2.jpg\) is darker than g2.jpg on 100 % .*--evs"),
+    ("listed out of order", r"g1.jpg \(exposed 2 stops more than g2.jpg\) is darker than g2.jpg over 100 % .*--evs"),
     ("another scene", r"city.jpg \(exposed 2 stops more than g0.jpg\) does not show the scene g0.jpg shows"),
 ])
 def test_bad_sets_are_refused_in_one_line(tmp_path, day, capsys, case, match):
