@@ -220,7 +220,7 @@ def block_codes(frame: np.ndarray) -> np.ndarray:
     top = np.maximum(np.maximum(frame[::s, ::s, 0], frame[::s, ::s, 1]), frame[::s, ::s, 2])
     k = max(1, top.shape[1] // AGREE_GRID_WIDTH)
     h, w = top.shape[0] // k, top.shape[1] // k
-    top = top[:h * k, :w * k].astype(np.uint16)  # k x k x 255 fits: k is 4 but for frames under 512 wide
+    top = top[:h * k, :w * k].astype(np.uint16)  # k x k x 255 fits: the grid row is under 1024 samples, k <= 7
     cols = sum(top[:, i::k] for i in range(1, k)) + top[:, 0::k]  # strided slices: numpy sums short axes slowly
     sums = sum(cols[i::k] for i in range(1, k)) + cols[0::k]
     return sums.astype(np.float32) / np.float32(k * k)
