@@ -64,6 +64,8 @@ TOOLS = {
                  "and m-RMSE"),
     "bracket-alignment": ("training.experiments.bracket_alignment", "bracket sets aligned over the real HDRs: still "
                           "frames left in place, moved frames put back"),
+    "restore-previews": ("training.experiments.restore_previews", "panolight estimate's previews of real scenes "
+                         "clipped at +4 stops: as they are, restored, and the truth (docs/studies/restore_previews.jpg)"),
     "bracket-agreement": ("training.experiments.bracket_agreement", "bracket sets' frames against their exposures over "
                           "the real HDRs and four camera curves: right sets passed, reversed or mixed-scene sets refused"),
     "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
