@@ -10,7 +10,7 @@ as a set is taken and as a set goes wrong:
 - one stop off: the +2 frame shot at +3;
 - another scene: the ev -2 and +2 frames of the next scene of the same size (a set grouped across two scenes).
 
-Prints, by case and curve, the pairs ``check_agreement`` refuses, and the share of contradicting pixels and the rank
+Prints, by case and curve, the pairs ``check_agreement`` refuses, and the share of contradicting blocks and the rank
 correlation (median, and the worst for the check: the right sets' largest and smallest, the wrong ones' opposite),
 where the refusal's thresholds (``BAD_SET_CONTRADICTING``, ``BAD_SET_RANK``) stand between them; and the stops off
 through sRGB, which a test of the exposures' values would read: a camera's own curve moves it as far as a wrong
@@ -140,7 +140,8 @@ def main(argv=None) -> int:
     rows = []
     hdrs = {p: load_hdr(p) for p in files}
     for i, path in enumerate(files):
-        other = next((hdrs[q] for q in files[i + 1:] + files[:i] if hdrs[q].shape == hdrs[path].shape), None)  # one size
+        other = next((hdrs[q] for q in files[i + 1:] + files[:i] if hdrs[q].shape == hdrs[path].shape),
+                     None)  # a set's frames have one size
         rows += scene_rows(hdrs[path], other, path.stem)
         print(f"[{i + 1}/{len(files)}] {path.stem}", flush=True)
     table = summary(rows)
