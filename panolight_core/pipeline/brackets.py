@@ -47,6 +47,19 @@ def group_brackets(files, size: int, evs=None) -> list[BracketSet]:
     return [BracketSet(files[i:i + size], evs) for i in range(0, len(files), size)]
 
 
+def exif_exposure(path: Path, remedy: str) -> float:
+    """A frame's relative exposure from its EXIF (``camera.brackets.exposure``). PanoLightError naming the file,
+    followed by ``remedy``, where it records none; naming it too where its values are not an exposure."""
+    exif = read_exposure(path)
+    if exif is None:
+        sep = "" if remedy.startswith(";") else ", "
+        raise PanoLightError(f"{path}: records no exposure (EXIF ExposureTime and FNumber){sep}{remedy}")
+    try:
+        return exposure(exif["time_s"], exif["f_number"], exif["iso"])
+    except PanoLightError as exc:
+        raise PanoLightError(f"{path}: {exc}") from None
+
+
 def group_by_exposure(files) -> list:
     """Sorted ``files`` grouped by each file's EXIF exposure (``--brackets auto``): consecutive frames make one set
     until a frame's exposure repeats one the set holds (within MIN_EXPOSURE_STEP: the camera's bracket sequence began
@@ -55,14 +68,7 @@ def group_by_exposure(files) -> list:
     files = sorted((Path(f) for f in files), key=str)
     sets, current, seen = [], [], []
     for path in files:
-        exif = read_exposure(path)
-        if exif is None:
-            raise PanoLightError(f"{path}: records no exposure (EXIF ExposureTime and FNumber), which --brackets auto "
-                                 f"groups the files by; give --brackets N and --evs instead")
-        try:
-            e = exposure(exif["time_s"], exif["f_number"], exif["iso"])
-        except PanoLightError as exc:
-            raise PanoLightError(f"{path}: {exc}") from None
+        e = exif_exposure(path, "which --brackets auto groups the files by; give --brackets N and --evs instead")
         if any(max(e, v) / min(e, v) < MIN_EXPOSURE_STEP for v in seen):
             sets.append(current)
             current, seen = [], []
@@ -94,16 +100,7 @@ def bracket_exposures(paths, evs=None) -> tuple[list[float], str]:
             raise PanoLightError(f"--evs gives {len(evs)} exposure(s) for {len(paths)} file(s): one per file")
         found, origin = [2.0 ** v for v in evs], "--evs"
     else:
-        found = []
-        for p in paths:
-            exif = read_exposure(p)
-            if exif is None:
-                raise PanoLightError(f"{p}: records no exposure (EXIF ExposureTime and FNumber); give every frame's "
-                                     f"exposure with --evs (e.g. --evs -2,0,2)")
-            try:
-                found.append(exposure(exif["time_s"], exif["f_number"], exif["iso"]))
-            except PanoLightError as exc:
-                raise PanoLightError(f"{p}: {exc}") from None
+        found = [exif_exposure(p, "; give every frame's exposure with --evs (e.g. --evs -2,0,2)") for p in paths]
         origin = "EXIF (ExposureTime x ISO / FNumber^2)"
     check_exposures(found)
     return found, origin
