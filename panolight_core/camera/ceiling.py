@@ -106,19 +106,20 @@ def _blocks(height: int):
     return [(r, min(height, r + BLOCK_ROWS)) for r in range(0, height, BLOCK_ROWS)]
 
 
-def find_ceiling(pixels) -> Ceiling | None:
+def find_ceiling(pixels, scan=None) -> Ceiling | None:
     """The ``Ceiling`` of float linear HDR ``pixels`` (H, W, 3) (an ndarray or a ``packed.PackedImage``), or None
     when it clips nothing: fewer than MIN_PLATEAU_PIXELS plateau pixels, or a ceiling under MIN_HEADROOM times the
     median luminance (over the pixels of every 8th row and column: a gate, not a measurement). One pass over every
-    row (each row's largest value per channel, on every thread), then one over the rows that reach a ceiling."""
-    row_max, median = _scan(pixels)
+    row (each row's largest value per channel, on every thread), then one over the rows that reach a ceiling.
+    scan: ``scan_rows(pixels)`` when made already."""
+    row_max, median = scan_rows(pixels) if scan is None else scan
     top = row_max.max(axis=0).astype(np.float64)
     if not np.all(np.isfinite(top)) or (top > 0).sum() < MIN_PLATEAU_CHANNELS:
         return None
     return _ceiling_at(pixels, row_max, top, median)
 
 
-def _scan(pixels) -> tuple[np.ndarray, float]:
+def scan_rows(pixels) -> tuple[np.ndarray, float]:
     """(each row's largest value per channel (H, 3), the median luminance of every 8th row and column)."""
     def scan(rows):
         block = np.asarray(pixels[rows[0]:rows[1]], dtype=np.float32)
@@ -157,14 +158,14 @@ POINTED_MAX_OVER = 1000.0  # ... unless the patch peaks above this times the med
 # files that clip their sun: 42-116x); an un-clipped sun is thousands of times it (the shared ones: 3,870-10^6x)
 
 
-def pointed_ceiling(pixels, direction) -> tuple[Ceiling | None, str]:
+def pointed_ceiling(pixels, direction, scan=None) -> tuple[Ceiling | None, str]:
     """The Ceiling an artist's pointer declares where ``find_ceiling`` finds none: a downloaded HDRI resampled
     after its merge has no exact ties left on its clipped sun, only a soft bump at 10-40x the median (four of the
     six in ../shared/data/hdri that clip their sun). The brightest pixel within POINTED_REACH_DEG of unit
     ``direction`` (CONVENTIONS.md frame) is the patch's peak; the file is declared clipped at POINTED_LEVEL of it,
     channel by channel, so the plateau is the bump's top (and any pixel of the file as bright). A peak under
     2 x MIN_HEADROOM or over POINTED_MAX_OVER times the median declares nothing (no source there, or an un-clipped
-    one the file holds whole). Returns (the
+    one the file holds whole). scan: ``scan_rows(pixels)`` when made already (``find_ceiling``'s). Returns (the
     Ceiling, or None, and one sentence on what was declared or why nothing was)."""
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
@@ -183,7 +184,7 @@ def pointed_ceiling(pixels, direction) -> tuple[Ceiling | None, str]:
         y, x = np.unravel_index(int(np.argmax(lum)), lum.shape)
         if lum[y, x] > best[0]:
             best = (float(lum[y, x]), block[y, x].astype(np.float64))
-    row_max, median = _scan(pixels)
+    row_max, median = scan_rows(pixels) if scan is None else scan
     over = best[0] / median if median > 0 else math.inf
     if not POINTED_LEVEL * best[0] >= MIN_HEADROOM * median:
         return None, (f"there is no bright patch within {POINTED_REACH_DEG:g} deg of it (its brightest pixel is "

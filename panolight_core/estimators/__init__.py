@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import __version__, sh
 from ..camera import linear
-from ..camera.ceiling import find_ceiling, pointed_ceiling
+from ..camera.ceiling import find_ceiling, pointed_ceiling, scan_rows
 from ..errors import PanoLightError
 from .highlights import recover_highlights
 
@@ -103,9 +103,10 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
         model = sources.load_source_model(sources.MODEL_PATH if model_path is None else model_path)
         rec, info = sources.recover(pixels, model), {"input": "ldr"}
     else:
-        ceiling, why_not = find_ceiling(pixels), None
-        if ceiling is None and pointer is not None and restore:
-            ceiling, said = pointed_ceiling(pixels, pointer)
+        scan = scan_rows(pixels) if pointer is not None and restore else None  # read once for both
+        ceiling, why_not = find_ceiling(pixels, scan), None
+        if ceiling is None and scan is not None:
+            ceiling, said = pointed_ceiling(pixels, pointer, scan)
             why_not = None if ceiling is not None else said
         if ceiling is None or not restore:
             est = _exact_hdr(pixels, lmax, name)
