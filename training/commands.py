@@ -68,6 +68,8 @@ TOOLS = {
                          "clipped at +4 stops: as they are, restored, and the truth (docs/studies/restore_previews.jpg)"),
     "bracket-agreement": ("training.experiments.bracket_agreement", "bracket sets' frames against their exposures over "
                           "the real HDRs and four camera curves: right sets passed, reversed or mixed-scene sets refused"),
+    "small-inputs": ("training.experiments.small_inputs", "clipped suns weighed in panoramas 1024 down to 128 wide: "
+                     "the JPEG and the HDR clipped at +4 stops, the evidence for the narrow-file warning"),
     "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
     "hidden-sun": ("training.keylight.hidden_sun", "a sun the photo does not show: located from the sky alone over "
                    "the real HDRs, and the suns the estimator invents"),

@@ -32,11 +32,20 @@ from .features import FEATURES, RING_EDGES_DEG, region_features
 from .fill import FullResolutionFill, cap_log_ratios, fill_full_resolution, fill_regions
 from .recovery import Recovery, assemble, decide, recover, recover_hdr
 from .regions import MAX_REGIONS, SHAPE_MAX_EXTENT_DEG, WIDE_CONCENTRATION, Regions
-from .trees import HDR_MODEL_PATH, MODEL_PATH, SourceModel, TreeEnsemble, ensemble_arrays, load_source_model
+from .trees import (
+                    HDR_MODEL_PATH,
+                    MODEL_PATH,
+                    TRAINED_MIN_WIDTH,
+                    SourceModel,
+                    TreeEnsemble,
+                    ensemble_arrays,
+                    load_source_model,
+)
 
 __all__ = [
     "DECISION_CORRELATION", "DECISION_SAMPLES", "DECISION_TOLERANCE", "FEATURES", "MAX_REGIONS", "MIN_MEDIAN_RATIO",
-    "HDR_MODEL_PATH", "MODEL_PATH", "RING_EDGES_DEG", "SHAPE_MAX_EXTENT_DEG", "SHRINK_CANDIDATES", "WIDE_CONCENTRATION", "WORK_HEIGHT",
+    "HDR_MODEL_PATH", "MODEL_PATH", "RING_EDGES_DEG", "SHAPE_MAX_EXTENT_DEG", "SHRINK_CANDIDATES", "TRAINED_MIN_WIDTH",
+    "WIDE_CONCENTRATION", "WORK_HEIGHT",
     "FullResolutionFill", "Recovery", "Regions", "SourceModel", "TreeEnsemble", "_weighted_errors", "assemble",
     "decide",
     "cap_log_ratios", "choose_shrink", "ensemble_arrays", "fill_full_resolution", "fill_regions", "load_source_model",

@@ -19,6 +19,8 @@ from .features import FEATURES
 MODEL_PATH = Path(__file__).resolve().parents[2] / "models" / "sources.safetensors"
 HDR_MODEL_PATH = MODEL_PATH.with_name("sources_hdr.safetensors")  # the same trees, trained on clipped HDR files too:
 # what restores an HDR file that clips its own source (``restore``)
+TRAINED_MIN_WIDTH = 512  # the narrowest panorama (pixels) the shipped models' training cameras framed
+# (training/source_energy/data.scene_view): in a narrower file a clipped source is weighed outside what they saw
 
 
 @dataclass(frozen=True)

@@ -65,6 +65,27 @@ def test_exposure_scales_lights_sh_and_the_hdri_by_the_same_factor(sunny):
     assert np.allclose(two.hdr_panorama(ldr), one.hdr_panorama(ldr) / 4, rtol=1e-6)
 
 
+def test_a_clipped_source_weighed_in_a_panorama_narrower_than_the_model_learned_from_is_warned_of(sunny):
+    """A 256-wide JPEG's sun came back 73x off (median of 43 real scenes; 13x at 1024): the artist is told, once
+    the per-source model has weighed a clipped region, and only then (docs/studies/small_inputs.md)."""
+    from panolight_core.estimators.sources import TRAINED_MIN_WIDTH
+
+    hdr, ldr = sunny
+    said = [w for w in estimate_lighting(ldr).warnings if "pixels" in w]
+    assert said == [f"the panorama is only 64 x 32 pixels: its clipped suns and lamps were weighed by a model that "
+                    f"learned from panoramas {TRAINED_MIN_WIDTH} or more wide, so their energy is far less certain "
+                    f"(use the full-size file if you have it)"]
+    clipped_hdr = np.minimum(hdr, 4.0)  # an HDR that clips its own sun, restored: the same model weighs it
+    assert any("64 x 32 pixels" in w for w in estimate_lighting(clipped_hdr).warnings)
+    wide = np.repeat(np.repeat(ldr, 8, axis=0), 8, axis=1)  # 512 wide: what the model learned from
+    assert wide.shape[1] == TRAINED_MIN_WIDTH and estimate_lighting(wide).model.lights
+    assert estimate_lighting(wide).warnings == ()
+    unclipped = np.round(np.clip(hdr, 0, 0.9) ** (1 / 2.2) * 255).astype(np.uint8)  # nothing for the model to weigh
+    assert estimate_lighting(unclipped).warnings == ()
+    assert estimate_lighting(clipped_hdr, Settings(restore="none")).warnings == ()  # the file as it is: no weighing
+    assert estimate_lighting(ldr, Settings(estimator="naive")).warnings == ()
+
+
 def test_the_document_is_valid_and_says_its_units(sunny):
     hdr, ldr = sunny
     for px, units in ((hdr, "input radiance units"), (ldr, "relative: 1 = the LDR camera's clip level")):

@@ -172,3 +172,11 @@ def test_the_held_share_weight_does_not_look_at_the_target():
     assert true[1] > true[0]
     with pytest.raises(ValueError, match="unknown weight"):
         se.sample_weight(share, X, "energy")
+
+
+def test_the_narrowest_training_camera_is_the_width_the_product_warns_below(rng):
+    """``pipeline.estimate.narrow_warning`` warns below sources.TRAINED_MIN_WIDTH: the narrowest view the training
+    cameras frame of the 1024-wide real HDRs (``data.scene_view``), none narrower."""
+    hdr = np.ones((512, 1024, 3))
+    widths = {sd.scene_view(hdr, rng).shape[1] for _ in range(40)}
+    assert min(widths) == sources.TRAINED_MIN_WIDTH and widths == {512, 1024, 2048}

@@ -1,0 +1,23 @@
+"""training.experiments.small_inputs: one scene's JPEG and clipped HDR at several widths, scored against the truth
+at each width."""
+import math
+
+import pytest
+
+from panolight_core.data import load_studio_hdri
+from training.experiments import small_inputs
+
+from ..keylight.test_hidden_sun import _write_hdr
+
+
+def test_each_width_scores_the_jpeg_and_the_restored_file_against_its_own_truth(tmp_path):
+    path = _write_hdr(tmp_path, load_studio_hdri("city"))  # Blender's city: its sun clipped at +4 stops
+    rows = small_inputs.scene_rows(path, widths=(512, 128), stops=4.0)
+    assert [(r["capture"], r["width"]) for r in rows] == [
+        ("JPEG, 512 wide", 512), ("HDR clipped at +4 stops, restored, 512 wide", 512),
+        ("JPEG, 128 wide", 128), ("HDR clipped at +4 stops, restored, 128 wide", 128)]
+    for jpeg in rows[0::2]:  # a JPEG's own projection is the naive baseline
+        assert jpeg["m_rmse_over_naive"] == pytest.approx(jpeg["m_rmse_over_own"], rel=1e-12)
+    restored = rows[1]
+    assert 0.5 < restored["ratio"] < 2.0 and restored["angle_deg"] < 2.0  # 512 wide: the sun comes back
+    assert all(math.isfinite(r["m_rmse"]) and r["true_contrast"] == rows[0]["true_contrast"] for r in rows)
