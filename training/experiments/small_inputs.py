@@ -11,7 +11,10 @@ capture's own projection), against the truth at the same width.
 
     python -m training.experiments.small_inputs [--widths 1024 512 384 256 128] [--stops 4]
         [--fold-models 'runs/cmp/new/sources_{k}.safetensors' --hdr-fold-models 'runs/hdr/all8/sources_{k}.safetensors']
-        [--out docs/studies/small_inputs.json]
+        [--photos ../shared/data/ldr] [--out docs/studies/small_inputs.json]
+
+With ``--photos``, real photos (no truth) as they are and made narrower: how far their key light moves with the
+file's size.
 """
 from __future__ import annotations
 
@@ -59,6 +62,38 @@ def scene_rows(path: Path, widths=WIDTHS, stops: float = 4.0, estimator: str = "
     return rows
 
 
+PHOTO_WIDTHS = (4096, 2048, 1024, 512)
+
+
+def photo_rows(path: Path, widths=PHOTO_WIDTHS) -> list[dict]:
+    """A real photo (no truth) as it is and made narrower (Lanczos, as an editor does; only widths below its own):
+    each size's key light (the brightest light's intensity, its ratio to the full size's and the angle between
+    their directions; None where there is none) and the whole model's band-0 luminance over the full size's."""
+    from panolight_core.camera import lanczos_resize
+    from panolight_core.camera.color import LUMINANCE_WEIGHTS
+    from panolight_core.io import read_image
+    from panolight_core.pipeline.estimate import estimate_lighting
+
+    full = read_image(path, ldr_as_uint8=True)
+    rows, ref = [], None
+    for width in [full.shape[1]] + [w for w in widths if w < full.shape[1]]:
+        pixels = full if width == full.shape[1] else lanczos_resize(full, width, width // 2)
+        res = estimate_lighting(pixels)
+        key = metrics.brightest_light(res.model.lights)
+        row = {"photo": path.name, "width": width, "key_intensity": key["intensity"] if key else None,
+               "direction": key["peak_direction"] if key else None,
+               "band0": float(res.model.project(0)[0] @ LUMINANCE_WEIGHTS),
+               "narrow_warning": any("pixels:" in w for w in res.warnings)}
+        ref = ref or row
+        row["key_over_full"] = (row["key_intensity"] / ref["key_intensity"]
+                                if key and ref["key_intensity"] else None)
+        row["angle_from_full_deg"] = (metrics.angle_deg(ref["direction"], row["direction"])
+                                      if key and ref["direction"] is not None else None)
+        row["band0_over_full"] = row["band0"] / ref["band0"]
+        rows.append(row)
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m training.experiments.small_inputs", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -71,6 +106,9 @@ def main(argv=None) -> int:
     ap.add_argument("--hdr-fold-models", default=None, metavar="PATTERN",
                     help="with --fold-models: the fold models that restore the clipped HDR files (default: "
                          "--fold-models')")
+    ap.add_argument("--photos", type=Path, default=None, metavar="FOLDER",
+                    help="also these real photos (*.jpg; e.g. ../shared/data/ldr), as they are and made narrower: "
+                         "how their key light moves with the file's size (no truth)")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
     args = ap.parse_args(argv)
     if any(w < 16 or w % 2 for w in args.widths):
@@ -97,8 +135,17 @@ def main(argv=None) -> int:
     print("\n| capture | median r | off by more than 3x |\n|---|---:|---:|")
     for name, s in summ.items():
         print(f"| {name} | {s['median_ratio']:.3g} | {s['over_3x_off']} of {s['scenes']} |")
+    photos = []
+    if args.photos:
+        print("\n| photo | width | key light / full size's | moved | band 0 / full size's |\n|---|---:|---:|---:|---:|")
+        for path in sorted(args.photos.glob("*.jpg")):
+            for r in photo_rows(path):
+                photos.append(r)
+                key = "none" if r["key_over_full"] is None else f"{r['key_over_full']:.2f}"
+                moved = "" if r["angle_from_full_deg"] is None else f"{r['angle_from_full_deg']:.1f} deg"
+                print(f"| {r['photo']} | {r['width']} | {key} | {moved} | {r['band0_over_full']:.2f} |", flush=True)
     save_study({"widths": args.widths, "stops": args.stops, "fold_models": args.fold_models,
-                "hdr_fold_models": args.hdr_fold_models, "summary": summ, "rows": rows}, args.out)
+                "hdr_fold_models": args.hdr_fold_models, "summary": summ, "rows": rows, "photos": photos}, args.out)
     return 0
 
 

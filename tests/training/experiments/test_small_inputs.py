@@ -2,11 +2,13 @@
 at each width."""
 import math
 
+import numpy as np
 import pytest
 
 from panolight_core.data import load_studio_hdri
 from training.experiments import small_inputs
 
+from ...panolight_core.estimators.test_keylight import _lamps
 from ..keylight.test_hidden_sun import _write_hdr
 
 
@@ -21,3 +23,16 @@ def test_each_width_scores_the_jpeg_and_the_restored_file_against_its_own_truth(
     restored = rows[1]
     assert 0.5 < restored["ratio"] < 2.0 and restored["angle_deg"] < 2.0  # 512 wide: the sun comes back
     assert all(math.isfinite(r["m_rmse"]) and r["true_contrast"] == rows[0]["true_contrast"] for r in rows)
+
+
+def test_a_photo_made_narrower_keeps_its_key_light_and_is_warned_of_below_512(tmp_path):
+    from panolight_core.camera import hdr_to_ldr, ldr_to_linear
+    from panolight_core.io import write_image
+
+    lamp = np.array([0.2, 0.5, 0.8]) / np.linalg.norm([0.2, 0.5, 0.8])
+    photo = write_image(tmp_path / "room.jpg", ldr_to_linear(hdr_to_ldr(_lamps([lamp], h=512), 0.0)))  # 1024 wide
+    rows = small_inputs.photo_rows(photo, widths=(2048, 512, 256))
+    assert [r["width"] for r in rows] == [1024, 512, 256]  # its own size first, never a wider one
+    assert rows[0]["key_over_full"] == 1.0 and rows[0]["angle_from_full_deg"] == 0.0
+    assert all(0.5 < r["key_over_full"] < 2.0 and r["angle_from_full_deg"] < 3.0 for r in rows)
+    assert [r["narrow_warning"] for r in rows] == [False, False, True]
