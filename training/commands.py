@@ -70,6 +70,8 @@ TOOLS = {
                           "the real HDRs and four camera curves: right sets passed, reversed or mixed-scene sets refused"),
     "small-inputs": ("training.experiments.small_inputs", "clipped suns weighed in panoramas 1024 down to 128 wide: "
                      "the JPEG and the HDR clipped at +4 stops, the evidence for the narrow-file warning"),
+    "energy-oracle": ("training.experiments.energy_oracle", "experiment: a restored HDR's key light given the "
+                      "truth's energy, and other ways of combining the trees' and the sky fit's estimates (issue 45)"),
     "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
     "hidden-sun": ("training.keylight.hidden_sun", "a sun the photo does not show: located from the sky alone over "
                    "the real HDRs, and the suns the estimator invents"),
