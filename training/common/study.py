@@ -67,6 +67,23 @@ def fold_models_option(ap: argparse.ArgumentParser) -> None:
                          "not the shipped one, which saw the scenes it was trained on")
 
 
+def restoring_fold_models_option(ap: argparse.ArgumentParser) -> None:
+    """--fold-models and --hdr-fold-models, for the studies that restore clipped HDR files (``restoring_estimators``)."""
+    fold_models_option(ap)
+    ap.add_argument("--hdr-fold-models", default=None, metavar="PATTERN",
+                    help="with --fold-models: the fold models that restore the clipped HDR files (models/"
+                         "sources_hdr.safetensors' folds: fit ship --hdr-cameras 8 --hold-out K/5; default: "
+                         "--fold-models')")
+
+
+def restoring_estimators(args: argparse.Namespace, files) -> dict:
+    """{scene file: estimator name} for a study given ``restoring_fold_models_option``'s options: each scene's fold
+    models (``fold_estimators``, the clipped files restored by --hdr-fold-models'), or the shipped "auto" for all."""
+    if not args.fold_models:
+        return dict.fromkeys(files, "auto")
+    return fold_estimators(args.fold_models, files, hdr_pattern=args.hdr_fold_models)
+
+
 def fold_estimators(pattern: str, files, estimator: str = "keylight", hdr_pattern: str | None = None) -> dict:
     """{scene file: the name of ``estimator`` ("keylight" or "sources") registered with the per-source model of its
     fold} (``fold_model_paths``; the folds of ``training.source_energy.cv``): each scene scored by trees that never

@@ -38,7 +38,7 @@ from panolight_core.camera.color import luminance
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, manifest, scene_files
-from training.common.study import fold_estimators, fold_models_option, save_study
+from training.common.study import restoring_estimators, restoring_fold_models_option, save_study
 
 FACTORS = np.geomspace(1.0 / 64.0, 64.0, 97)
 WEIGHTS = (0.0, 0.25, 0.4, 0.5, 0.6, 0.75, 1.0)  # the trees' weight in log; 0.5 is the geometric mean that ships
@@ -163,9 +163,7 @@ def main(argv=None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas (default: %(default)s)")
     ap.add_argument("--stops", type=float, default=4.0, help="clip at 2^STOPS times the JPEG's white (default: 4)")
-    fold_models_option(ap)
-    ap.add_argument("--hdr-fold-models", default=None, metavar="PATTERN",
-                    help="with --fold-models: the fold models that restore the clipped files (default: --fold-models')")
+    restoring_fold_models_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
     ap.add_argument("--ground", type=Path, default=None, metavar="JSON",
                     help="read a saved run's rows and add the ground's estimate of each outdoor sun (no fold models)")
@@ -188,8 +186,7 @@ def main(argv=None) -> int:
                    args.out)
         return 0
     files = scene_files(args.hdri)
-    estimator_of = (fold_estimators(args.fold_models, files, hdr_pattern=args.hdr_fold_models) if args.fold_models
-                    else dict.fromkeys(files, "auto"))
+    estimator_of = restoring_estimators(args, files)
     skip = clipped_truth(args.hdri)
     rows = []
     for i, path in enumerate(files, 1):

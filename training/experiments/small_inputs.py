@@ -29,7 +29,7 @@ from panolight_core import metrics, sh
 from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
 from panolight_core.camera.resample import area_downsample
 from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, scene_files
-from training.common.study import fold_estimators, fold_models_option, save_study
+from training.common.study import restoring_estimators, restoring_fold_models_option, save_study
 from training.keylight.captures import score, summary, table
 
 WIDTHS = (1024, 512, 384, 256, 128)
@@ -102,10 +102,7 @@ def main(argv=None) -> int:
                     help="panorama widths, pixels (default: %(default)s)")
     ap.add_argument("--stops", type=float, default=4.0,
                     help="clip the HDR at 2^STOPS times the JPEG's white (default: %(default)s)")
-    fold_models_option(ap)
-    ap.add_argument("--hdr-fold-models", default=None, metavar="PATTERN",
-                    help="with --fold-models: the fold models that restore the clipped HDR files (default: "
-                         "--fold-models')")
+    restoring_fold_models_option(ap)
     ap.add_argument("--photos", type=Path, default=None, metavar="FOLDER",
                     help="also these real photos (*.jpg; e.g. ../shared/data/ldr), as they are and made narrower: "
                          "how their key light moves with the file's size (no truth)")
@@ -114,8 +111,7 @@ def main(argv=None) -> int:
     if any(w < 16 or w % 2 for w in args.widths):
         ap.error("--widths: each width must be even and at least 16 pixels")
     files = scene_files(args.hdri)
-    estimator_of = (fold_estimators(args.fold_models, files, hdr_pattern=args.hdr_fold_models) if args.fold_models
-                    else dict.fromkeys(files, "auto"))
+    estimator_of = restoring_estimators(args, files)
     skip = clipped_truth(args.hdri)
     rows = []
     for i, path in enumerate(files, 1):

@@ -43,7 +43,7 @@ from panolight_core.errors import PanoLightError
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, scene_files
-from training.common.study import fold_estimators, fold_models_option, save_study
+from training.common.study import restoring_estimators, restoring_fold_models_option, save_study
 
 
 def score(truth: np.ndarray, ds: dict, pixels: np.ndarray, scale: float = 1.0, estimator: str = "auto",
@@ -247,11 +247,7 @@ def main(argv=None) -> int:
     ap.add_argument("--raw", type=float, nargs="*", default=[], metavar="STOPS",
                     help="also a camera RAW (a noisy DNG, demosaiced by LibRaw) whose sensor's white is 2^STOPS "
                          "times the JPEG's (e.g. --raw 2 3; default: none)")
-    fold_models_option(ap)
-    ap.add_argument("--hdr-fold-models", default=None, metavar="PATTERN",
-                    help="with --fold-models: the fold models that restore the clipped HDR files (models/"
-                         "sources_hdr.safetensors' folds: fit ship --hdr-cameras 8 --hold-out K/5; default: "
-                         "--fold-models')")
+    restoring_fold_models_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
     ap.add_argument("--plot", type=Path, default=None, metavar="PNG",
                     help="also draw the summary here; with --from, draw a JSON this study wrote, without running it")
@@ -264,8 +260,7 @@ def main(argv=None) -> int:
         print(f"wrote {plot(summ, args.plot or args.source.with_suffix('.png'))}")
         return 0
     files = scene_files(args.hdri)
-    estimator_of = (fold_estimators(args.fold_models, files, hdr_pattern=args.hdr_fold_models) if args.fold_models
-                    else {p: "auto" for p in files})
+    estimator_of = restoring_estimators(args, files)
     clipped = clipped_truth(args.hdri)
     sets = args.brackets if args.brackets is not None else ["-2,0,2", "-4,-2,0,2,4"]
     brackets = [tuple(float(v) for v in b.split(",")) for b in sets if b.strip()]
