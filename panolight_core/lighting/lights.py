@@ -281,15 +281,16 @@ LOW_SUN_OVERSHOOT = 12  # that 3-degree sun's fit over its truth (pmndrs_sunset_
 
 
 def key_light_note(doc: dict, light: str = "light",
-                   raise_with: str = "--sun-strength (Blender: Sun lamp strength; or its intensity in lighting.json)"
-                   ) -> str:
+                   raise_with: str = "--sun-strength (Blender: Sun lamp strength; or its intensity in lighting.json)",
+                   as_is: str = "--restore none") -> str:
     """What an artist should know about the key light from lighting.json, in one line: a sun placed from the photo's
     capture metadata (GPS, time, heading); a sun the photo does not show that was placed from its clear sky (where,
     and how sure); where no key light (sun or lamp) was weighed at
     all, why the sky search placed no sun either (``sun_search.refused``), and whether any explicit light is left
     to cast a shadow; a key light given less than its own evidence says (a clear-sky sun capped so that a hazy sky
     does not get a blinding one: its 68 % range over the strength it was given, from KEPT_BELOW up, and what raises
-    it: ``raise_with``); "" otherwise. ``light``: what the reader's tool calls a light (Blender: "lamp")."""
+    it: ``raise_with``); an HDR file's clipped source restored (``restoration_note``; ``as_is`` takes the file as it
+    is); "" otherwise. ``light``: what the reader's tool calls a light (Blender: "lamp")."""
     pointed = (doc.get("estimator") or {}).get("pointed_sun") or {}
     if pointed.get("from", "the artist") != "the artist":
         return (f"the sun was placed from {pointed['from']}: check its {light} against the photo's shadows (a camera's "
@@ -325,4 +326,22 @@ def key_light_note(doc: dict, light: str = "light",
                 f"own evidence ({key['source']}) puts it at {key['low']:.1f}-{key['high']:.1f}x that (68 %"
                 f"{caveat}). If the photo's shadows are harder than a render's, raise {raise_with} toward that (a "
                 f"sun strength of {scaled * key['low']:.1f} reaches its low end)")
-    return ""
+    return restoration_note(doc, key, light, raise_with, as_is)
+
+
+def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, as_is: str) -> str:
+    """An HDR file that clips its own source, restored (``estimator.restoration``): where its plateau is, what light
+    it became and how sure its strength is (``key``: ``key_light_range``'s), what sets it, and ``as_is``; ""
+    where nothing was restored."""
+    restoration = (doc.get("estimator") or {}).get("restoration") or {}
+    if not restoration.get("restored"):
+        return ""
+    found = (f"the file clips its own source ({restoration.get('plateau_pixels', 0)} pixel(s) at its ceiling, "
+             f"{max(restoration.get('ceiling') or [0.0]):g})")
+    if key is None:
+        return f"{found}: its energy was restored into the map, with no key light ({as_is} takes the file as it is)"
+    kind = str(doc["lights"][key["index"]].get("type", "")).strip()
+    what = f"{kind} {light}" if kind else light
+    return (f"{found}: restored as a {what} {key['elevation_deg']:.0f} deg up, its "
+            f"strength sure within {key['low']:.1f}-{key['high']:.1f}x (68 %). If the scene's own shadows are "
+            f"harder or softer than a render's, set {raise_with}; {as_is} takes the file as it is")

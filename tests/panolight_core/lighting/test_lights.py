@@ -190,3 +190,26 @@ def test_the_key_light_note_says_what_an_artist_should_know():
     assert "2.4-9.7x that (68 %). If" in key_light_note(high)
     assert key_light_note({"lights": [dict(capped["lights"][0], intensity=2.38)]}) == ""  # given its evidence
     assert key_light_note({"lights": [dict(capped["lights"][0], intensity=1.19 / 1.2)]}) == ""  # under KEPT_BELOW
+
+
+def test_the_note_of_a_restored_hdr_says_where_its_plateau_went_how_sure_and_how_to_undo_it():
+    restoration = {"restored": True, "ceiling": [16.0, 16.0, 15.5], "plateau_pixels": 31}
+    sun = {"type": "sun", "direction": [0.6, 0.0, 0.8], "intensity": 2.0, "source": "clear-sky fit (turbidity 6.5)",
+           "energy_68": [1.0, 5.0]}
+    doc = {"estimator": {"restoration": restoration}, "lights": [sun]}
+    note = key_light_note(doc)
+    assert note.startswith("the file clips its own source (31 pixel(s) at its ceiling, 16): restored as a sun light "
+                           "53 deg up, its strength sure within 0.5-2.5x (68 %)")
+    assert note.endswith("set --sun-strength (Blender: Sun lamp strength; or its intensity in lighting.json); "
+                         "--restore none takes the file as it is")
+    blender = key_light_note(doc, light="lamp", raise_with="Sun lamp strength", as_is="Restore a clipped sun unticked")
+    assert "restored as a sun lamp" in blender and blender.endswith("set Sun lamp strength; Restore a clipped sun "
+                                                                    "unticked takes the file as it is")
+    no_key = key_light_note({"estimator": {"restoration": restoration}, "lights": []})
+    assert no_key.endswith("its energy was restored into the map, with no key light (--restore none takes the "
+                           "file as it is)")
+    # the file as it is, or a plateau refused: nothing restored, no note
+    assert key_light_note({"estimator": {"restoration": dict(restoration, restored=False)}, "lights": [sun]}) == ""
+    # a key light kept below its evidence says that first
+    kept = key_light_note({"estimator": {"restoration": restoration}, "lights": [dict(sun, intensity=0.5)]})
+    assert kept.startswith("the key light (53 deg up) has the strength the estimate is sure of")
