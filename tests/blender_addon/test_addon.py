@@ -906,6 +906,32 @@ def test_a_clipped_hdri_gets_its_sun_back_in_blender_as_on_the_command_line(tmp_
     _configure(restore_clipped=True)
 
 
+def test_a_restored_hdri_says_so_in_blender_s_words(tmp_path):
+    """The status bar tells the artist the file's clipped sun was restored, how sure its strength is, and how to take
+    the file as it is, in the panel's own words (its lamp, Sun lamp strength, *Restore a clipped sun*)."""
+    from blender_addon.operators import PANOLIGHT_OT_estimate_lighting
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    truth, _, _ = _clear_day()
+    path = write_image(tmp_path / "clipped.exr", np.minimum(truth, np.float32(16.0)))
+    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
+    _configure()
+    reports = []
+
+    class Operator:  # what the estimate operator reports, recorded
+        _pixels = None
+
+        def report(self, kind, text):
+            reports.append(text)
+
+    result = blender_addon.core.core.pipeline.estimate_lighting(read_image(path),
+                                                                bpy.context.scene.panolight.estimate_settings())
+    PANOLIGHT_OT_estimate_lighting._store(Operator(), bpy.context, bpy.context.scene.world, result)
+    said = [r for r in reports if r.startswith("PanoLight: the file clips its own source")]
+    assert len(said) == 1 and "restored as a sun lamp" in said[0], reports
+    assert said[0].endswith("set Sun lamp strength; Restore a clipped sun unticked takes the file as it is")
+
+
 def _restored_as_on_the_command_line(want, sun):
     """Estimate the loaded panorama: its clipped sun restored, the CLI's coefficients ``want``, the key light on
     ``sun``."""
