@@ -330,13 +330,16 @@ def key_light_note(doc: dict, light: str = "light",
 
 
 def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, as_is: str) -> str:
-    """An HDR file that clips its own source, restored (``estimator.restoration``): where its plateau is, what light
+    """An HDR file, bracket set or RAW that clips its source, restored (``estimator.restoration``): its plateau, what light
     it became and how sure its strength is (``key``: ``key_light_range``'s), what sets it, and ``as_is``; ""
     where nothing was restored."""
     restoration = (doc.get("estimator") or {}).get("restoration") or {}
     if not restoration.get("restored"):
         return ""
-    found = (f"the file clips its own source ({restoration.get('plateau_pixels', 0)} pixel(s) at its ceiling, "
+    what = {"hdr-merged-brackets": "the bracket set clips its source in every frame",
+            "raw-linear": "the sensor clips its source"}.get((doc.get("source") or {}).get("dynamic_range"),
+                                                             "the file clips its own source")
+    found = (f"{what} ({restoration.get('plateau_pixels', 0)} pixel(s) at its ceiling, "
              f"{max(restoration.get('ceiling') or [0.0]):g})")
     if key is None:
         return f"{found}: its energy was restored into the map, with no key light ({as_is} takes the file as it is)"
