@@ -23,6 +23,10 @@ C (EVALUATION.md) and the brightest light's direction error.
         [--hdr-fold-models PATTERN]
         [--out docs/studies/captures.json] [--plot docs/studies/captures.png]
     python -m training.keylight.captures --from docs/studies/captures.json --plot docs/studies/captures.png
+    python -m training.keylight.captures --public --out docs/studies/captures_public.json
+
+``--public`` scores the eight HDRIs the bpy package ships (EVALUATION.md's public set) in place of ../shared's,
+by the shipped models, which never saw them: a check on real HDRs the project never trained or tuned on.
 """
 from __future__ import annotations
 
@@ -248,6 +252,9 @@ def main(argv=None) -> int:
                     help="also a camera RAW (a noisy DNG, demosaiced by LibRaw) whose sensor's white is 2^STOPS "
                          "times the JPEG's (e.g. --raw 2 3; default: none)")
     restoring_fold_models_option(ap)
+    ap.add_argument("--public", action="store_true",
+                    help="score the eight HDRIs the bpy package ships (the public set, never trained or tuned on) "
+                         "by the shipped models, instead of --hdri's scenes by their folds")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
     ap.add_argument("--plot", type=Path, default=None, metavar="PNG",
                     help="also draw the summary here; with --from, draw a JSON this study wrote, without running it")
@@ -259,9 +266,15 @@ def main(argv=None) -> int:
         print("\n".join(table(summ)))
         print(f"wrote {plot(summ, args.plot or args.source.with_suffix('.png'))}")
         return 0
-    files = scene_files(args.hdri)
+    if args.public:
+        if args.fold_models:
+            ap.error("--public scores the public set by the shipped models, which never saw it: drop --fold-models")
+        from panolight_core.data import STUDIO_HDRIS, studio_hdri
+
+        files, clipped = [studio_hdri(name) for name in STUDIO_HDRIS], set()
+    else:
+        files, clipped = scene_files(args.hdri), clipped_truth(args.hdri)
     estimator_of = restoring_estimators(args, files)
-    clipped = clipped_truth(args.hdri)
     sets = args.brackets if args.brackets is not None else ["-2,0,2", "-4,-2,0,2,4"]
     brackets = [tuple(float(v) for v in b.split(",")) for b in sets if b.strip()]
     curve = None
@@ -279,7 +292,7 @@ def main(argv=None) -> int:
                   f"C {r['contrast']:6.2f} of {r['true_contrast']:6.2f}  m/naive {r['m_rmse_over_naive']:.3f}", flush=True)
     summ = summary(rows)
     print("\n".join(table(summ)))
-    save_study({"stops": args.stops, "brackets": sets, "raw": args.raw, "pointed": args.pointed, "bracket_curve": args.bracket_curve, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
+    save_study({"scenes": "public" if args.public else str(args.hdri), "stops": args.stops, "brackets": sets, "raw": args.raw, "pointed": args.pointed, "bracket_curve": args.bracket_curve, "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models,
                 "summary": summ, "rows": rows}, args.out)
     if args.plot:
         print(f"wrote {plot(summ, args.plot)}")

@@ -76,3 +76,22 @@ def test_a_file_that_lost_its_ties_is_found_by_the_click(tmp_path):
     assert "refused" not in click and click["angle_deg"] == pytest.approx(captures.CLICK_DEG, abs=0.2)
     assert abs(np.log2(click["ratio"])) < abs(np.log2(as_is["ratio"])) and click["contrast"] > as_is["contrast"]
     assert click["m_rmse"] < as_is["m_rmse"]
+
+
+def test_public_scores_the_bpy_package_s_hdris_by_the_shipped_models_and_refuses_fold_models(tmp_path, capsys):
+    """--public: the eight HDRIs the bpy package ships, never trained or tuned on, by the shipped models (their
+    folds would be no better: none saw them); only the scenes with a dominant source make rows."""
+    import json
+
+    from panolight_core.data import STUDIO_HDRIS
+
+    out = tmp_path / "public.json"
+    assert captures.main(["--public", "--stops", "4", "--brackets=", "--out", str(out)]) == 0
+    got = json.loads(out.read_text())
+    assert got["scenes"] == "public" and {r["scene"] for r in got["rows"]} <= set(STUDIO_HDRIS)
+    assert {"city", "sunrise"} <= {r["scene"] for r in got["rows"]}
+    restored = {r["scene"]: r for r in got["rows"] if r["capture"] == "HDR clipped at +4 stops, restored"}
+    assert restored["city"]["angle_deg"] < 1.0  # its sun restored where it is
+    with pytest.raises(SystemExit):
+        captures.main(["--public", "--fold-models", "runs/x_{k}.safetensors"])
+    assert "drop --fold-models" in capsys.readouterr().err
