@@ -330,21 +330,21 @@ def key_light_note(doc: dict, light: str = "light",
 
 
 def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, as_is: str) -> str:
-    """An HDR file, bracket set or RAW that clips its source, restored (``estimator.restoration``): its plateau, what light
-    it became and how sure its strength is (``key``: ``key_light_range``'s), what sets it, and ``as_is``; ""
-    where nothing was restored."""
+    """The note of an HDR file, bracket set or RAW whose clipped source was restored (``estimator.restoration``):
+    its plateau, the light it became and how sure its strength is (``key``: ``key_light_range``'s), what sets it,
+    and ``as_is``; "" where nothing was restored."""
     restoration = (doc.get("estimator") or {}).get("restoration") or {}
     if not restoration.get("restored"):
         return ""
-    what = {"hdr-merged-brackets": "the bracket set clips its source in every frame",
-            "raw-linear": "the sensor clips its source"}.get((doc.get("source") or {}).get("dynamic_range"),
-                                                             "the file clips its own source")
-    found = (f"{what} ({restoration.get('plateau_pixels', 0)} pixel(s) at its ceiling, "
+    clips = {"hdr-merged-brackets": "the bracket set clips its source in every frame",
+             "raw-linear": "the sensor clips its source"}.get((doc.get("source") or {}).get("dynamic_range"),
+                                                              "the file clips its own source")
+    found = (f"{clips} ({restoration.get('plateau_pixels', 0)} pixel(s) at its ceiling, "
              f"{max(restoration.get('ceiling') or [0.0]):g})")
     if key is None:
         return f"{found}: its energy was restored into the map, with no key light ({as_is} takes the file as it is)"
     kind = str(doc["lights"][key["index"]].get("type", "")).strip()
-    what = f"{kind} {light}" if kind else light
-    return (f"{found}: restored as a {what} {key['elevation_deg']:.0f} deg up, its "
+    became = f"{kind} {light}" if kind else light
+    return (f"{found}: restored as a {became} {key['elevation_deg']:.0f} deg up, its "
             f"strength sure within {key['low']:.1f}-{key['high']:.1f}x (68 %). If the scene's own shadows are "
             f"harder or softer than a render's, set {raise_with}; {as_is} takes the file as it is")
