@@ -340,7 +340,7 @@ def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, a
              "raw-linear": "the sensor clips its source"}.get((doc.get("source") or {}).get("dynamic_range"),
                                                               "the file clips its own source")
     found = (f"{clips} ({restoration.get('plateau_pixels', 0)} pixel(s) at its ceiling, "
-             f"{max(restoration.get('ceiling') or [0.0]):g})")
+             f"{max(restoration.get('ceiling') or [0.0]):.3g})")
     if key is None:
         return f"{found}: its energy was restored into the map, with no key light ({as_is} takes the file as it is)"
     kind = str(doc["lights"][key["index"]].get("type", "")).strip()
