@@ -72,6 +72,8 @@ TOOLS = {
                      "the JPEG and the HDR clipped at +4 stops, the evidence for the narrow-file warning"),
     "energy-oracle": ("training.experiments.energy_oracle", "experiment: a restored HDR's key light given the "
                       "truth's energy, and other ways of combining the trees' and the sky fit's estimates (issue 45)"),
+    "restore-harm": ("training.experiments.restore_harm", "experiment: what restoring does to a clipped HDR file on "
+                     "every scene, with a dominant source or none: m-RMSE over the file as it is, energy added over lost"),
     "keylight-rules": ("training.keylight.rules", "the key lights' energy rules and gates compared over the real HDRs"),
     "hidden-sun": ("training.keylight.hidden_sun", "a sun the photo does not show: located from the sky alone over "
                    "the real HDRs, and the suns the estimator invents"),

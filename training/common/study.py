@@ -9,7 +9,7 @@ from pathlib import Path
 from panolight_core.camera import TONE_CURVES
 from panolight_core.estimators import register_source_model
 from training.common.folds import fold_of
-from training.common.real_hdri import DEFAULT_HDRI
+from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, scene_files
 
 SRGB = ("srgb", None)  # EVALUATION.md's camera curve (``--curve``)
 
@@ -74,6 +74,26 @@ def restoring_fold_models_option(ap: argparse.ArgumentParser) -> None:
                     help="with --fold-models: the fold models that restore the clipped HDR files (models/"
                          "sources_hdr.safetensors' folds: fit ship --hdr-cameras 8 --hold-out K/5; default: "
                          "--fold-models')")
+
+
+def public_option(ap: argparse.ArgumentParser) -> None:
+    """--public: the eight HDRIs the bpy package ships instead of --hdri's scenes (``study_files``)."""
+    ap.add_argument("--public", action="store_true",
+                    help="score the eight HDRIs the bpy package ships (the public set, never trained or tuned on) "
+                         "by the shipped models, instead of --hdri's scenes by their folds")
+
+
+def study_files(ap: argparse.ArgumentParser, args: argparse.Namespace) -> tuple[list, set]:
+    """(scene files, the names of those whose truth clips its own source) a study given --hdri and ``public_option``
+    scores: the public set's eight files (none clipped; refused with --fold-models, as no fold saw them), or
+    --hdri's scenes."""
+    if getattr(args, "public", False):
+        if args.fold_models:
+            ap.error("--public scores the public set by the shipped models, which never saw it: drop --fold-models")
+        from panolight_core.data import STUDIO_HDRIS, studio_hdri
+
+        return [studio_hdri(name) for name in STUDIO_HDRIS], set()
+    return scene_files(args.hdri), clipped_truth(args.hdri)
 
 
 def restoring_estimators(args: argparse.Namespace, files) -> dict:

@@ -46,8 +46,14 @@ from panolight_core.camera.color import LUMINANCE_WEIGHTS, linear_to_srgb
 from panolight_core.errors import PanoLightError
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
-from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, scene_files
-from training.common.study import restoring_estimators, restoring_fold_models_option, save_study
+from training.common.real_hdri import DEFAULT_HDRI, load_hdr
+from training.common.study import (
+    public_option,
+    restoring_estimators,
+    restoring_fold_models_option,
+    save_study,
+    study_files,
+)
 
 
 def score(truth: np.ndarray, ds: dict, pixels: np.ndarray, scale: float = 1.0, estimator: str = "auto",
@@ -252,9 +258,7 @@ def main(argv=None) -> int:
                     help="also a camera RAW (a noisy DNG, demosaiced by LibRaw) whose sensor's white is 2^STOPS "
                          "times the JPEG's (e.g. --raw 2 3; default: none)")
     restoring_fold_models_option(ap)
-    ap.add_argument("--public", action="store_true",
-                    help="score the eight HDRIs the bpy package ships (the public set, never trained or tuned on) "
-                         "by the shipped models, instead of --hdri's scenes by their folds")
+    public_option(ap)
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
     ap.add_argument("--plot", type=Path, default=None, metavar="PNG",
                     help="also draw the summary here; with --from, draw a JSON this study wrote, without running it")
@@ -266,14 +270,7 @@ def main(argv=None) -> int:
         print("\n".join(table(summ)))
         print(f"wrote {plot(summ, args.plot or args.source.with_suffix('.png'))}")
         return 0
-    if args.public:
-        if args.fold_models:
-            ap.error("--public scores the public set by the shipped models, which never saw it: drop --fold-models")
-        from panolight_core.data import STUDIO_HDRIS, studio_hdri
-
-        files, clipped = [studio_hdri(name) for name in STUDIO_HDRIS], set()
-    else:
-        files, clipped = scene_files(args.hdri), clipped_truth(args.hdri)
+    files, clipped = study_files(ap, args)
     estimator_of = restoring_estimators(args, files)
     sets = args.brackets if args.brackets is not None else ["-2,0,2", "-4,-2,0,2,4"]
     brackets = [tuple(float(v) for v in b.split(",")) for b in sets if b.strip()]

@@ -1,0 +1,45 @@
+"""training.experiments.restore_harm: what restoring does to a clipped HDR file, on every scene."""
+import numpy as np
+import pytest
+
+from training.experiments import restore_harm
+
+from ..keylight.test_hidden_sun import _write_hdr
+
+
+def test_a_clipped_sun_is_restored_nearer_the_truth_and_the_energies_add_up(tmp_path):
+    """A clear day's sun clipped at +2 and +6 stops: restored both times, the whole model nearer the truth than the
+    file as it is; the file lost more at +2; a copy clipped above its peak (+20 stops) loses nothing and is taken
+    as it is."""
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    hdr, _, _ = _clear_day()
+    row = restore_harm.scene_row(_write_hdr(tmp_path, hdr), stops=(2.0, 6.0, 20.0))
+    assert row["dominant"] and row["share"] > 0.1
+    low, high, none = row["+2"], row["+6"], row["+20"]
+    assert low["restored"] and high["restored"] and not none["restored"]
+    assert low["over_own"] < 1.0 and high["over_own"] < 1.0
+    assert 0.0 < high["lost_share"] < low["lost_share"] < 1.0
+    assert none["lost_share"] == 0.0 and none["added_over_lost"] is None and none["over_own"] is None  # exact: 0/0
+    assert 0.1 < low["added_over_lost"] < 10.0
+
+
+def test_the_energy_of_a_map_is_its_luminance_over_the_sphere():
+    assert restore_harm.energy(np.full((64, 128, 3), 2.0)) == pytest.approx(8.0 * np.pi)
+
+
+def test_the_summary_counts_the_restored_files_made_worse_and_splits_by_dominance():
+    def cell(over, restored=True, added=1.0):
+        return {"restored": restored, "own": 0.1, "over_own": over, "lost_share": 0.1, "added_over_lost": added}
+
+    rows = [{"scene": "a", "dominant": True, "+4": cell(0.5, added=2.0)},
+            {"scene": "b", "dominant": False, "+4": cell(4.0, added=8.0)},
+            {"scene": "c", "dominant": False, "+4": cell(1.2)},
+            {"scene": "d", "dominant": False, "+4": cell(1.0, restored=False, added=None)}]
+    summ = restore_harm.summary(rows, [4.0])
+    dom, rest = summ["+4 dominant"], summ["+4 no dominant source"]
+    assert dom["scenes"] == 1 and dom["worse_1x"] == 0 and dom["added_median"] == pytest.approx(2.0)
+    assert rest["scenes"] == 3 and rest["restored"] == 2 and rest["median_over_own"] == pytest.approx(1.2)
+    assert (rest["worse_1x"], rest["worse_1.5x"], rest["worse_3x"], rest["worst"]) == (2, 1, 1, 4.0)
+    assert rest["added_median"] == pytest.approx(4.5) and rest["added_within"] == pytest.approx(2.0 ** 1.5)
+    assert restore_harm.table(summ)[3].startswith("| +4 no dominant source | 3 | 2 | 1.200 | 2 | 1 | 1 | 4 |")

@@ -1,0 +1,132 @@
+"""Experiment: what restoring does to an HDR file that clips, on every scene (issue 45's bars score the scenes with a
+dominant compact source alone; docs/studies/captures.md, "Restoring every scene").
+
+For each real HDR of ``../shared/data/hdri`` with an un-clipped truth (or, with ``--public``, the eight HDRIs the bpy
+package ships), at the ev-0 camera's exposure (the JPEG's white is 1), clipped per channel at 2^STOPS and
+estimated as ``panolight estimate`` does (restored where a plateau is found, by the fold's trees with
+``--fold-models``): the whole model's m-RMSE (lmax 2) over the clipped file's own projection (1: as good as taking
+the file as it is), the energy the file lost (the truth's luminance energy less the file's, over the truth's), and
+what the restoration added over what was lost (1: exactly the missing energy; energies in luminance x sr).
+
+    python -m training.experiments.restore_harm --fold-models 'runs/hdr/all8/sources_{k}.safetensors' \\
+        [--stops 2 4 6] [--out docs/studies/restore_harm.json]
+    python -m training.experiments.restore_harm --public [--out docs/studies/restore_harm_public.json]
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from panolight_core import metrics, sh
+from panolight_core.camera import auto_exposure
+from panolight_core.camera.color import luminance
+from panolight_core.pipeline.estimate import estimate_lighting
+from panolight_core.pipeline.settings import Settings
+from training.common.real_hdri import DEFAULT_HDRI, load_hdr
+from training.common.study import (
+    public_option,
+    restoring_estimators,
+    restoring_fold_models_option,
+    save_study,
+    study_files,
+)
+
+LOST_NONE = 1e-6  # a file that lost at most this share of the truth's energy lost none (the float32 copy's rounding)
+WORSE = (1.0, 1.5, 3.0)  # the summary counts the restored files this many times worse than the file as it is
+
+
+def energy(pixels: np.ndarray) -> float:
+    """Luminance energy (luminance x sr) of an equirect (H, W, 3) map."""
+    return float((luminance(np.asarray(pixels, dtype=np.float64)) * sh.pixel_solid_angles(*pixels.shape[:2])).sum())
+
+
+def scene_row(path: Path, stops=(2.0, 4.0, 6.0), estimator: str = "auto") -> dict:
+    """One scene: whether it has a dominant compact source, and per clip level (keys "+S"): restored or not, the
+    file's own m-RMSE, the estimate's over it (None where the file lost nothing: both are 0), the share of the truth's energy the file lost, and the energy the
+    estimate added over it (``added_over_lost``; None where the file lost none)."""
+    hdr = load_hdr(path)
+    ds = metrics.dominant_source(hdr)
+    truth = hdr * auto_exposure(hdr, 0.0)
+    gt, total = sh.project(truth, 2), energy(truth)
+    row = {"scene": path.stem, "dominant": bool(ds["dominant"]), "share": float(ds["share"])}
+    for s in stops:
+        pixels = np.minimum(truth, 2.0 ** s).astype(np.float32)
+        res = estimate_lighting(pixels, Settings(estimator=estimator))
+        own = metrics.m_rmse(gt, sh.project(pixels, 2))
+        held = energy(pixels)
+        lost = total - held if total - held > LOST_NONE * total else 0.0  # float32's rounding is no loss
+        row[f"+{s:g}"] = {"restored": bool(res.estimate.info.get("restoration", {}).get("restored", False)),
+                          "own": own, "over_own": metrics.m_rmse(gt, res.model.project(2)) / own if lost > 0 else None,
+                          "lost_share": lost / total,
+                          "added_over_lost": (energy(res.hdr_panorama(pixels)) - held) / lost if lost > 0 else None}
+    return row
+
+
+def summary(rows: list[dict], stops) -> dict:
+    """Per clip level, for the scenes with and without a dominant source: how many were restored, the median m-RMSE
+    over the file's own (every scene; 1 where nothing was restored), how many restored files came out worse than
+    the file as it is by each of WORSE, the worst (files that lost nothing left out), and the restored files' added energy over the lost ("within" x,
+    the median of |log2|)."""
+    out = {}
+    for s in stops:
+        key = f"+{s:g}"
+        for dominant in (True, False):
+            sel = [r[key] for r in rows if r["dominant"] == dominant and r[key]["over_own"] is not None]
+            done = [c for c in sel if c["restored"]]
+            ratios = [c["over_own"] for c in sel]
+            added = [c["added_over_lost"] for c in done if c["added_over_lost"] and c["added_over_lost"] > 0]
+            out[f"{key} {'dominant' if dominant else 'no dominant source'}"] = {
+                "scenes": len(sel), "restored": len(done),
+                "median_over_own": statistics.median(ratios) if ratios else float("nan"),
+                **{f"worse_{w:g}x": sum(c["over_own"] > w for c in done) for w in WORSE},
+                "worst": max(ratios, default=float("nan")),
+                "added_within": metrics.ratio_within(added) if added else float("nan"),
+                "added_median": statistics.median(added) if added else float("nan")}
+    return out
+
+
+def table(summ: dict) -> list[str]:
+    lines = ["| clip, scenes | n | restored | m-RMSE / own, median | worse than as it is | over 1.5x | over 3x | worst | "
+             "added / lost, median |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, v in summ.items():
+        lines.append(f"| {name} | {v['scenes']} | {v['restored']} | {v['median_over_own']:.3f} | {v['worse_1x']} | "
+                     f"{v['worse_1.5x']} | {v['worse_3x']} | {v['worst']:.3g} | {v['added_median']:.3g} |")
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m training.experiments.restore_harm", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas (default: %(default)s)")
+    ap.add_argument("--stops", type=float, nargs="+", default=[2.0, 4.0, 6.0],
+                    help="clip at 2^STOPS times the JPEG's white (default: 2 4 6)")
+    restoring_fold_models_option(ap)
+    public_option(ap)
+    ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
+    args = ap.parse_args(argv)
+    files, clipped = study_files(ap, args)
+    estimator_of = restoring_estimators(args, files)
+    rows = []
+    for i, path in enumerate(files, 1):
+        if path.name in clipped:
+            continue  # a truth that clips its own source is a lower bound, never a target
+        row = scene_row(path, args.stops, estimator_of[path])
+        rows.append(row)
+        cells = "  ".join(f"{k} {v['over_own'] or 1.0:6.2f}{'' if v['restored'] else '-'}" for k, v in row.items()
+                          if k.startswith("+"))
+        print(f"[{i}/{len(files)}] {row['scene']:30s} {'dominant' if row['dominant'] else '        '}  {cells}",
+              flush=True)
+    summ = summary(rows, args.stops)
+    print("\n".join(table(summ)))
+    save_study({"scenes": "public" if args.public else str(args.hdri), "stops": args.stops,
+                "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models, "summary": summ,
+                "rows": rows}, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
