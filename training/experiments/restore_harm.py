@@ -11,10 +11,13 @@ what the restoration added over what was lost (1: exactly the missing energy; en
     python -m training.experiments.restore_harm --fold-models 'runs/hdr/all8/sources_{k}.safetensors' \\
         [--stops 2 4 6] [--out docs/studies/restore_harm.json]
     python -m training.experiments.restore_harm --public [--out docs/studies/restore_harm_public.json]
+
+``--rule decided`` gives a plateau's key light the photos' rule instead of its belief (an experiment).
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import statistics
 import sys
 from pathlib import Path
@@ -42,6 +45,36 @@ WORSE = (1.0, 1.5, 3.0)  # the summary counts the restored files this many times
 def energy(pixels: np.ndarray) -> float:
     """Luminance energy (luminance x sr) of an equirect (H, W, 3) map."""
     return float((luminance(np.asarray(pixels, dtype=np.float64)) * sh.pixel_solid_angles(*pixels.shape[:2])).sum())
+
+
+RULES = ("belief", "decided")  # what a restored plateau's key light carries: the shipped belief, or the photos' rule
+
+
+@contextlib.contextmanager
+def key_light_rule(rule: str):
+    """Within it, a restored HDR's key lights carry ``rule``: "belief" (as shipped: ``KeyLightParams.belief``) or
+    "decided" (the photos' rule: the decided fill's energy, a clear-sky sun its fit's capped there), by the same
+    ``keylight.with_key_lights`` without the belief it sets for a plateau."""
+    from panolight_core.estimators import keylight
+
+    if rule not in RULES:
+        raise ValueError(f"unknown rule {rule!r}: one of {', '.join(RULES)}")
+    shipped = keylight.with_key_lights
+
+    def decided(rec, params=keylight.PARAMS):
+        if rec.source is None:
+            return shipped(rec, params)
+        regions = keylight.at_cores(rec.regions, rec.source.core_fraction(rec.regions.labels.shape[0]))
+        fits = {}
+        keys = keylight.find_key_lights(rec.maps, regions, (rec.mu, rec.sigma, rec.log_ratio), params, fits)
+        return rec.with_keys(keys, keylight.sun_search_report(fits, keys, regions, params))
+
+    if rule == "decided":
+        keylight.with_key_lights = decided
+    try:
+        yield
+    finally:
+        keylight.with_key_lights = shipped
 
 
 def scene_row(path: Path, stops=(2.0, 4.0, 6.0), estimator: str = "auto") -> dict:
@@ -106,6 +139,9 @@ def main(argv=None) -> int:
                     help="clip at 2^STOPS times the JPEG's white (default: 2 4 6)")
     restoring_fold_models_option(ap)
     public_option(ap)
+    ap.add_argument("--rule", choices=RULES, default="belief",
+                    help="what a restored plateau's key light carries: belief (as shipped) or decided (the photos' "
+                         "rule; an experiment)")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
     args = ap.parse_args(argv)
     files, clipped = study_files(ap, args)
@@ -114,7 +150,8 @@ def main(argv=None) -> int:
     for i, path in enumerate(files, 1):
         if path.name in clipped:
             continue  # a truth that clips its own source is a lower bound, never a target
-        row = scene_row(path, args.stops, estimator_of[path])
+        with key_light_rule(args.rule):
+            row = scene_row(path, args.stops, estimator_of[path])
         rows.append(row)
         cells = "  ".join(f"{k} {v['over_own'] or 1.0:6.2f}{'' if v['restored'] else '-'}" for k, v in row.items()
                           if k.startswith("+"))
@@ -122,7 +159,7 @@ def main(argv=None) -> int:
               flush=True)
     summ = summary(rows, args.stops)
     print("\n".join(table(summ)))
-    save_study({"scenes": "public" if args.public else str(args.hdri), "stops": args.stops,
+    save_study({"scenes": "public" if args.public else str(args.hdri), "stops": args.stops, "rule": args.rule,
                 "fold_models": args.fold_models, "hdr_fold_models": args.hdr_fold_models, "summary": summ,
                 "rows": rows}, args.out)
     return 0

@@ -43,3 +43,20 @@ def test_the_summary_counts_the_restored_files_made_worse_and_splits_by_dominanc
     assert (rest["worse_1x"], rest["worse_1.5x"], rest["worse_3x"], rest["worst"]) == (2, 1, 1, 4.0)
     assert rest["added_median"] == pytest.approx(4.5) and rest["added_within"] == pytest.approx(2.0 ** 1.5)
     assert restore_harm.table(summ)[3].startswith("| +4 no dominant source | 3 | 2 | 1.200 | 2 | 1 | 1 | 4 |")
+
+
+def test_the_decided_rule_weighs_a_plateau_s_key_light_otherwise_and_puts_the_shipped_rule_back(tmp_path):
+    from panolight_core.estimators import keylight
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    path = _write_hdr(tmp_path, _clear_day()[0])
+    shipped = keylight.with_key_lights
+    belief = restore_harm.scene_row(path, stops=(4.0,))["+4"]
+    with restore_harm.key_light_rule("decided"):
+        assert keylight.with_key_lights is not shipped
+        decided = restore_harm.scene_row(path, stops=(4.0,))["+4"]
+    assert keylight.with_key_lights is shipped
+    assert decided["restored"] and decided["added_over_lost"] != pytest.approx(belief["added_over_lost"], rel=1e-3)
+    with pytest.raises(ValueError, match="unknown rule"):
+        with restore_harm.key_light_rule("blinding"):
+            pass
