@@ -342,7 +342,8 @@ def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, a
     found = (f"{clips} ({restoration.get('plateau_pixels', 0)} pixel(s) at its ceiling, "
              f"{max(restoration.get('ceiling') or [0.0]):.3g})")
     if key is None:
-        return f"{found}: its energy was restored into the map, with no key light ({as_is} takes the file as it is)"
+        return (f"{found}: its energy was restored into the map, with no key light; a patch that is no compact sun "
+                f"or lamp gains little from it and can come out too bright ({as_is} takes the file as it is)")
     kind = str(doc["lights"][key["index"]].get("type", "")).strip()
     became = f"{kind} {light}" if kind else light
     return (f"{found}: restored as a {became} {key['elevation_deg']:.0f} deg up, its "
