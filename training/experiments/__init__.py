@@ -4,5 +4,7 @@ registration) with its notebook in docs/studies/keylight_tried.md. Nothing shipp
 - ``glare_law``: the glare law c E theta^-2 around compact clipped regions, and the gates that could trust it;
 - ``regressors``: the per-source trees against small networks, region by region, out of fold;
 - ``key_variants``: what a key light carries (one account of its region's energy, a sure sun at its belief; issue 46),
-  scored by keylight-cv.
+  scored by keylight-cv;
+- ``energy_oracle``, ``restore_harm``: a restored HDR's key light at the truth's energy, and what restoring does to
+  every scene, with a dominant source or none (issue 45; docs/studies/captures.md).
 """
