@@ -12,7 +12,8 @@ what the restoration added over what was lost (1: exactly the missing energy; en
         [--stops 2 4 6] [--out docs/studies/restore_harm.json]
     python -m training.experiments.restore_harm --public [--out docs/studies/restore_harm_public.json]
 
-``--rule decided`` gives a plateau's key light the photos' rule instead of its belief (an experiment).
+``--rule decided`` gives a plateau's key light the photos' rule instead of its belief (an experiment). ``--ranges``
+scores instead the 68 % range the run's note states for a restored key light: how often the truth lies inside it.
 """
 from __future__ import annotations
 
@@ -99,6 +100,46 @@ def scene_row(path: Path, stops=(2.0, 4.0, 6.0), estimator: str = "auto") -> dic
     return row
 
 
+def range_rows(path: Path, stops=(2.0, 4.0, 6.0), estimator: str = "auto") -> list[dict]:
+    """The run's note states a restored key light's 68 % range (``lighting.lights.key_light_range``): for a scene
+    with a dominant source, at each clip level whose brightest key light stands within metrics.SOURCE_CONE_DEG of
+    the truth's, that range's ends over the light's strength and the factor the truth asks (1 / r: the light
+    dominates the cone r is measured in)."""
+    from panolight_core.lighting.lights import key_light_range
+
+    hdr = load_hdr(path)
+    ds = metrics.dominant_source(hdr)
+    if not ds["dominant"]:
+        return []
+    truth = hdr * auto_exposure(hdr, 0.0)
+    rows = []
+    for s in stops:
+        pixels = np.minimum(truth, 2.0 ** s).astype(np.float32)
+        res = estimate_lighting(pixels, Settings(estimator=estimator))
+        key = key_light_range(res.document)
+        if key is None or metrics.angle_deg(res.document["lights"][key["index"]]["direction"],
+                                            ds["direction"]) > metrics.SOURCE_CONE_DEG:
+            continue
+        r = metrics.source_energy_ratio(truth, res.hdr_panorama(pixels), ds["direction"])
+        rows.append({"scene": path.stem, "stops": s, "source": key["source"], "low": key["low"], "high": key["high"],
+                     "truth_over_light": 1.0 / r if r > 0 else float("inf")})
+    return rows
+
+
+def range_summary(rows: list[dict]) -> dict:
+    """How often the truth lies inside the stated 68 % range, below it and above it, and the ranges' median width
+    (high / low), for all the key lights and by kind (a clear-sky sun, a per-source light)."""
+    def count(sel):
+        return {"lights": len(sel), "inside": sum(r["low"] <= r["truth_over_light"] <= r["high"] for r in sel),
+                "below": sum(r["truth_over_light"] < r["low"] for r in sel),
+                "above": sum(r["truth_over_light"] > r["high"] for r in sel),
+                "median_width": statistics.median(r["high"] / r["low"] for r in sel) if sel else float("nan")}
+
+    kinds = {"clear-sky sun": [r for r in rows if r["source"].startswith("clear-sky")],
+             "per-source light": [r for r in rows if not r["source"].startswith("clear-sky")]}
+    return {"all": count(rows), **{k: count(v) for k, v in kinds.items()}}
+
+
 def summary(rows: list[dict], stops) -> dict:
     """Per clip level, for the scenes with and without a dominant source: how many were restored, the median m-RMSE
     over the file's own (every scene; 1 where nothing was restored), how many restored files came out worse than
@@ -142,10 +183,22 @@ def main(argv=None) -> int:
     ap.add_argument("--rule", choices=RULES, default="belief",
                     help="what a restored plateau's key light carries: belief (as shipped) or decided (the photos' "
                          "rule; an experiment)")
+    ap.add_argument("--ranges", action="store_true",
+                    help="instead: how often the truth lies inside the 68 %% range the run's note states for a restored "
+                         "key light (the scenes with a dominant source)")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary here (JSON)")
     args = ap.parse_args(argv)
     files, clipped = study_files(ap, args)
     estimator_of = restoring_estimators(args, files)
+    if args.ranges:
+        rows = [r for path in files if path.name not in clipped for r in range_rows(path, args.stops, estimator_of[path])]
+        summ = range_summary(rows)
+        for name, v in summ.items():
+            print(f"{name}: {v['inside']} of {v['lights']} inside the stated 68 % range, {v['below']} below, "
+                  f"{v['above']} above; median width {v['median_width']:.1f}x")
+        save_study({"scenes": "public" if args.public else str(args.hdri), "stops": args.stops,
+                    "fold_models": args.fold_models, "summary": summ, "rows": rows}, args.out)
+        return 0
     rows = []
     for i, path in enumerate(files, 1):
         if path.name in clipped:

@@ -60,3 +60,18 @@ def test_the_decided_rule_weighs_a_plateau_s_key_light_otherwise_and_puts_the_sh
     with pytest.raises(ValueError, match="unknown rule"):
         with restore_harm.key_light_rule("blinding"):
             pass
+
+
+def test_the_stated_range_of_a_restored_sun_is_read_against_the_truth_and_counted(tmp_path):
+    """--ranges: a clear day's restored sun states its 68 % range; the truth's factor is read beside it; the counts
+    split inside / below / above."""
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    rows = restore_harm.range_rows(_write_hdr(tmp_path, _clear_day()[0]), stops=(4.0,))
+    assert len(rows) == 1 and rows[0]["source"].startswith("clear-sky")
+    assert rows[0]["low"] < 1.0 < rows[0]["high"] and rows[0]["truth_over_light"] > 0
+    made = [dict(rows[0], truth_over_light=v) for v in (rows[0]["low"] / 2, 1.0, rows[0]["high"] * 2)]
+    summ = restore_harm.range_summary(made + [dict(made[1], source="per-source model")])
+    assert (summ["all"]["inside"], summ["all"]["below"], summ["all"]["above"]) == (2, 1, 1)
+    assert summ["clear-sky sun"]["lights"] == 3 and summ["per-source light"]["inside"] == 1
+    assert summ["all"]["median_width"] == pytest.approx(rows[0]["high"] / rows[0]["low"])
