@@ -21,6 +21,7 @@ import argparse
 import contextlib
 import statistics
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -48,14 +49,16 @@ def energy(pixels: np.ndarray) -> float:
     return float((luminance(np.asarray(pixels, dtype=np.float64)) * sh.pixel_solid_angles(*pixels.shape[:2])).sum())
 
 
-RULES = ("belief", "decided")  # what a restored plateau's key light carries: the shipped belief, or the photos' rule
+RULES = ("belief", "decided", "keys-only")  # what a restored plateau carries: the shipped belief, the photos' rule,
+# or the belief with no fill outside the key lights' regions (a plateau that is no sun or lamp kept as the file holds it)
 
 
 @contextlib.contextmanager
 def key_light_rule(rule: str):
-    """Within it, a restored HDR's key lights carry ``rule``: "belief" (as shipped: ``KeyLightParams.belief``) or
-    "decided" (the photos' rule: the decided fill's energy, a clear-sky sun its fit's capped there), by the same
-    ``keylight.with_key_lights`` without the belief it sets for a plateau."""
+    """Within it, a restored HDR's key lights carry ``rule``: "belief" (as shipped: ``KeyLightParams.belief``),
+    "decided" (the photos' rule: the decided fill's energy, a clear-sky sun its fit's capped there: the same
+    ``keylight.with_key_lights`` without the belief it sets for a plateau), or "keys-only" (the belief, and every
+    plateau region no key light stands for keeps the file's values: its decided log ratio 0)."""
     from panolight_core.estimators import keylight
 
     if rule not in RULES:
@@ -70,8 +73,17 @@ def key_light_rule(rule: str):
         keys = keylight.find_key_lights(rec.maps, regions, (rec.mu, rec.sigma, rec.log_ratio), params, fits)
         return rec.with_keys(keys, keylight.sun_search_report(fits, keys, regions, params))
 
-    if rule == "decided":
-        keylight.with_key_lights = decided
+    def keys_only(rec, params=keylight.PARAMS):
+        rec = shipped(rec, params)
+        if rec.source is None:
+            return rec
+        lit = {int(i) for k in rec.keys if k.region >= 0 for i in (k.region, *k.parts)}
+        kept = np.array([i in lit for i in range(rec.regions.count)], dtype=bool)
+        plain = replace(rec, decided=None, log_ratio=np.where(kept, rec.decided, 0.0))
+        return plain.with_keys(rec.keys, rec.sun_search)
+
+    if rule != "belief":
+        keylight.with_key_lights = decided if rule == "decided" else keys_only
     try:
         yield
     finally:

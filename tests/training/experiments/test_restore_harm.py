@@ -75,3 +75,37 @@ def test_the_stated_range_of_a_restored_sun_is_read_against_the_truth_and_counte
     assert (summ["all"]["inside"], summ["all"]["below"], summ["all"]["above"]) == (2, 1, 1)
     assert summ["clear-sky sun"]["lights"] == 3 and summ["per-source light"]["inside"] == 1
     assert summ["all"]["median_width"] == pytest.approx(rows[0]["high"] / rows[0]["low"])
+
+
+def test_keys_only_changes_nothing_where_the_one_plateau_is_the_sun(tmp_path):
+    """A clear day's one plateau is its sun's key light: with no other region to leave as the file holds it, the
+    keys-only rule restores as the shipped one does."""
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    path = _write_hdr(tmp_path, _clear_day()[0])
+    belief = restore_harm.scene_row(path, stops=(4.0,))["+4"]
+    with restore_harm.key_light_rule("keys-only"):
+        kept = restore_harm.scene_row(path, stops=(4.0,))["+4"]
+    assert kept["over_own"] == pytest.approx(belief["over_own"], rel=1e-6)
+    assert kept["added_over_lost"] == pytest.approx(belief["added_over_lost"], rel=1e-6)
+
+
+def test_keys_only_leaves_a_plateau_that_is_no_sun_as_the_file_holds_it(tmp_path):
+    """The clear day with a small patch of ground just over the +4-stop ceiling (a sunlit white sign), too weak to
+    make a key light: the shipped rule fills it as a clipped source, the keys-only rule keeps it as the file holds
+    it and adds less."""
+    from panolight_core import sh
+    from panolight_core.camera import auto_exposure
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+
+    hdr = _clear_day()[0].astype(np.float64)
+    k = auto_exposure(hdr, 0.0)
+    d = sh.pixel_directions(*hdr.shape[:2])
+    wall = (d @ np.array([0.0, -0.94, -0.34])) > np.cos(np.radians(2.0))  # 2 deg round a point 20 deg down
+    hdr[wall] = 1.1 * 16.0 / k  # 10 % over the ceiling of the file clipped at +4 stops
+    path = _write_hdr(tmp_path, hdr.astype(np.float32))
+    belief = restore_harm.scene_row(path, stops=(4.0,))["+4"]
+    with restore_harm.key_light_rule("keys-only"):
+        kept = restore_harm.scene_row(path, stops=(4.0,))["+4"]
+    assert belief["restored"] and kept["restored"]
+    assert kept["added_over_lost"] < belief["added_over_lost"]
