@@ -92,8 +92,9 @@ def key_light_rule(rule: str):
 
 def scene_row(path: Path, stops=(2.0, 4.0, 6.0), estimator: str = "auto") -> dict:
     """One scene: whether it has a dominant compact source, and per clip level (keys "+S"): restored or not, the
-    file's own m-RMSE, the estimate's over it (None where the file lost nothing: both are 0), the share of the truth's energy the file lost, and the energy the
-    estimate added over it (``added_over_lost``; None where the file lost none)."""
+    file's own m-RMSE, the estimate's over it (None where the file lost nothing: both are 0), the share of the
+    truth's energy the file lost, and the energy the estimate added over it (``added_over_lost``; None where the
+    file lost none)."""
     hdr = load_hdr(path)
     ds = metrics.dominant_source(hdr)
     truth = hdr * auto_exposure(hdr, 0.0)
