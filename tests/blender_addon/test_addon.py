@@ -507,18 +507,13 @@ def test_same_lighting_compares_every_light_not_only_their_number():
     assert not same_lighting(a, {"coefficients": [[1.0, 1.0, 1.1]], "lights": [sun]})
 
 
-def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
-    """A photo whose sun is retouched out: the estimate says a sun was placed from the sky, where and how sure, in
-    the status bar, in Blender's words (``lighting.lights.key_light_note``: its lamp, Sun lamp strength)."""
-    from panolight_core.io import write_srgb8
-    from panolight_core.lighting.lights import key_light_note
-    from tests.panolight_core.estimators.test_keylight import _retouched_sky
-
-    path = write_srgb8(tmp_path / "retouched.png", _retouched_sky(paint=1.0)[0])
-    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
-    _configure()
+def _estimate_reports(path, **read_options) -> list[str]:
+    """Load ``path`` as the world, estimate it as the panel's operator does and return what the operator reports to
+    the status bar (the estimate run in process, its result stored by the operator's own ``_store``)."""
     from blender_addon.operators import PANOLIGHT_OT_estimate_lighting
 
+    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
+    _configure()
     reports = []
 
     class Operator:  # what the estimate operator reports, recorded
@@ -527,9 +522,21 @@ def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
         def report(self, kind, text):
             reports.append(text)
 
-    result = blender_addon.core.core.pipeline.estimate_lighting(read_image(path, ldr_as_uint8=True),
+    result = blender_addon.core.core.pipeline.estimate_lighting(read_image(path, **read_options),
                                                                 bpy.context.scene.panolight.estimate_settings())
     PANOLIGHT_OT_estimate_lighting._store(Operator(), bpy.context, bpy.context.scene.world, result)
+    return reports
+
+
+def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
+    """A photo whose sun is retouched out: the estimate says a sun was placed from the sky, where and how sure, in
+    the status bar, in Blender's words (``lighting.lights.key_light_note``: its lamp, Sun lamp strength)."""
+    from panolight_core.io import write_srgb8
+    from panolight_core.lighting.lights import key_light_note
+    from tests.panolight_core.estimators.test_keylight import _retouched_sky
+
+    path = write_srgb8(tmp_path / "retouched.png", _retouched_sky(paint=1.0)[0])
+    reports = _estimate_reports(path, ldr_as_uint8=True)
     doc = store.stored_lighting(bpy.context.scene.world)
     search = doc["estimator"]["sun_search"]
     assert search["hidden_sun"] and abs(search["elevation_deg"] - 40.0) < search["direction_68_deg"]  # sun 40 up
@@ -909,24 +916,11 @@ def test_a_clipped_hdri_gets_its_sun_back_in_blender_as_on_the_command_line(tmp_
 def test_a_restored_hdri_says_so_in_blender_s_words(tmp_path):
     """The status bar tells the artist the file's clipped sun was restored, how sure its strength is, and how to take
     the file as it is, in the panel's own words (its lamp, Sun lamp strength, *Restore a clipped sun*)."""
-    from blender_addon.operators import PANOLIGHT_OT_estimate_lighting
     from tests.panolight_core.estimators.sources.test_restore import _clear_day
 
     truth, _, _ = _clear_day()
     path = write_image(tmp_path / "clipped.exr", np.minimum(truth, np.float32(16.0)))
-    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
-    _configure()
-    reports = []
-
-    class Operator:  # what the estimate operator reports, recorded
-        _pixels = None
-
-        def report(self, kind, text):
-            reports.append(text)
-
-    result = blender_addon.core.core.pipeline.estimate_lighting(read_image(path),
-                                                                bpy.context.scene.panolight.estimate_settings())
-    PANOLIGHT_OT_estimate_lighting._store(Operator(), bpy.context, bpy.context.scene.world, result)
+    reports = _estimate_reports(path)
     said = [r for r in reports if r.startswith("PanoLight: the file clips its own source")]
     assert len(said) == 1 and "restored as a sun lamp" in said[0], reports
     assert said[0].endswith("set Sun lamp strength; Restore a clipped sun unticked takes the file as it is")
