@@ -37,8 +37,8 @@ from panolight_core.camera import auto_exposure
 from panolight_core.camera.color import luminance
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
-from training.common.real_hdri import DEFAULT_HDRI, clipped_truth, load_hdr, manifest, scene_files
-from training.common.study import restoring_estimators, restoring_fold_models_option, save_study
+from training.common.real_hdri import DEFAULT_HDRI, load_hdr, manifest
+from training.common.study import restoring_estimators, restoring_fold_models_option, save_study, study_files
 
 FACTORS = np.geomspace(1.0 / 64.0, 64.0, 97)
 WEIGHTS = (0.0, 0.25, 0.4, 0.5, 0.6, 0.75, 1.0)  # the trees' weight in log; 0.5 is the geometric mean that ships
@@ -174,9 +174,9 @@ def main(argv=None) -> int:
         rows = ground_rows(json.loads(args.ground.read_text(encoding="utf-8"))["rows"], args.hdri)
         for r in rows:
             print(f"{r['scene']:28s} G ground {r['ground_g']:6.2f}  truth {r['true_g']:6.2f}  sun r {r['ground_r']:6.3f}")
-        alone = [abs(math.log2(max(r["ground_r"], 1e-12))) for r in rows]
-        summ = {"outdoor": len(rows), "ground_alone_within": 2.0 ** statistics.median(alone),
-                "ground_alone_over_3x": sum(e > math.log2(3.0) for e in alone), "combined": with_ground(rows)}
+        summ = {"outdoor": len(rows), "ground_alone_within": metrics.ratio_within(r["ground_r"] for r in rows),
+                "ground_alone_over_3x": sum(abs(math.log2(max(r["ground_r"], 1e-12))) > math.log2(3.0) for r in rows),
+                "combined": with_ground(rows)}
         print(f"the ground's sun alone, {len(rows)} outdoor scenes: within {summ['ground_alone_within']:.2f}x, "
               f"{summ['ground_alone_over_3x']} off by more than 3x")
         for name, v in summ["combined"].items():
@@ -185,9 +185,8 @@ def main(argv=None) -> int:
         save_study({"ground_of": str(args.ground), "band_deg": GROUND_BAND_DEG, "summary": summ, "rows": rows},
                    args.out)
         return 0
-    files = scene_files(args.hdri)
+    files, skip = study_files(ap, args)
     estimator_of = restoring_estimators(args, files)
-    skip = clipped_truth(args.hdri)
     rows = []
     for i, path in enumerate(files, 1):
         row = None if path.name in skip else scene_row(path, args.stops, estimator_of[path])

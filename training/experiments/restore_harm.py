@@ -194,8 +194,8 @@ def main(argv=None) -> int:
     restoring_fold_models_option(ap)
     public_option(ap)
     ap.add_argument("--rule", choices=RULES, default="belief",
-                    help="what a restored plateau's key light carries: belief (as shipped) or decided (the photos' "
-                         "rule; an experiment)")
+                    help="what a restored plateau carries: belief (as shipped), decided (the photos' rule) or "
+                         "keys-only (the belief, no fill outside the key lights' regions); the last two experiments")
     ap.add_argument("--ranges", action="store_true",
                     help="instead: how often the truth lies inside the 68 %% range the run's note states for a restored "
                          "key light (the scenes with a dominant source)")
