@@ -372,7 +372,7 @@ class PANOLIGHT_OT_export_lighting(bpy.types.Operator, ExportHelper):
         if image is not None:
             _save_exr(context.scene, image, exr)
         written = [path] + ([exr] if image is not None else [])
-        owners.record(path.parent, {p.name: owners.digest(p) for p in written})
+        owners.record(path.parent, {p.name: owners.written(p) for p in written})
         self.report({"INFO"}, f"PanoLight: wrote {path}" + (f" and {exr.name}" if image else ""))
         return {"FINISHED"}
 

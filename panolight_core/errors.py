@@ -28,6 +28,12 @@ class LightingFileError(PanoLightError, ValueError):
         super().__init__(f"{self.path}: {problem}")
 
 
+def naming(path, exc: Exception) -> PanoLightError:
+    """``exc`` as a PanoLightError whose message names ``path`` once: prefixed with it unless it names it already."""
+    text = str(exc)
+    return PanoLightError(text if text.startswith(f"{path}:") else f"{path}: {text}")
+
+
 class Cancelled(PanoLightError):
     """Work stopped because its caller asked (``threads.cancellable``): Blender's Esc."""
 

@@ -30,6 +30,8 @@ MIN_PLATEAU_PIXELS = 3  # ... and a plateau at least this many such pixels (a cl
 MIN_HEADROOM = 8.0  # the ceiling's luminance at least this times the median's: a flat or all-clipped image has
 # no source to restore (a JPEG's white is 5.6x its metered median)
 BLOCK_ROWS = 256
+IMPLAUSIBLE = 1e12  # above any real radiance, even a sun in absolute units (about 1.6e9 cd/m^2): a plateau this
+# high is an overflow or a sentinel, never a clipped source, and weighing it would leave float32's range
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,11 @@ class Ceiling:
         for a, b in row_runs(rows):
             out[a - r0:b - r0] = self.at_ceiling(np.asarray(pixels[a:b], dtype=np.float32))
         return out
+
+    @property
+    def implausible(self) -> bool:
+        """Whether the ceiling lies above IMPLAUSIBLE: no camera clipped there, and nothing may be restored."""
+        return not self.level <= IMPLAUSIBLE
 
     def describe(self) -> dict:
         """For lighting.json: the ceiling per channel, the plateau's pixels and solid angle, the headroom."""

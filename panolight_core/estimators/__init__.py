@@ -108,11 +108,13 @@ def per_source(pixels: np.ndarray, lmax: int, key_lights: bool = False, model_pa
         if ceiling is None and scan is not None:
             ceiling, said = pointed_ceiling(pixels, pointer, scan)
             why_not = None if ceiling is not None else said
-        if ceiling is None or not restore:
+        if ceiling is None or not restore or ceiling.implausible:
             est = _exact_hdr(pixels, lmax, name)
             if ceiling is not None:
-                est.info["restoration"] = {**ceiling.describe(), "restored": False,
-                                           "why": "--restore none: the file as it is, its clipped plateau unweighed"}
+                why = ("--restore none: the file as it is, its clipped plateau unweighed" if not ceiling.implausible
+                       else f"its plateau sits at {ceiling.level:.3g}, beyond any real radiance: an overflow or a "
+                            f"sentinel, not a clipped source, so the file is taken as it is")
+                est.info["restoration"] = {**ceiling.describe(), "restored": False, "why": why}
             if why_not is not None:
                 est.info["pointed_restoration"] = why_not
             return est

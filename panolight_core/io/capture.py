@@ -1,17 +1,21 @@
-"""Where and when a 360 photo was taken, from its own metadata (through OpenImageIO, which the CLI and Blender
-both have): the GPS position (EXIF), the UTC time (EXIF GPS time; else the original time with its offset;
-else XMP ``GPano:FirstPhotoDate`` with its zone), and the compass heading of the panorama's centre (XMP
-``GPano:PoseHeadingDegrees``, as Ricoh Theta, Insta360 and Google's Photo Sphere write it). With all three the
-sun's direction follows (``pipeline.metadata_sun``); without them nothing is guessed.
+"""Where and when a 360 photo was taken, and how it was exposed, from its own metadata (through OpenImageIO, which
+the CLI and Blender both have): the GPS position (EXIF), the UTC time (EXIF GPS time; else the original time with
+its offset; else XMP ``GPano:FirstPhotoDate`` with its zone), the compass heading of the panorama's centre (XMP
+``GPano:PoseHeadingDegrees``, as Ricoh Theta, Insta360 and Google's Photo Sphere write it), and the exposure (EXIF
+ExposureTime, FNumber, ISO). With position, time and heading the sun's direction follows
+(``pipeline.metadata_sun``); without them nothing is guessed.
+
+Every tag goes through ``io.metadata``'s validating readers: ``parse_capture`` and ``parse_exposure`` take a
+getter of raw tag values (whatever shape a file holds) and never raise.
 """
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
-from datetime import datetime, timedelta, timezone
+from datetime import datetime
 from pathlib import Path
 
+from . import metadata as tags
 from .checks import RAW_FORMAT, sniff_format
 from .read_raw import read_raw_exposure
 
@@ -31,7 +35,8 @@ class Capture:
     @property
     def missing(self) -> list[str]:
         """What the sun's direction still needs, in words (empty: complete)."""
-        return [what for what, v in (("a GPS position", self.latitude), ("a UTC time", self.utc),
+        position = None if self.latitude is None or self.longitude is None else (self.latitude, self.longitude)
+        return [what for what, v in (("a GPS position", position), ("a UTC time", self.utc),
                                      ("the panorama's heading (GPano:PoseHeadingDegrees)", self.heading)) if v is None]
 
     def describe(self) -> str:
@@ -43,29 +48,48 @@ class Capture:
         return f"GPS {lat} {lon}, {when}, heading {heading}"
 
 
-def read_capture(path) -> Capture:
-    """The capture metadata of an image file (any format OpenImageIO reads); an empty Capture when OpenImageIO
-    is missing or the file cannot be opened (the pixels' reader reports that)."""
+def _open_spec(path):
+    """(OpenImageIO's spec of the file's first subimage, or None when OpenImageIO is missing or cannot open it)."""
     try:
         import OpenImageIO as oiio
     except ImportError:
-        return Capture()
+        return None
     inp = oiio.ImageInput.open(str(Path(path)))
     if inp is None:
         oiio.geterror()
-        return Capture()
+        return None
     try:
-        spec = inp.spec()
-
-        def get(name):
-            return spec.getattribute(name)
-
-        utc, time_from = _utc(get)
-        return Capture(_coordinate(get("GPS:Latitude"), get("GPS:LatitudeRef"), "S", 90.0),
-                       _coordinate(get("GPS:Longitude"), get("GPS:LongitudeRef"), "W", 180.0),
-                       utc, _heading(_xmp_text(path, "GPano:PoseHeadingDegrees")), time_from)
+        return inp.spec()
     finally:
         inp.close()
+
+
+def _getter(spec):
+    """name -> the raw value OpenImageIO holds (any type, any count), or None: never raises."""
+    def get(name):
+        try:
+            return spec.getattribute(name)
+        except Exception:  # noqa: BLE001 - an attribute OpenImageIO cannot convert is not there
+            return None
+    return get
+
+
+def read_capture(path) -> Capture:
+    """The capture metadata of an image file (any format OpenImageIO reads); an empty Capture when OpenImageIO
+    is missing or the file cannot be opened (the pixels' reader reports that)."""
+    spec = _open_spec(path)
+    if spec is None:
+        return Capture()
+    return parse_capture(_getter(spec), _xmp_text(path, "GPano:PoseHeadingDegrees"))
+
+
+def parse_capture(get, heading_text=None) -> Capture:
+    """The Capture of a file's tags: ``get(name)`` gives each raw value (None when absent), ``heading_text`` the
+    XMP heading as written. Each field that is absent, malformed or out of range is None."""
+    utc, time_from = capture_utc(get)
+    return Capture(tags.gps_coordinate(get("GPS:Latitude"), get("GPS:LatitudeRef"), "NS", 90.0),
+                   tags.gps_coordinate(get("GPS:Longitude"), get("GPS:LongitudeRef"), "EW", 180.0),
+                   utc, tags.heading(heading_text), time_from)
 
 
 XMP_SCAN_BYTES = 1 << 20  # a JPEG's XMP packet sits in its first APP1 segment (at most 64 kB), near the start
@@ -84,84 +108,26 @@ def _xmp_text(path, name: str) -> str | None:
     return found.group(1).decode("ascii", "replace") if found else None
 
 
-def _coordinate(dms, ref, negative: str, limit: float) -> float | None:
-    """Degrees from EXIF's (degrees, minutes, seconds) and its N/S or E/W reference; None when absent or absurd."""
-    try:
-        d, m, s = (float(v) for v in dms)
-    except (TypeError, ValueError):
-        return None
-    value = d + m / 60.0 + s / 3600.0
-    if not (math.isfinite(value) and 0.0 <= value <= limit and isinstance(ref, str) and ref.strip().upper() in
-            ("N", "S", "E", "W")):
-        return None
-    return -value if ref.strip().upper() == negative else value
-
-
-def _heading(value) -> float | None:
-    """Degrees in [0, 360) from the written text; None when absent or not a finite number."""
-    try:
-        h = float(str(value).strip())
-    except (TypeError, ValueError):
-        return None
-    return h % 360.0 if math.isfinite(h) else None
-
-
-_OFFSET = re.compile(r"^([+-])(\d{2}):?(\d{2})$")
-
-
-def _utc(get) -> tuple[datetime | None, str | None]:
+def capture_utc(get) -> tuple[datetime | None, str | None]:
     """(UTC time, the tag it came from): GPS time, else the original time and its offset (EXIF 2.31), else
     GPano:FirstPhotoDate when it carries a zone. A local time without its offset is not a UTC time."""
-    date, stamp = get("GPS:DateStamp"), get("GPS:TimeStamp")
-    try:
-        day = datetime.strptime(str(date).strip(), "%Y:%m:%d")
-        h, m, s = (float(v) for v in stamp)
-        if 0 <= h < 24 and 0 <= m < 60 and 0 <= s < 61:
-            return day.replace(tzinfo=timezone.utc) + timedelta(hours=h, minutes=m, seconds=s), "EXIF GPS time"
-    except (TypeError, ValueError):
-        pass
-    original, offset = get("Exif:DateTimeOriginal"), get("Exif:OffsetTimeOriginal")
-    match = _OFFSET.match(str(offset).strip()) if offset else None
-    if original and match:
-        try:
-            local = datetime.strptime(str(original).strip(), "%Y:%m:%d %H:%M:%S")
-        except ValueError:
-            local = None
-        if local is not None:
-            sign = 1 if match.group(1) == "+" else -1
-            zone = timezone(sign * timedelta(hours=int(match.group(2)), minutes=int(match.group(3))))
-            return local.replace(tzinfo=zone).astimezone(timezone.utc), "EXIF original time and its offset"
-    first = get("GPano:FirstPhotoDate")
-    if first:
-        try:
-            when = datetime.fromisoformat(str(first).strip().replace("Z", "+00:00"))
-        except ValueError:
-            when = None
-        if when is not None and when.utcoffset() is not None:
-            return when.astimezone(timezone.utc), "GPano:FirstPhotoDate"
+    found = tags.gps_time(get("GPS:DateStamp"), get("GPS:TimeStamp"))
+    if found is not None:
+        return found, "EXIF GPS time"
+    found = tags.as_utc(tags.exif_datetime(get("Exif:DateTimeOriginal")), tags.utc_offset(get("Exif:OffsetTimeOriginal")))
+    if found is not None:
+        return found, "EXIF original time and its offset"
+    found = tags.iso_datetime(get("GPano:FirstPhotoDate"))
+    if found is not None:
+        return found, "GPano:FirstPhotoDate"
     return None, None
 
 
 def read_exposure(path) -> dict | None:
     """A frame's exposure settings from its EXIF (through OpenImageIO; a camera RAW's through LibRaw):
     {"time_s", "f_number", "iso"} (ISO 100 where the file records none: a set shot at one ISO then still merges
-    right), or None when the file records no ExposureTime and FNumber (or its reader is missing)."""
+    right), or None when the file records no valid ExposureTime and FNumber (or its reader is missing)."""
     if sniff_format(path) == RAW_FORMAT:
         return read_raw_exposure(path)
-    try:
-        import OpenImageIO as oiio
-    except ImportError:
-        return None
-    inp = oiio.ImageInput.open(str(Path(path)))
-    if inp is None:
-        oiio.geterror()
-        return None
-    try:
-        spec = inp.spec()
-        time_s, f_number = spec.getattribute("ExposureTime"), spec.getattribute("FNumber")
-        iso = spec.getattribute("Exif:PhotographicSensitivity") or spec.getattribute("Exif:ISOSpeedRatings")
-    finally:
-        inp.close()
-    if time_s is None or f_number is None:
-        return None
-    return {"time_s": float(time_s), "f_number": float(f_number), "iso": float(iso) if iso else 100.0}
+    spec = _open_spec(path)
+    return None if spec is None else tags.exposure(_getter(spec))

@@ -28,6 +28,18 @@ BLOCK_ROWS = 256  # row blocks for full-resolution passes: temporaries stay a fe
 JPEG_MIN_PIXELS_PER_BYTE = 1024
 
 
+def file_state(path) -> tuple | None:
+    """What tells a file's content changed without reading it: (device, inode, size, mtime ns, ctime ns); None
+    when it cannot be stat'ed. The ctime moves on every write, also one whose writer put the mtime back."""
+    import os
+
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns
+
+
 def sniff_format(path) -> str:
     """'exr' | 'hdr' | 'png' | 'jpeg' | 'raw' (a TIFF-like or camera RAW file, which io.read_raw decodes or refuses)
     from the file's first bytes; raises ImageError otherwise."""

@@ -1,5 +1,8 @@
-"""Which files in a folder PanoLight wrote: a manifest of their sizes and SHA-256, so a run replaces or
-removes only its own files (a copied lighting.json proves nothing about its neighbours)."""
+"""Which files in a folder PanoLight wrote: a manifest of each file's content (size, SHA-256) and identity (device
+and inode), so a run replaces or removes only its own files. A copied lighting.json proves nothing about its
+neighbours, and a manifest written by hand that lists a user's file by its content does not make it ours: the file
+must still be the one PanoLight wrote (renaming a file into place keeps its inode; a copy or a rewrite by another
+program is another file). The ctime is not part of the identity: a rename, a chmod or a backup tool moves it."""
 from __future__ import annotations
 
 import hashlib
@@ -9,7 +12,7 @@ from pathlib import Path
 from ..errors import PanoLightError
 from .atomic import atomic_path, read_small_file
 
-MANIFEST = ".panolight-files.json"  # {"files": {name: [{"size": bytes, "sha256": hex}, ...]}}
+MANIFEST = ".panolight-files.json"  # {"files": {name: [{"size": bytes, "sha256": hex, "dev": int, "ino": int}, ...]}}
 
 
 def digest(path) -> dict | None:
@@ -24,6 +27,18 @@ def digest(path) -> dict | None:
     except OSError:
         return None
     return {"size": size, "sha256": h.hexdigest()}
+
+
+def written(path) -> dict | None:
+    """``digest`` of a file PanoLight just wrote, with its identity (``dev``, ``ino``): a manifest's entry."""
+    import os
+
+    found = digest(path)
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return None if found is None else {**found, "dev": st.st_dev, "ino": st.st_ino}
 
 
 MANIFEST_MAX_BYTES = 1 << 20  # a manifest lists a few files: ~1 KB; anything this large is not ours
@@ -46,21 +61,31 @@ def _entries(folder: Path) -> dict[str, list[dict]]:
     files = doc.get("files") if isinstance(doc, dict) else None
     if not isinstance(files, dict):
         return {}
-    return {str(k): [e for e in v if isinstance(e, dict)] for k, v in files.items() if isinstance(v, list)}
+    return {str(k): [e for e in v if _entry(e)] for k, v in files.items() if isinstance(v, list)}
+
+
+def _entry(e) -> bool:
+    """Whether a manifest entry has the shape ``written`` gives (ints that are not bools, a hex string)."""
+    return (isinstance(e, dict) and all(type(e.get(k)) is int for k in ("size", "dev", "ino"))
+            and isinstance(e.get("sha256"), str))
 
 
 def owned(folder, name: str, entries: dict | None = None) -> bool:
     """Whether ``folder/name`` is a file PanoLight wrote there and nobody changed since (size, then hash)."""
+    import os
+    import stat
+
     path = Path(folder) / name
     known = (_entries(folder) if entries is None else entries).get(name, [])
     try:
-        size = path.stat().st_size
+        st = os.stat(path, follow_symlinks=False)
     except OSError:
         return False
-    if not path.is_file() or not any(e.get("size") == size for e in known):
+    same = [e for e in known if (e["size"], e["dev"], e["ino"]) == (st.st_size, st.st_dev, st.st_ino)]
+    if not stat.S_ISREG(st.st_mode) or not same:
         return False
     d = digest(path)
-    return d is not None and any(e == d for e in known)
+    return d is not None and any(e["sha256"] == d["sha256"] for e in same)
 
 
 def foreign(folder, names) -> list[str]:

@@ -24,7 +24,7 @@ import numpy as np
 from ..camera.color import SRGB8_TO_LINEAR, srgb_to_linear
 from ..errors import ImageError, PanoLightWarning
 from ..packed import PackedImage, Packer
-from .checks import BLOCK_ROWS
+from .checks import BLOCK_ROWS, file_state
 
 
 def available() -> bool:
@@ -158,21 +158,15 @@ class Opened:
         """rows(r0, r1) of this subimage's colour channels read again from the file by a reader of its own (what a
         ``packed.RowFile`` reads at each pass); a file changed or removed since the first read is refused in one
         line, never read as another picture."""
-        import os
-
         path, subimage, spec, channels = self.path, self.subimage, self.spec, self.channels
         state = {}
-        stat = os.stat(path)
-        seen = (stat.st_size, stat.st_mtime_ns, stat.st_ino)
+        seen = file_state(path)
 
         def rows(r0: int, r1: int) -> np.ndarray:
             import OpenImageIO as oiio
 
-            try:
-                now = os.stat(path)
-            except OSError:
-                now = None
-            if now is None or (now.st_size, now.st_mtime_ns, now.st_ino) != seen:
+            now = file_state(path)
+            if now is None or now != seen:
                 raise ImageError(path, "was changed or removed while it was being estimated (a panorama this large "
                                        "is read from its file at each pass): estimate it again")
             if "inp" not in state:

@@ -127,7 +127,7 @@ def read_raw_exposure(path) -> dict | None:
         return None
     finally:
         raw.close()
-    time_s, f_number, iso = float(other.shutter_speed), float(other.aperture), float(other.iso_speed)
-    if not (time_s > 0 and f_number > 0):
-        return None
-    return {"time_s": time_s, "f_number": f_number, "iso": iso if iso > 0 else 100.0}
+    from .metadata import exposure
+
+    tags = {"ExposureTime": other.shutter_speed, "FNumber": other.aperture, "Exif:ISOSpeedRatings": other.iso_speed}
+    return exposure(tags.get)

@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import threads
 from ..camera.brackets import MIN_EXPOSURE_STEP, check_exposures, exposure, merge_brackets
-from ..errors import PanoLightError
+from ..errors import PanoLightError, naming
 from ..io.capture import read_exposure
 from ..io.images import RAW_FORMAT, read_image, sniff_format
 
@@ -57,7 +57,7 @@ def exif_exposure(path: Path, remedy: str) -> float:
     try:
         return exposure(exif["time_s"], exif["f_number"], exif["iso"])
     except PanoLightError as exc:
-        raise PanoLightError(f"{path}: {exc}") from None
+        raise naming(path, exc) from None
 
 
 def group_by_exposure(files) -> list:

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import sh, threads
+from ..camera.ceiling import IMPLAUSIBLE
 from ..errors import PanoLightError
 from ..estimators import Estimate, estimate, with_key_strength, with_pointed_sun
 from ..estimators.highlights import CLIP_LEVEL
@@ -75,7 +76,6 @@ def fit_radiance(radiance: np.ndarray, *, hdr_input: bool, lmax="auto", model: s
 
 
 BLACK = 1e-30  # an HDR panorama whose brightest pixel is below this holds no light (1e-40: denormals)
-IMPLAUSIBLE = 1e12  # above any real radiance, even a sun in absolute units (about 1.6e9 cd/m^2)
 CLIPPED_WHITE = 0.9  # an LDR panorama this much white (every channel >= 250) has no recoverable lighting
 
 

@@ -12,10 +12,11 @@ import numpy as np
 from .. import sh
 from ..camera import linear
 from ..camera.resample import area_downsample_rows
-from ..errors import PanoLightError, PanoLightWarning
+from ..errors import PanoLightError, PanoLightWarning, naming
 from ..io import ownership, read_image, write_image, write_srgb8
 from ..io.atomic import folder_lock
 from ..io.capture import read_capture
+from ..io.checks import file_state
 from ..io.images import PACKED_ABOVE_MEGAPIXELS, RAW_FORMAT, sniff_format, write_exr_rows
 from ..io.lighting import write_lighting
 from ..io.read_raw import read_raw
@@ -111,6 +112,7 @@ def _planned_files(outputs) -> tuple[str, ...]:
 def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_megapixels, outputs) -> dict:
     t0 = time.perf_counter()
     logger.info("reading %s", src)
+    states = [file_state(p) for p in _paths(src)]  # what the estimate reads: checked again once it is hashed
     budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
     bracket = raw = None
     if isinstance(src, BracketSet):
@@ -138,7 +140,7 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
                    and settings.sun_metadata else None)
         result = estimate_lighting(pixels, settings, capture)
     except PanoLightError as exc:
-        raise PanoLightError(f"{src}: {exc}") from None
+        raise naming(src, exc) from None
     for problem in result.warnings:
         warnings.warn(f"{src}: {problem}", PanoLightWarning, stacklevel=4)
     fitted = result.model
@@ -153,10 +155,12 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     require_finite(maps, settings.exposure_ev, f"{src}: ")  # refused before anything is written
     doc = result.document
     digests = []
-    for path in _paths(src):
+    for path, state in zip(_paths(src), states):
         found = ownership.digest(path)
         if found is None:
             raise PanoLightError(f"{path}: could not be read again to record its SHA-256 (was it moved?)")
+        if file_state(path) != state:  # written to since it was read: the estimate is of another picture
+            raise PanoLightError(f"{path}: was changed while it was being estimated: estimate it again")
         digests.append(found["sha256"])
     doc["source"] = {"path": str(photo), "sha256": digests[_paths(src).index(photo)],
                      "width": int(pixels.shape[1]), "height": int(pixels.shape[0]),
@@ -217,7 +221,7 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
         written.append("lighting.json")
         # the manifest proves which files are ours: while the set is renamed into place it accepts the
         # replaced files too, so an interruption between two renames never makes our own files foreign
-        digests = {name: ownership.digest(stage / name) for name in written}
+        digests = {name: ownership.written(stage / name) for name in written}
         earlier = ownership.current(out_dir, OUTPUT_FILES)  # again, under the lock: the run may be long
         _check_destinations(out_dir, written)  # every rename can succeed before the first is made
         ownership.record(out_dir, digests, keep=earlier)

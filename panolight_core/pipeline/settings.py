@@ -127,7 +127,7 @@ def unit_direction(value, option: str = "sun_direction") -> tuple:
         v = [float(x) for x in value]
     except (TypeError, ValueError):
         raise PanoLightError(f"{option} must be three numbers X,Y,Z, got {value!r}") from None
-    n = math.sqrt(sum(x * x for x in v)) if len(v) == 3 and all(math.isfinite(x) for x in v) else 0.0
+    n = math.hypot(*v) if len(v) == 3 and all(math.isfinite(x) for x in v) else 0.0  # hypot: 1e200 squares to inf
     if not n > 0:
         raise PanoLightError(f"{option} must be three finite numbers X,Y,Z, not all zero, got {value!r}")
     return tuple(x / n for x in v)

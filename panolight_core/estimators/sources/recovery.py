@@ -69,7 +69,8 @@ class Recovery:
         if strength == 1.0 or not self.keys:
             return self
         keys = [replace(k, energy=k.energy * strength) for k in self.keys]
-        keys = [k for k in keys if k.energy > 0]  # strength 0: no light, its region's fill keeps the decided energy
+        # strength 0 keeps each light at zero energy, as 0.001 keeps it at a thousandth: its region's fill keeps the
+        # decided energy either way, and no second light is taken there (``key_exclusions``)
         diffuse, work = fill_with_keys(self.base, self.regions, self.log_ratio, keys)
         return replace(self, work=work, diffuse=diffuse, keys=keys)
 

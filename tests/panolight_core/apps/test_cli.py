@@ -651,3 +651,72 @@ def test_the_artist_points_at_the_sun_from_the_command_line(tmp_path, capsys):
     for _ in range(2):
         assert main(["batch", str(src), "-o", str(tmp_path / "b"), "-q", f"--sun={az},{el}"]) == 0
     assert '"skipped": 1' in (tmp_path / "b" / "batch_report.json").read_text()
+
+
+def test_a_sun_direction_of_huge_components_is_that_direction(tmp_path, capsys):
+    """Trust round 4: --sun-direction=1e200,0,0 squared to inf and was refused as "got (0,0,0)"; it is the +X axis."""
+    from panolight_core.pipeline.settings import unit_direction
+
+    assert unit_direction((1e200, 0, 0)) == (1.0, 0.0, 0.0) and unit_direction((0, -1e-320, 0)) == (0.0, -1.0, 0.0)
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q", "--sun-direction=1e200,0,0"]) == 0
+    assert "changes nothing" in capsys.readouterr().err  # an HDR without a bright patch there: said, not refused
+    with pytest.raises(SystemExit) as stop:
+        main(["estimate", str(src), "-o", str(tmp_path / "p"), "-q", "--sun-direction=0,0,0"])
+    assert stop.value.code == 2
+    assert "not all zero, got '0,0,0'" in capsys.readouterr().err
+
+
+def test_a_forged_manifest_does_not_make_a_users_file_ours(tmp_path, capsys):
+    """Trust round 4: a manifest entry carrying a user file's exact size and SHA-256 made a run replace or delete
+    the user's hdr.exr. An entry names the file PanoLight wrote (device and inode): content alone proves nothing,
+    and a copy of PanoLight's own output is another file."""
+    import json
+
+    from panolight_core.io import ownership
+
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    assert main(["estimate", str(src), "-o", str(tmp_path / "ours"), "-q"]) == 0
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "hdr.exr").write_text("mine")
+    forged = {"files": {"hdr.exr": [ownership.digest(out / "hdr.exr")]}}
+    (out / ownership.MANIFEST).write_text(json.dumps(forged))
+    assert ownership.foreign(out, ["hdr.exr"]) == ["hdr.exr"]
+    # the forger adds another file's device and inode: still not that file
+    other = ownership.written(tmp_path / "ours" / "hdr.exr")
+    forged["files"]["hdr.exr"] = [{**ownership.digest(out / "hdr.exr"), "dev": other["dev"], "ino": other["ino"]}]
+    (out / ownership.MANIFEST).write_text(json.dumps(forged))
+    assert main(["estimate", str(src), "-o", str(out), "-q"]) == 1
+    assert "hdr.exr exist and were not written by PanoLight" in capsys.readouterr().err
+    assert main(["estimate", str(src), "-o", str(out), "-q", "--outputs", "lighting"]) == 0  # not written: kept
+    assert (out / "hdr.exr").read_text() == "mine"
+    # a copy of PanoLight's own output folder: its files are copies, not the files PanoLight wrote
+    import shutil
+
+    shutil.copytree(tmp_path / "ours", tmp_path / "copy")
+    assert ownership.foreign(tmp_path / "copy", ["hdr.exr"]) == ["hdr.exr"]
+    assert not ownership.foreign(tmp_path / "ours", ["hdr.exr", "lighting.json", "preview.png"])
+
+
+def test_an_input_rewritten_in_place_with_its_mtime_put_back_is_refused(tmp_path, capsys, monkeypatch):
+    """Trust round 4: a file rewritten while it was estimated, with its old size and mtime put back, gave exit 0
+    and a lighting.json of the old picture. Its ctime moved: refused in one line naming it once, nothing written."""
+    import panolight_core.pipeline.job as job
+
+    src = write_image(tmp_path / "in.exr", np.full((16, 32, 3), 0.5, np.float32))
+    real = job.estimate_lighting
+
+    def estimate_then_rewrite(*args, **kwargs):
+        result = real(*args, **kwargs)
+        before = os.stat(src)
+        data = src.read_bytes()
+        src.write_bytes(data)  # the same size; a writer that puts the mtime back
+        os.utime(src, ns=(before.st_atime_ns, before.st_mtime_ns))
+        return result
+
+    monkeypatch.setattr(job, "estimate_lighting", estimate_then_rewrite)
+    assert main(["estimate", str(src), "-o", str(tmp_path / "o"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert f"{src}: was changed while it was being estimated" in err and err.count(str(src)) == 1
+    assert not (tmp_path / "o" / "lighting.json").exists()

@@ -403,7 +403,8 @@ def test_a_weak_region_in_a_grey_room_makes_no_light():
 def test_sun_strength_scales_the_key_lights_alone_and_keeps_the_regions_bookkeeping():
     """Recovery.with_key_strength: each key light's energy times the strength, its 68 % range (the belief) kept,
     and the work map rebuilt as ``recover`` builds it: a region gains max(its decided energy, its light). At 0
-    the light is gone and its region keeps its decided fill; 1 changes nothing; an estimate with no key light
+    the light stays at zero energy (the limit of small strengths: no other light takes its place) and its region
+    keeps its decided fill; 1 changes nothing; an estimate with no key light
     (an HDR input taken as it is) is left as it is and the pipeline says the setting changed nothing."""
     ldr = hdr_to_ldr(_lamps([(0.3, -0.2, 0.93)]), 0.0)
     rec = estimate(ldr, 2, "keylight").recovery
@@ -425,7 +426,7 @@ def test_sun_strength_scales_the_key_lights_alone_and_keeps_the_regions_bookkeep
         outside = ~np.isin(rec.regions.labels, [key.region, *key.parts])
         np.testing.assert_allclose(got.diffuse[outside], rec.diffuse[outside])
     off = rec.with_key_strength(0.0)
-    assert off.keys == [] and off.lights() == []
+    assert [k.energy for k in off.keys] == [0.0] and [light["intensity"] for light in off.lights()] == [0.0]
     assert region_gain(off) == pytest.approx(decided, rel=1e-6)
     hdr_in = _lamps([(0.3, -0.2, 0.93)]).astype(np.float32)
     res = estimate_lighting(hdr_in, Settings(estimator="keylight", sun_strength=2.0, restore="none"))

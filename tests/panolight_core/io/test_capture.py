@@ -68,3 +68,49 @@ def test_without_all_three_nothing_is_guessed(tmp_path):
     local = datetime(2024, 6, 21, 12, 30, tzinfo=timezone(timedelta(hours=2)))
     got = read_capture(write_photo(tmp_path / "h.jpg", gps=(1.0, 2.0), gps_time=local, heading=0))
     assert got.utc == local and got.utc.tzinfo == timezone.utc
+
+
+def _raw_exif_photo(path, exif_tags=(), gps_tags=()):
+    """A JPEG whose Exif and GPS IFDs hold exactly the given (tag, value) pairs, legal but unexpected shapes."""
+    from PIL import Image
+
+    exif = Image.Exif()
+    for ifd, pairs in ((exif.get_ifd(0x8769), exif_tags), (exif.get_ifd(0x8825), gps_tags)):
+        for tag, value in pairs:
+            ifd[tag] = value
+    Image.fromarray(np.full((32, 64, 3), 128, np.uint8)).save(path, quality=95, exif=exif)
+    return path
+
+
+def test_exposures_in_legal_but_unexpected_shapes_are_read_or_absent(tmp_path):
+    """ISOSpeedRatings of two values (the first is the shot's), ExposureTime and FNumber written as text (trust
+    round 4: an unguarded float() gave a traceback, and killed batch --brackets auto), a 0/0 exposure time."""
+    from PIL.TiffImagePlugin import IFDRational
+
+    from panolight_core.io.capture import read_exposure
+
+    two = _raw_exif_photo(tmp_path / "iso2.jpg", [(0x829A, IFDRational(1, 250)), (0x829D, IFDRational(8, 1)),
+                                                  (0x8827, (400, 800))])
+    assert read_exposure(two) == {"time_s": pytest.approx(0.004), "f_number": 8.0, "iso": 400.0}
+    text = _raw_exif_photo(tmp_path / "text.jpg", [(0x829A, "1/250"), (0x829D, "8"), (0x8827, "200")])
+    assert read_exposure(text) == {"time_s": 0.004, "f_number": 8.0, "iso": 200.0}
+    assert read_exposure(_raw_exif_photo(tmp_path / "nan.jpg", [(0x829A, IFDRational(0, 0)),
+                                                                (0x829D, IFDRational(8, 1))])) is None
+
+
+def test_dates_past_the_calendar_and_a_half_gps_position_are_absent_not_errors(tmp_path):
+    """A GPS date of 9999:12:31 at 23:59:60.5, DateTimeOriginal 0001 at +14:00 and 9999 at -12:00 (trust round 4:
+    OverflowError), a longitude without its reference or of 0/0: no time, no position, nothing guessed."""
+    from PIL.TiffImagePlugin import IFDRational
+
+    late = _raw_exif_photo(tmp_path / "late.jpg", [(0x9003, "9999:12:31 23:59:59"), (0x9011, "-12:00")],
+                           [(29, "9999:12:31"), (7, (23.0, 59.0, 60.5)), (1, "N"), (2, (10.0, 0.0, 0.0)),
+                            (4, (20.0, 0.0, 0.0))])
+    got = read_capture(late)
+    assert got.utc is None and got.latitude == 10.0 and got.longitude is None
+    assert got.missing[:2] == ["a GPS position", "a UTC time"]
+    early = read_capture(_raw_exif_photo(tmp_path / "early.jpg", [(0x9003, "0001:01:01 00:00:00"), (0x9011, "+14:00")]))
+    assert early.utc is None
+    nan = read_capture(_raw_exif_photo(tmp_path / "nan.jpg", gps_tags=[
+        (1, "N"), (2, (10.0, 0.0, 0.0)), (3, "E"), (4, (IFDRational(0, 0), IFDRational(0, 1), IFDRational(0, 1)))]))
+    assert nan.latitude == 10.0 and nan.longitude is None and "a GPS position" in nan.missing

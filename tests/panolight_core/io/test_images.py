@@ -489,6 +489,15 @@ def test_a_file_read_again_at_each_pass_is_refused_once_changed(tmp_path, pano):
     os.utime(p, ns=(1, 1))  # and a different time, whatever the clock's resolution
     with pytest.raises(ImageError, match="big.exr: was changed or removed while it was being estimated"):
         img[0:4]
+    # rewritten in place with its size and mtime put back (trust round 4: read as the new picture): the ctime moved
+    img = read_image(p, packed_above=0.0)
+    before, data = os.stat(p), p.read_bytes()
+    with open(p, "r+b") as f:
+        f.write(data)
+    os.utime(p, ns=(before.st_atime_ns, before.st_mtime_ns))
+    assert (os.stat(p).st_size, os.stat(p).st_mtime_ns) == (before.st_size, before.st_mtime_ns)
+    with pytest.raises(ImageError, match="big.exr: was changed or removed while it was being estimated"):
+        img[0:4]
 
 
 def _dual_fisheye(equirect: np.ndarray, h: int, fov_deg: float = 190.0) -> np.ndarray:

@@ -141,3 +141,25 @@ def test_batch_auto_groups_sets_of_any_size_by_their_exif_exposures(tmp_path, da
     assert main(["batch", str(shots), "-o", str(tmp_path / "y"), "--brackets", "auto", "--evs=-2,0,2"]) != 0
     assert "--brackets auto groups the files by their EXIF exposures" in capsys.readouterr().err
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_batch_auto_takes_exif_in_legal_but_unexpected_shapes(tmp_path, day):
+    """Trust round 4: an ExposureTime written as text, an ISOSpeedRatings of two values and a DateTimeOriginal in
+    year 9999 at -12:00 reached an unguarded float() or astimezone and killed the whole batch before any input ran,
+    good photos included. Now the set merges from its text exposures and every input gets its estimate."""
+    truth, _, _ = day
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    for i, (ev, time_text) in enumerate(((0, "1/250"), (-2, "1/1000"), (2, "1/62.5"))):
+        exif = Image.Exif()
+        ifd = exif.get_ifd(0x8769)
+        ifd[0x829A], ifd[0x829D], ifd[0x8827] = time_text, "8", (100, 200)
+        ifd[0x9003], ifd[0x9011] = "9999:12:31 23:59:59", "-12:00"
+        Image.fromarray(hdr_to_ldr(truth, ev)).save(shots / f"a_{i}.jpg", quality=95, exif=exif)
+    _frame(shots / "b_0.jpg", hdr_to_ldr(truth, 0), 1 / 250, 8.0, 100)
+    out = tmp_path / "out"
+    assert main(["batch", str(shots), "-o", str(out), "--brackets", "auto", "--jobs", "1", "-q"]) == 0
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["ok", "ok"]
+    doc = json.loads((out / "a_0" / "lighting.json").read_text())
+    assert doc["source"]["brackets"]["stops"] == pytest.approx([0, -2, 2], abs=0.01)

@@ -185,3 +185,37 @@ def test_the_artist_s_click_restores_a_sun_whose_plateau_lost_its_ties(day):
     whole = estimate_lighting(truth, Settings(sun_direction=tuple(click)))  # the un-clipped file: its sun is its own
     assert whole.model.coeffs.tobytes() == estimate_lighting(truth).model.coeffs.tobytes()
     assert any("a source the file holds whole" in w for w in whole.warnings)
+
+
+def test_a_plateau_beyond_any_real_radiance_is_taken_as_it_is_not_restored(day):
+    """Trust round 4: an EXR with a 10 x 10 patch at float32's largest value raised "zero-size array" in the
+    restoration's decision (its expected errors overflowed). Such a plateau is an overflow or a sentinel: the file
+    is taken as it is, and its info says why; a patch at 1e11 (a bright but real unit) is still restored."""
+    truth, _, _ = day
+    infos = {}
+    for level in (np.finfo(np.float32).max, 1e11):
+        img = truth.copy()
+        img[50:60, 100:110] = np.float32(level)
+        res = estimate_lighting(img)
+        infos[level] = res.document["estimator"]["restoration"]
+        assert np.isfinite(res.model.coeffs).all()
+    flt_max, bright = infos.values()
+    assert not flt_max["restored"] and "beyond any real radiance" in flt_max["why"]
+    assert bright["restored"]
+
+
+def test_sun_strength_zero_is_the_limit_of_small_strengths(day):
+    """Trust round 4: --sun-strength 0 on a restored HDR dropped the key light, and the lighting model then took
+    the patch's fill as a new 0.46 light, while 0.001 gave a light of a thousandth. Now 0 keeps the light at zero
+    energy in its place, and no other light is taken there."""
+    truth, s, _ = day
+    clipped = np.minimum(truth, np.float32(16.0))
+    one, small, zero = (estimate_lighting(clipped, Settings(sun_strength=k)) for k in (1.0, 1e-3, 0.0))
+
+    def at_sun(res):  # the lights within 5 degrees of the sun
+        return [light["intensity"] for light in res.model.lights if metrics.angle_deg(light["direction"], s) < 5.0]
+
+    assert len(zero.model.lights) == len(small.model.lights) == len(one.model.lights)
+    assert len(at_sun(one)) == 1 and at_sun(zero) == [0.0]
+    assert at_sun(small) == [pytest.approx(1e-3 * at_sun(one)[0], rel=1e-6)]
+    assert zero.model.coeffs[0] == pytest.approx(small.model.coeffs[0], rel=0.05)
