@@ -44,12 +44,10 @@ def file_pixels(image):
     generated or edited image, or a missing file: Blender's own pixels are then read."""
     brackets = image.get(BRACKETS_KEY)  # a merged bracket set: merged again from its files, if they are all there
     if brackets is not None:
-        import json
-
-        saved = json.loads(brackets)
-        if not all(Path(p).is_file() for p in saved["files"]):
+        saved = core.pipeline.brackets.BracketSet.from_record(brackets)  # validated: an edited one is refused
+        if not all(p.is_file() for p in saved.paths):
             return None
-        return core.pipeline.brackets.read_brackets(saved["files"], saved["evs"])[0]
+        return core.pipeline.brackets.read_brackets(saved.paths, saved.evs)[0]
     source = image.get(SOURCE_KEY)  # PanoLight's upright copy of a turned file: read the file itself
     if source is None:
         if image.source != "FILE" or image.packed_file is not None or image.is_dirty:
@@ -81,12 +79,10 @@ def bracket_panorama(paths, evs=None):
     """PanoLight's own packed float image of a bracket set merged by the core (``pipeline.brackets.read_brackets``:
     exposures from the files' EXIF, or ``evs`` in stops), named after its reference frame; the set is kept
     (``file_pixels`` merges it again, to the CLI's numbers). Returns (image, the merge's record)."""
-    import json
-
     merged, info = core.pipeline.brackets.read_brackets(paths, evs)
     reference = Path(info["files"][info["reference"]])
     image = upright_panorama(str(reference), merged, f"{reference.stem} ({len(paths)} brackets)")
-    image[BRACKETS_KEY] = json.dumps({"files": [str(p) for p in paths], "evs": list(evs) if evs else None})
+    image[BRACKETS_KEY] = core.pipeline.brackets.BracketSet(paths, tuple(evs) if evs else None).record()
     return image, info
 
 

@@ -426,10 +426,32 @@ def point_sun(context, view_direction) -> None:
     """The panel's Sun is here at the panorama pixel seen in world ``view_direction``, then Estimate lighting and
     Build environment again (the lamp and the world follow); what Pick sun does with a click."""
     s = _checked(context)
+    before = (s.sun_azimuth, s.sun_elevation, s.sun_pointed)
     s.sun_azimuth, s.sun_elevation = panorama_angles(view_direction, s.background_rotation)
     s.sun_pointed = True
-    if bpy.ops.panolight.estimate_lighting("EXEC_DEFAULT") == {"FINISHED"}:
+    try:  # bpy.ops raises an operator's error report (a click the sky cannot weigh) as a RuntimeError
+        done = bpy.ops.panolight.estimate_lighting("EXEC_DEFAULT") == {"FINISHED"}
+    except RuntimeError as exc:
+        done, error = False, Error(_report_text(exc))
+    else:
+        error = None
+    if not done:
+        s.sun_azimuth, s.sun_elevation, s.sun_pointed = before  # the click changed nothing
+        if error is not None:
+            raise error
+        return
+    try:
         bpy.ops.panolight.build_environment("EXEC_DEFAULT")
+    except RuntimeError as exc:
+        raise Error(_report_text(exc)) from None
+
+
+def _report_text(exc: RuntimeError) -> str:
+    """The message of an operator's error report that bpy.ops raised ("Error: PanoLight: ...\n")."""
+    text = str(exc).strip()
+    for prefix in ("Error:", "PanoLight:"):
+        text = text.removeprefix(prefix).strip()
+    return text
 
 
 class PANOLIGHT_OT_pick_sun(bpy.types.Operator):

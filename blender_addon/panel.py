@@ -58,8 +58,11 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                               "plateau's energy weighed as a photo's clipped sun is; every other "
                                               "pixel is kept (--restore auto). Off: the file as it is")
     # the world built from the estimate
-    background_strength: FloatProperty(name="Background strength", default=1.0, min=0.0, soft_max=10.0)
-    lighting_strength: FloatProperty(name="Lighting strength", default=1.0, min=0.0, soft_max=10.0)
+    # hard maxima: an "inf" typed in is clamped to them, not to float32's largest value (a lamp of inf energy)
+    background_strength: FloatProperty(name="Background strength", default=1.0, min=0.0, soft_max=10.0,
+                                       max=_settings.MAX_SUN_STRENGTH)
+    lighting_strength: FloatProperty(name="Lighting strength", default=1.0, min=0.0, soft_max=10.0,
+                                     max=_settings.MAX_SUN_STRENGTH)
     sun_strength: FloatProperty(
         name="Sun lamp strength", default=1.0, min=0.0, soft_max=10.0, max=_settings.MAX_SUN_STRENGTH,
         description="Scales PanoLight's sun lamps alone (on top of Lighting strength), not the SH lighting; with "

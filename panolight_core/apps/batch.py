@@ -12,6 +12,7 @@ from pathlib import Path
 from ..errors import PanoLightError, PanoLightWarning, printable
 from ..io.atomic import atomic_path, folder_lock, pid_alive, read_small_file
 from ..io.checks import RAW_EXTENSIONS
+from ..io.metadata import json_object
 from ..io.ownership import MANIFEST, digest
 from ..io.staging import clean_stale
 from ..lighting.lights import key_light_note
@@ -182,11 +183,10 @@ def _up_to_date(digest: str | None, dst: Path, settings) -> bool:
     if digest is None:
         return False
     try:
-        side = json.loads(read_small_file(dst / SIDECAR, 1 << 20) or "null")
-        return (dst / "lighting.json").is_file() and side.get("settings") == settings and \
-            side.get("sha256") == digest
-    except (OSError, ValueError, AttributeError, RecursionError, PanoLightError):
+        side = json_object(read_small_file(dst / SIDECAR, 1 << 20)) or {}
+    except PanoLightError:
         return False
+    return (dst / "lighting.json").is_file() and side.get("settings") == settings and side.get("sha256") == digest
 
 
 def _clean_stale(dst: Path) -> None:

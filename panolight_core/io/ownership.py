@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from pathlib import Path
 
 from ..errors import PanoLightError
 from .atomic import atomic_path, read_small_file
+from .metadata import integer, json_object, too_deep
 
 MANIFEST = ".panolight-files.json"  # {"files": {name: [{"size": bytes, "sha256": hex, "dev": int, "ino": int}, ...]}}
 
@@ -52,22 +54,18 @@ def _entries(folder: Path) -> dict[str, list[dict]]:
     text = read_small_file(path, MANIFEST_MAX_BYTES)
     if text is None:
         return {}
-    try:
-        doc = json.loads(text)
-    except RecursionError:
-        raise PanoLightError(f"{path}: nested too deeply to be PanoLight's manifest; remove it") from None
-    except ValueError:
-        return {}  # not ours to trust: nothing is owned
-    files = doc.get("files") if isinstance(doc, dict) else None
+    if too_deep(text):
+        raise PanoLightError(f"{path}: nested too deeply to be PanoLight's manifest; remove it")
+    files = (json_object(text, MANIFEST_MAX_BYTES) or {}).get("files")  # not a manifest: nothing is owned
     if not isinstance(files, dict):
         return {}
     return {str(k): [e for e in v if _entry(e)] for k, v in files.items() if isinstance(v, list)}
 
 
 def _entry(e) -> bool:
-    """Whether a manifest entry has the shape ``written`` gives (ints that are not bools, a hex string)."""
-    return (isinstance(e, dict) and all(type(e.get(k)) is int for k in ("size", "dev", "ino"))
-            and isinstance(e.get("sha256"), str))
+    """Whether a manifest entry has the shape ``written`` gives (ints that are not bools, a 64-digit hex string)."""
+    return (isinstance(e, dict) and all(integer(e.get(k), 0, 1 << 64) is not None for k in ("size", "dev", "ino"))
+            and re.fullmatch(r"[0-9a-f]{64}", str(e.get("sha256"))) is not None)
 
 
 def owned(folder, name: str, entries: dict | None = None) -> bool:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from ..errors import PanoLightError
 from .atomic import pid_alive, read_small_file
+from .metadata import integer, json_object
 
 logger = logging.getLogger(__name__)
 
@@ -41,21 +42,19 @@ def make_stage(folder) -> Path:
 def _marker_pid(stage: Path) -> int | None:
     """The pid a staging folder's marker names, or None when it has no valid marker."""
     try:
-        doc = json.loads(read_small_file(stage / MARKER, 256) or "null")
-    except (PanoLightError, ValueError):
+        doc = json_object(read_small_file(stage / MARKER, 256)) or {}
+    except PanoLightError:
         return None
-    if isinstance(doc, dict) and doc.get("tool") == "panolight" and isinstance(doc.get("pid"), int):
-        return doc["pid"]
-    return None
+    return integer(doc.get("pid"), 1, 1 << 32) if doc.get("tool") == "panolight" else None
 
 
 def _is_record(path: Path, key: str) -> bool:
     """Whether ``path`` is a regular file holding a JSON object with ``key`` (what PanoLight writes)."""
     try:
-        doc = json.loads(read_small_file(path, 1 << 20) or "null")
-    except (PanoLightError, ValueError, RecursionError):
+        doc = json_object(read_small_file(path, 1 << 20))
+    except PanoLightError:
         return False
-    return isinstance(doc, dict) and key in doc
+    return doc is not None and key in doc
 
 
 def clean_stale(folder, records: dict[str, str] | None = None) -> list[str]:

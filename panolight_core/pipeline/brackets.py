@@ -2,6 +2,7 @@
 the estimate then takes as an HDR file whose ceiling is the darkest frame's white."""
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,6 +14,7 @@ from ..camera.brackets import MIN_EXPOSURE_STEP, check_exposures, exposure, merg
 from ..errors import PanoLightError, naming
 from ..io.capture import read_exposure
 from ..io.images import RAW_FORMAT, read_image, sniff_format
+from ..io.metadata import json_object, number, text
 
 
 @dataclass(frozen=True)
@@ -28,6 +30,24 @@ class BracketSet:
 
     def __str__(self) -> str:
         return " + ".join(str(p) for p in self.paths)
+
+    def record(self) -> str:
+        """The set as JSON text (what Blender keeps on its merged image): ``from_record`` reads it back."""
+        return json.dumps({"files": [str(p) for p in self.paths], "evs": list(self.evs) if self.evs else None})
+
+    @classmethod
+    def from_record(cls, raw) -> "BracketSet":
+        """The set a ``record`` holds, validated (``io.metadata``): two or more file paths, and None or one
+        exposure in stops (within +-30) per file. PanoLightError when ``raw`` is not such a record (an edited
+        or damaged one), saying to load the set again."""
+        doc = json_object(raw, 1 << 20) or {}
+        files, evs = doc.get("files"), doc.get("evs")
+        paths = [text(p, 4096) for p in files] if isinstance(files, list) else []
+        stops = None if evs is None else [number(v, -30.0, 30.0) for v in evs] if isinstance(evs, list) else [None]
+        if len(paths) < 2 or None in paths or (stops is not None and (None in stops or len(stops) != len(paths))):
+            raise PanoLightError("the stored bracket set is not a valid record (files, and one exposure in stops "
+                                 "per file or none): load the set again")
+        return cls(paths, None if stops is None else tuple(stops))
 
     @property
     def stem(self) -> str:

@@ -163,3 +163,34 @@ def test_batch_auto_takes_exif_in_legal_but_unexpected_shapes(tmp_path, day):
     assert [r["status"] for r in report["results"]] == ["ok", "ok"]
     doc = json.loads((out / "a_0" / "lighting.json").read_text())
     assert doc["source"]["brackets"]["stops"] == pytest.approx([0, -2, 2], abs=0.01)
+
+
+def test_a_bracket_record_round_trips_and_any_other_text_is_refused_in_one_line():
+    """BracketSet.record / from_record: what Blender keeps on a merged image (an ID property a user or a script can
+    edit), validated through io.metadata; fuzzed with text of any shape."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from panolight_core.errors import PanoLightError
+    from panolight_core.pipeline.brackets import BracketSet
+
+    for evs in (None, (-2.0, 0.0, 2.0)):
+        s = BracketSet(["a.jpg", "b.jpg", "c.jpg"], evs)
+        assert BracketSet.from_record(s.record()) == s
+
+    values = st.recursive(st.one_of(st.none(), st.booleans(), st.integers(), st.floats(), st.text(max_size=10)),
+                          lambda inner: st.one_of(st.lists(inner, max_size=4),
+                                                  st.dictionaries(st.sampled_from(["files", "evs"]), inner)),
+                          max_leaves=12)
+
+    @settings(max_examples=200, deadline=None)
+    @given(st.one_of(values.map(json.dumps), st.text(max_size=50), values))
+    def fuzz(raw):
+        try:
+            s = BracketSet.from_record(raw)
+        except PanoLightError as exc:
+            assert "load the set again" in str(exc)
+        else:
+            assert len(s.paths) >= 2 and (s.evs is None or len(s.evs) == len(s.paths))
+
+    fuzz()
