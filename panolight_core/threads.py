@@ -122,3 +122,42 @@ def process_context():
 
     methods = multiprocessing.get_all_start_methods()
     return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+
+
+@contextlib.contextmanager
+def signals_held():
+    """Hold SIGINT and SIGTERM for the block, then deliver each that came, once, to the handler in force before
+    it: for imports whose C++ code catches Python's exceptions (usd-core's plugin registration, interrupted,
+    prints a KeyboardInterrupt's traceback and goes on). Outside the main thread the block runs as it is."""
+    import signal
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    kinds = (signal.SIGINT, signal.SIGTERM)
+    previous = {s: signal.signal(s, lambda signum, frame: caught.append(signum)) for s in kinds}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        for s in dict.fromkeys(caught):
+            signal.raise_signal(s)
+
+
+def optional_module(name: str):
+    """The module ``name`` (a C extension PanoLight may use: OpenImageIO, OpenEXR, simplejpeg, rawpy, pxr), or None
+    when it is not installed. Imported with SIGINT and SIGTERM held (``signals_held``): interrupted while it
+    initialises, an extension's import can fail as an ImportError (OpenImageIO then read as missing) or swallow
+    the interrupt (usd-core); the signal is delivered once the import ends."""
+    import importlib
+    import sys
+
+    if name in sys.modules:
+        return sys.modules[name]
+    with signals_held():
+        try:
+            return importlib.import_module(name)
+        except ImportError:
+            return None

@@ -10,12 +10,13 @@ import warnings
 from pathlib import Path
 
 from ..errors import PanoLightError, PanoLightWarning, printable
-from ..io.atomic import atomic_path, folder_lock, pid_alive, read_small_file
+from ..io.atomic import atomic_path, folder_lock, read_small_file
 from ..io.checks import RAW_EXTENSIONS
 from ..io.metadata import json_object
 from ..io.ownership import MANIFEST, digest
 from ..io.staging import clean_stale
 from ..lighting.lights import key_light_note
+from .workers import keep_freed_memory, run_workers
 
 EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg") + RAW_EXTENSIONS
 
@@ -236,108 +237,6 @@ def _process_task(task):
     return k, _process(job, src, dst, settings)
 
 
-def _worker_init(parent: int):
-    """Pool workers leave Ctrl-C to the batch process, which stops them (SIGTERM: they clean up), and
-    run their pixel passes on one thread: the workers already fill the CPUs."""
-    import signal
-
-    from .. import threads
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, _exit_on_sigterm)
-    sys.stderr = _QuietOrphan(sys.stderr, parent)
-    _die_with_parent(parent)
-    threads.set_count(1)
-    _keep_freed_memory()
-
-
-class _QuietOrphan:
-    """A worker's stderr that falls silent once the batch process is gone (killed with SIGKILL): the
-    worker's last result then meets a broken pipe, and multiprocessing would print that traceback on
-    the user's terminal. While the batch runs, every line passes through."""
-
-    def __init__(self, stream, parent: int):
-        self.stream, self.parent = stream, parent
-
-    def write(self, text):
-        return self.stream.write(text) if pid_alive(self.parent) else len(text)
-
-    def flush(self):
-        if pid_alive(self.parent):
-            self.stream.flush()
-
-    def __getattr__(self, name):
-        return getattr(self.stream, name)
-
-
-def _quiet_resource_tracker() -> None:
-    """Start multiprocessing's resource tracker with its stderr on the null device. It outlives a batch
-    killed with SIGKILL and then warns, on the user's terminal, of the pool's 'leaked semaphore objects',
-    which it cleans up itself (nothing is lost; the message is noise). No-op where it already runs."""
-    import os
-
-    try:
-        from multiprocessing import resource_tracker
-    except ImportError:  # no tracker on this platform
-        return
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 2)
-            resource_tracker.ensure_running()
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
-def _exit_on_sigterm(signum, frame):
-    """A worker told to stop (pool.terminate, or its parent gone) unwinds: the writers' ``finally`` blocks
-    remove their staging folders, and SystemExit ends the process without a traceback."""
-    raise SystemExit(128 + signum)
-
-
-def _die_with_parent(pid: int) -> None:
-    """Stop this worker (SIGTERM to itself, so it cleans up) once the batch process ``pid`` is gone, however
-    it went (SIGKILL included): a killed batch leaves no orphans writing or printing tracebacks. A
-    watcher thread, because a forkserver's workers outlive their parent by design (they keep it alive)."""
-    import os
-    import signal
-    import threading
-
-    def watch():
-        while pid_alive(pid):
-            time.sleep(0.5)
-        os.kill(os.getpid(), signal.SIGTERM)
-
-    threading.Thread(target=watch, name="panolight-parent-watch", daemon=True).start()
-
-
-def _keep_freed_memory() -> None:
-    """Let glibc's malloc reuse freed memory instead of returning every large temporary to the kernel:
-    each estimate makes hundreds of MB of short-lived numpy arrays, and mapping them afresh (page
-    faults) cost a fifth of batch's time (bench_scale: 9.5 -> 10.3 inputs / s, 2 workers; the system
-    time of a serial run halved). No-op off glibc."""
-    import ctypes
-    import ctypes.util
-
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        libc.mallopt(-3, 256 << 20)  # M_MMAP_THRESHOLD: allocations below 256 MB come from the heap
-        libc.mallopt(-1, 1 << 30)  # M_TRIM_THRESHOLD: keep up to 1 GB of freed heap for reuse
-    except (OSError, AttributeError):
-        pass
-
-
-def default_jobs() -> int:
-    """Worker processes for ``batch``: one more than the CPUs this process may use, so that one worker's
-    file writes overlap the others' computing (bench_scale, 2 CPUs: 2 workers 12.7 inputs / s, 3 15.3,
-    4 15.6)."""
-    from .. import threads
-
-    return threads.cpus() + 1
-
-
 def run_batch(inputs: list[Path], out_dir: Path, job, shard_spec=(1, 1), quiet: bool = False,
               settings=None, jobs: int = 1) -> dict:
     """Run ``job(src, dst_dir)`` for this shard's inputs, continuing past failures; resumable.
@@ -386,28 +285,14 @@ def _run_locked(inputs, out_dir, job, shard_spec, quiet, settings, jobs) -> dict
 
     tasks = [(k, job, src, out_dir / names[src], settings) for k, src in enumerate(mine)]
     report()
-    _keep_freed_memory()
-    pool = None
+    keep_freed_memory()
     try:
         if jobs <= 1 or len(tasks) <= 1:
             for task in tasks:
                 record(*_process_task(task))
         else:
-            import os
-
-            from .. import threads
-
-            ctx = threads.process_context()  # never a fork: library thread pools would hang in the child
-            _quiet_resource_tracker()
-            pool = ctx.Pool(min(jobs, len(tasks)), initializer=_worker_init, initargs=(os.getpid(),))
-            for k, result in pool.imap_unordered(_process_task, tasks):
-                record(k, result)
-            pool.close()
-            pool.join()
-    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the report says how far this run got, then unwind
-        if pool is not None:
-            pool.terminate()  # SIGTERM to the workers: each removes its half-written staging folder
-            pool.join()
+            run_workers(tasks, jobs, _process_task, record)
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM (the workers are stopped): the report says how far it got
         report(interrupted=True)
         raise
     doc = report()

@@ -132,8 +132,9 @@ def run_batch(args) -> int:
     import functools
 
     from ..pipeline import run_estimate as job
-    from .batch import collect_inputs, default_jobs, parse_shard
+    from .batch import collect_inputs, parse_shard
     from .batch import run_batch as batch
+    from .workers import default_jobs
 
     shard_spec = parse_shard(args.shard)
     settings = estimate_settings.from_args(args)
@@ -357,7 +358,7 @@ def _unknown_arguments(parser, args, rest) -> None:
     command.error(f"unrecognized arguments: {' '.join(rest)}" + ("\n  " + "\n  ".join(hints) if hints else ""))
 
 
-def _terminate(signum, frame):
+def terminate(signum, frame):
     """SIGTERM (a render farm cancelling a job, ``kill``) unwinds like Ctrl-C: the writers' ``finally``
     blocks remove their temporary files, and the exit status says why (128 + 15)."""
     raise _Terminated()
@@ -368,6 +369,28 @@ class _Terminated(KeyboardInterrupt):
 
 
 def main(argv=None) -> int:
+    """The ``panolight`` command (argv: its arguments; None: sys.argv's). SIGTERM unwinds like Ctrl-C while it
+    runs, and either ends it with one line (143, 130), wherever it comes."""
+    import signal
+    import threading
+
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        return _main(argv)
+    except _Terminated:
+        print("panolight: terminated (SIGTERM)", file=sys.stderr)
+        return 143
+    except KeyboardInterrupt:
+        print("panolight: interrupted", file=sys.stderr)
+        return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv) -> int:
     parser = build_parser()
     # a plugin's tool with its own command line (set_defaults(forward=True)) gets every argument after its
     # name in args.forwarded; any other command refuses arguments it does not know, as parse_args would
@@ -378,18 +401,8 @@ def main(argv=None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
-    import signal
-    import threading
-
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _terminate)
-    try:
-        with progress_to_stderr(getattr(args, "quiet", False) or not getattr(args, "log_steps", True)):
-            return _run(args)
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+    with progress_to_stderr(getattr(args, "quiet", False) or not getattr(args, "log_steps", True)):
+        return _run(args)
 
 
 def _run(args) -> int:
@@ -411,12 +424,6 @@ def _run(args) -> int:
                   "lower --max-megapixels to refuse such files up front, or downsample the panorama)",
                   file=sys.stderr)
             return 1
-        except _Terminated:
-            print("panolight: terminated (SIGTERM)", file=sys.stderr)
-            return 143
-        except KeyboardInterrupt:
-            print("panolight: interrupted", file=sys.stderr)
-            return 130
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
+from ..threads import optional_module
 from . import metadata as tags
 from .checks import RAW_FORMAT, sniff_format
 from .read_raw import read_raw_exposure
@@ -50,9 +51,8 @@ class Capture:
 
 def _open_spec(path):
     """(OpenImageIO's spec of the file's first subimage, or None when OpenImageIO is missing or cannot open it)."""
-    try:
-        import OpenImageIO as oiio
-    except ImportError:
+    oiio = optional_module("OpenImageIO")
+    if oiio is None:
         return None
     inp = oiio.ImageInput.open(str(Path(path)))
     if inp is None:

@@ -6,22 +6,18 @@ from __future__ import annotations
 import numpy as np
 
 from ..camera.color import LUMINANCE_WEIGHTS
+from ..threads import optional_module
 
 
 def available() -> bool:
-    try:
-        import OpenEXR  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    return optional_module("OpenEXR") is not None
 
 
 def luminance_chroma(path) -> bool:
     """Whether this single- or multi-part EXR's first colour part is luminance/chroma (header only);
     False when the OpenEXR package is missing."""
-    try:
-        import OpenEXR
-    except ImportError:
+    OpenEXR = optional_module("OpenEXR")
+    if OpenEXR is None:
         return False
     for part in OpenEXR.File(str(path), header_only=True).parts:
         names = {getattr(c, "name", str(c)) for c in part.header.get("channels", [])}

@@ -8,14 +8,14 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ImageError
+from ..threads import optional_module
 
 
 def decode(path) -> np.ndarray | None:
     """(H, W, 3) uint8 of a colour JPEG as stored, or None when simplejpeg is not installed or does not
     take this kind of JPEG (CMYK, grey), so that OpenImageIO reads it. ImageError for corrupt data."""
-    try:
-        import simplejpeg
-    except ImportError:
+    simplejpeg = optional_module("simplejpeg")
+    if simplejpeg is None:
         return None
     data = Path(path).read_bytes()
     try:

@@ -24,15 +24,12 @@ import numpy as np
 from ..camera.color import SRGB8_TO_LINEAR, srgb_to_linear
 from ..errors import ImageError, PanoLightWarning
 from ..packed import PackedImage, Packer
+from ..threads import optional_module
 from .checks import BLOCK_ROWS, file_state
 
 
 def available() -> bool:
-    try:
-        import OpenImageIO  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    return optional_module("OpenImageIO") is not None
 
 
 class Opened:

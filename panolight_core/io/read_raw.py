@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ImageError
+from ..threads import optional_module
 from .checks import BLOCK_ROWS, DEFAULT_MAX_MEGAPIXELS, check_size, check_stitched
 
 WHITE_16 = 65535  # LibRaw's 16-bit output: the sensor's white after white balance (highlight mode clip)
@@ -25,11 +26,7 @@ WHITE_16 = 65535  # LibRaw's 16-bit output: the sensor's white after white balan
 
 def available() -> bool:
     """True when rawpy (LibRaw) can be imported."""
-    try:
-        import rawpy  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    return optional_module("rawpy") is not None
 
 
 def _rawpy(path):

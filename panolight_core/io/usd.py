@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PanoLightError
+from ..threads import optional_module, signals_held
 from .atomic import atomic_path
 
 DOME_TO_WORLD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # world = R @ dome-local
@@ -33,8 +34,13 @@ VARIANTS = ("lights", "hdri")
 
 
 def _pxr():
+    """usd-core's modules, imported with Ctrl-C and SIGTERM held until the import ends (``threads.signals_held``:
+    interrupted in its plugin registration, usd-core printed tracebacks and swallowed the interrupt)."""
     try:
-        from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
+        if optional_module("pxr") is None:
+            raise ImportError
+        with signals_held():
+            from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
     except ImportError:
         raise PanoLightError("writing lighting.usda needs usd-core (pip install usd-core)") from None
     return Gf, Sdf, Usd, UsdGeom, UsdLux

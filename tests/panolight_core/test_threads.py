@@ -102,3 +102,42 @@ def test_cancellable_passes_stop_at_their_next_block():
     stop.clear()
     with threads.cancellable(stop):
         assert estimate_lighting(ldr).document["lmax"] >= 0
+
+
+def test_signals_held_are_delivered_once_the_block_ends():
+    import os
+    import signal
+    import time
+
+    from panolight_core.threads import signals_held
+
+    reached = []
+    with pytest.raises(KeyboardInterrupt):
+        with signals_held():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # its handler ran, holding it
+            reached.append(True)
+    assert reached == [True]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_ctrl_c_during_the_usd_import_interrupts_and_prints_no_usd_traceback(tmp_path):
+    """Trust round 4: Ctrl-C while usd-core registered its plugins printed its tracebacks, swallowed the interrupt
+    and the run went on to exit 0. The import holds it and delivers it after."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    pytest.importorskip("pxr")
+    for delay in (0.01, 0.03, 0.05, 0.08, 0.12):  # the import's window lasts about 0.25 s; its plugins come early
+        script = ("import os, signal, threading, time\n"
+                  "from panolight_core.io.usd import usd_available\n"
+                  f"threading.Timer({delay}, os.kill, (os.getpid(), signal.SIGINT)).start()\n"
+                  "usd_available()\n"
+                  "time.sleep(2)\n"
+                  "print('went on')\n")
+        run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60,
+                             cwd=Path(__file__).parents[2])
+        assert "went on" not in run.stdout and run.returncode != 0, (delay, run.stderr)
+        assert run.stderr.count("Traceback") <= 1 and "to_python" not in run.stderr, (delay, run.stderr)
+        assert run.stderr.strip().endswith("KeyboardInterrupt")

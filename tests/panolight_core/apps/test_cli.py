@@ -720,3 +720,42 @@ def test_an_input_rewritten_in_place_with_its_mtime_put_back_is_refused(tmp_path
     err = capsys.readouterr().err
     assert f"{src}: was changed while it was being estimated" in err and err.count(str(src)) == 1
     assert not (tmp_path / "o" / "lighting.json").exists()
+
+
+def test_estimate_interrupted_at_random_moments_ends_with_one_line(tmp_path):
+    """Ctrl-C (its process group) or SIGTERM at random moments of a real `panolight estimate`, its imports (usd-core's
+    too) and its writes included: each run ends with 130 or 143 and its one line, no traceback, and no staging
+    folder left; or it had finished (0) with its whole output set."""
+    import random
+    import signal
+    import time
+
+    from panolight_core.io import write_srgb8
+
+    rng = np.random.default_rng(1)
+    write_srgb8(tmp_path / "in.png", (rng.random((256, 512, 3)) * 255).astype(np.uint8))
+    pick = random.Random(7)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[3])}
+    for trial in range(8):
+        out = tmp_path / f"o{trial}"
+        proc = subprocess.Popen([sys.executable, "-m", "panolight_core.apps.entry", "estimate", "in.png", "-o", out.name,
+                                 "-q"], cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                start_new_session=True)
+        time.sleep(pick.uniform(0.03, 1.2))  # its imports (about 0.2 s) included
+        term = trial % 2 == 1
+        os.killpg(proc.pid, signal.SIGTERM if term else signal.SIGINT)
+        try:
+            _, err = proc.communicate(timeout=20)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+        assert "Traceback" not in err, err
+        if proc.returncode == 0:
+            assert (out / "lighting.json").is_file()
+            continue
+        if proc.returncode < 0:  # killed while Python itself started (its first ~30 ms): none of PanoLight ran
+            assert err == "" and not out.exists()
+            continue
+        want = (143, "panolight: terminated (SIGTERM)") if term else (130, "panolight: interrupted")
+        assert (proc.returncode, (err.strip().splitlines() or [""])[-1]) == want, (proc.returncode, err)
+        assert not out.exists() or not list(out.glob(".panolight-*")), list(out.iterdir())
