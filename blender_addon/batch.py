@@ -52,13 +52,13 @@ def parse(argv, core):
     settings.add_arguments(ap, sun_strength=False)  # --sun-strength above: the panel's lamps
     ap.add_argument("--sun", type=settings.argparse_type(settings.parse_sun), default=None, metavar="AZ,EL",
                     help="the sun is there (the panel's Sun is here; degrees, azimuth 0 at the panorama's centre, "
-                         "positive to the right; --sun=-40,5 for a negative azimuth), weighed by the clear sky")
+                         "positive to the right; --sun -40,5 for a negative azimuth), weighed by the clear sky")
     ap.add_argument("--sun-contrast", type=settings.number("--sun-contrast", 1.0 + 1e-9, settings.SUN_CONTRAST_RANGE[1]),
                     default=None, metavar="R", help="with --sun: weigh it by the photo's lit / shadow ground contrast")
     ap.add_argument("--no-sun-metadata", dest="sun_metadata", action="store_false",
                     help="ignore the photo's GPS position, UTC time and heading (by default they place a sun the "
                          "photo does not place itself; the panel's Sun from the photo's metadata)")
-    args = ap.parse_args(argv)
+    args = ap.parse_args(settings.attach_negative_values(ap, argv))  # --evs -2,0,2 as typed
     if args.sun_contrast is not None and args.sun is None:
         ap.error("--sun-contrast weighs the sun --sun points at: give --sun too")
     return args

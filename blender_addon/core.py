@@ -15,8 +15,9 @@ else:  # a development checkout or a pip install: no bundled copy beside this fi
 
 # the core modules the add-on uses (and so the extension bundles, with what they import:
 # scripts/build_extension.py reads this list), relative to panolight_core
-CORE_MODULES = ("camera.resample", "errors", "estimators", "io.capture", "io.images", "io.lighting", "io.ownership",
-                "lighting.lights", "lighting.order", "pipeline", "pipeline.hdri", "pipeline.settings", "sh", "threads")
+CORE_MODULES = ("camera.resample", "errors", "estimators", "io.capture", "io.images", "io.lighting",
+                "io.metadata", "io.ownership", "lighting.lights", "lighting.order", "pipeline", "pipeline.hdri",
+                "pipeline.settings", "sh", "threads")
 
 for _name in CORE_MODULES:
     importlib.import_module(f"{core.__name__}.{_name}")  # core.io.lighting, core.pipeline.hdri, ...

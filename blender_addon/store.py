@@ -18,6 +18,7 @@ LIGHTING_KEY = "panolight_lighting"  # world ID property: the estimate, a lighti
 SOURCE_KEY = "panolight_source"  # image ID property: the file an upright copy was made from
 BRACKETS_KEY = "panolight_brackets"  # image ID property: the bracket set (JSON: files, evs) a merged image was made from
 ESTIMATE_KEY = "panolight_estimate"  # world and HDRI image ID property: which estimate the HDRI is of
+LIGHTING_MAX_BYTES = 1 << 26  # a lighting document of SH order 100 is about 0.6 MB
 SUN_STRENGTH_KEY = "panolight_sun_strength"  # HDRI image ID property: the Sun lamp strength its key lights carry
 
 
@@ -44,11 +45,10 @@ def stored_lighting(world) -> dict:
     raw = world.get(LIGHTING_KEY) if world else None
     if not raw:
         raise core.errors.PanoLightError("no lighting estimated yet: use Estimate lighting first")
-    try:
-        doc = json.loads(raw)
-    except (TypeError, ValueError):
-        raise core.errors.PanoLightError("the stored estimate is not valid JSON: use Estimate lighting again") \
-            from None
+    doc = core.io.metadata.json_object(raw, LIGHTING_MAX_BYTES)  # validated: an edited one is refused
+    if doc is None:
+        raise core.errors.PanoLightError("the stored estimate is not a lighting document (edited?): use Estimate "
+                                         "lighting again")
     return core.io.lighting.validate(doc, "the estimated lighting")
 
 
@@ -74,7 +74,8 @@ def key_light_range(world) -> dict | None:
     (``lighting.lights.key_light_range``), for the panel; None without an estimate or a key light. Never raises:
     the panel draws it on every redraw."""
     raw = world.get(LIGHTING_KEY) if world is not None else None
+    doc = core.io.metadata.json_object(raw, LIGHTING_MAX_BYTES) if raw else None
     try:
-        return core.lighting.lights.key_light_range(json.loads(raw)) if raw else None
-    except (TypeError, ValueError, KeyError, IndexError):
+        return core.lighting.lights.key_light_range(doc) if doc is not None else None
+    except (TypeError, ValueError, KeyError, IndexError, AttributeError):
         return None

@@ -154,8 +154,9 @@ def optional_module(name: str):
     import importlib
     import sys
 
-    if name in sys.modules:
-        return sys.modules[name]
+    module = sys.modules.get(name)
+    if module is not None and not getattr(getattr(module, "__spec__", None), "_initializing", False):
+        return module  # imported already (one another thread is still importing waits in import_module below)
     with signals_held():
         try:
             return importlib.import_module(name)

@@ -392,6 +392,7 @@ def main(argv=None) -> int:
 
 def _main(argv) -> int:
     parser = build_parser()
+    argv = estimate_settings.attach_negative_values(parser, sys.argv[1:] if argv is None else list(argv))  # --evs -2,0,2 as typed
     # a plugin's tool with its own command line (set_defaults(forward=True)) gets every argument after its
     # name in args.forwarded; any other command refuses arguments it does not know, as parse_args would
     args, rest = parser.parse_known_args(argv)

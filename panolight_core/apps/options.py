@@ -54,3 +54,4 @@ def resolution(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(f"resolution must be 2:1 with height 1..{MAX_MAP_HEIGHT} (the SH maps are "
                                          f"smooth; hdr.exr keeps the input's full resolution), got {text!r}")
     return w, h
+

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import LightingFileError
 from .atomic import atomic_path
+from .metadata import MAX_JSON_DEPTH, too_deep
 
 FRAME = "blender-world-z-up"
 BASIS = "real-orthonormal-no-condon-shortley"
@@ -121,7 +122,10 @@ def read_lighting(path) -> tuple[np.ndarray, dict]:
     if not p.is_file():
         raise LightingFileError(p, "file not found")
     try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
+        text = p.read_text(encoding="utf-8")
+        if too_deep(text):
+            raise LightingFileError(p, f"nested deeper than {MAX_JSON_DEPTH} levels: not a lighting file")
+        doc = json.loads(text)
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise LightingFileError(p, f"not valid JSON: {exc}") from None
     validate(doc, p)

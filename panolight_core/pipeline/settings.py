@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from dataclasses import dataclass
 
 from ..errors import PanoLightError
@@ -242,8 +243,8 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                                 "retouched sky) or shows only by its shadows. It replaces the sun the estimate found, "
                                 "weighed by the clear sky's fit with the sun fixed there, or by --sun-contrast. On "
                                 "an HDR file whose clipped sun lost its exact plateau (resized after its merge), the "
-                                "bright patch within 10 degrees of it is restored there. A negative azimuth needs the "
-                                "= form: --sun=-40,5")
+                                "bright patch within 10 degrees of it is restored there (--sun -40,5 for a "
+                                "negative azimuth)")
         where.add_argument("--sun-direction", type=argparse_type(_xyz), default=None, metavar="X,Y,Z",
                            help="the same as --sun, as a direction in the world frame (Z up, the panorama's centre "
                                 "+X; docs/CONVENTIONS.md)")
@@ -277,3 +278,30 @@ def from_args(args) -> Settings:
                     sun_direction=getattr(args, "sun", None) or getattr(args, "sun_direction", None),
                     sun_contrast=getattr(args, "sun_contrast", None), sun_metadata=getattr(args, "sun_metadata", True),
                     restore=getattr(args, "restore", "auto"))
+
+
+_NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d)[\d.,eE+-]*$")  # -2,0,2 / -40,5 / -1 / -.5 / -1e-3,0,1: never an option
+
+
+def attach_negative_values(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
+    """``argv`` with each option that takes one value joined to a following value that starts with a minus sign
+    (``--evs -2,0,2`` -> ``--evs=-2,0,2``), as people type them: argparse takes "-2,0,2" for an option of its
+    own. The options are those of ``parser`` and its sub-commands; nothing else changes."""
+    takes_value = set()
+    parsers = [parser]
+    while parsers:
+        p = parsers.pop()
+        for action in p._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                parsers.extend(action.choices.values())
+            elif action.option_strings and action.nargs is None:
+                takes_value.update(action.option_strings)
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] in takes_value and i + 1 < len(argv) and _NEGATIVE_VALUE.match(argv[i + 1]):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out

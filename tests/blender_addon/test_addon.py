@@ -994,6 +994,11 @@ def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp
         image[store.BRACKETS_KEY] = edited
         with pytest.raises(RuntimeError, match="the stored bracket set is not a valid record"):
             bpy.ops.panolight.estimate_lighting()
+    # and an edited estimate on the world: refused by Build, and the panel's range reads nothing, never a traceback
+    bpy.context.scene.world[store.LIGHTING_KEY] = "[" * 100000
+    with pytest.raises(RuntimeError, match="the stored estimate is not a lighting document"):
+        bpy.ops.panolight.build_environment()
+    assert store.key_light_range(bpy.context.scene.world) is None
 
 
 def test_a_set_whose_exif_is_text_or_several_values_loads(tmp_path):
@@ -1049,7 +1054,7 @@ def test_the_headless_script_merges_a_bracket_set(tmp_path):
     city = load_studio_hdri("city")
     frames = [str(write_srgb8(tmp_path / f"c{i}.png", hdr_to_ldr(city, ev))) for i, ev in enumerate((-2, 0, 2))]
     batch = ROOT / "blender_addon" / "batch.py"
-    r = subprocess.run([sys.executable, str(batch), "--", "--input", *frames, "--evs=-2,0,2", "--output-blend",
+    r = subprocess.run([sys.executable, str(batch), "--", "--input", *frames, "--evs", "-2,0,2", "--output-blend",
                         str(tmp_path / "set.blend")], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     assert "merged from 3 frames (-2, +0, +2 stops)" in r.stdout + r.stderr

@@ -60,6 +60,9 @@ def test_not_json_and_missing(tmp_path):
         read_lighting(p)
     with pytest.raises(LightingFileError, match="not found"):
         read_lighting(tmp_path / "absent.json")
+    p.write_text('{"coefficients": ' + "[" * 100000)  # trust round 4: a RecursionError traceback
+    with pytest.raises(LightingFileError, match="l.json: nested deeper than 32 levels"):
+        read_lighting(p)
     with pytest.raises(LightingFileError, match="finite"):
         validate({"lmax": 0, "coefficients": [[float("nan"), 0, 0]], "frame": "blender-world-z-up",
                   "basis": "real-orthonormal-no-condon-shortley"})
