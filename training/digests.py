@@ -1,7 +1,8 @@
 """Digests of the shipped estimates over the real HDRs: a refactoring's proof that nothing changed.
 
-For every panorama of ../shared/data/hdri (MANIFEST order) and each ev, the EVALUATION.md camera JPEG (q90) is
-estimated with the default settings (``pipeline.estimate_lighting``), and kept: the lighting document without
+For every panorama of ../shared/data/hdri (MANIFEST order) and each ev, the EVALUATION.md camera JPEG (q90), the
+HDR itself clipped 4 stops over its ev-0 white (a file that clips its sun: restored), and each 8-bit photo of
+../shared/data/ldr are estimated with the default settings (``pipeline.estimate_lighting``), and kept: the lighting document without
 its timings (coefficients, lights, the estimator's account), and the SHA-256 and per-channel float64 sums of the
 full-resolution ``hdr.exr`` panorama's float32 rows. ``--compare`` re-runs and sorts every estimate into
 bitwise equal, equal to rounding (every number within RTOL: the same code run twice differs in the last bit in
@@ -64,9 +65,22 @@ def _close(a, b) -> bool:
     return a == b
 
 
-def digests(folder: Path, evs, log=print) -> dict:
-    """{"SCENE@EV": {"lighting": document without timings, "hdr": sha256, "hdr_sums": [[sum], [sum of squares]]}}
-    over the folder's panoramas."""
+CLIPPED_STOPS = 4.0  # each HDR also clipped this many stops over its ev-0 JPEG's white: the restoration's path
+
+
+def _entry(pixels) -> dict:
+    res = estimate_lighting(pixels, Settings())
+    digest, sums = _hdr_digest(res, pixels)
+    return {"lighting": json.loads(json.dumps(_without_timings(res.document), default=str)), "hdr": digest,
+            "hdr_sums": sums}
+
+
+def digests(folder: Path, evs, photos: Path | None = None, log=print) -> dict:
+    """{"SCENE@EV" (its camera JPEG), "SCENE@clip+4" (the HDR clipped 4 stops over its JPEG's white: restored),
+    "photo:NAME" (each 8-bit photo of ``photos``): {"lighting": document without timings, "hdr": sha256,
+    "hdr_sums": [[sum], [sum of squares]]}} over the folder's panoramas."""
+    from panolight_core.camera import auto_exposure
+    from panolight_core.io import read_image
     from training.common.real_hdri import load_hdr, scene_files
 
     out = {}
@@ -75,12 +89,13 @@ def digests(folder: Path, evs, log=print) -> dict:
     for n, path in enumerate(files, 1):
         hdr = load_hdr(path)
         for ev in evs:
-            ldr = hdr_to_ldr(hdr, ev, 90)
-            res = estimate_lighting(ldr, Settings())
-            digest, sums = _hdr_digest(res, ldr)
-            out[f"{path.stem}@{ev:g}"] = {"lighting": json.loads(json.dumps(_without_timings(res.document), default=str)),
-                                          "hdr": digest, "hdr_sums": sums}
+            out[f"{path.stem}@{ev:g}"] = _entry(hdr_to_ldr(hdr, ev, 90))
+        clipped = np.minimum(hdr * auto_exposure(hdr, 0.0), 2.0 ** CLIPPED_STOPS).astype(np.float32)
+        out[f"{path.stem}@clip+{CLIPPED_STOPS:g}"] = _entry(clipped)
         log(f"  {n}/{len(files)} {path.stem} ({time.perf_counter() - t0:.0f} s)")
+    for path in sorted(photos.glob("*.jpg")) if photos is not None and photos.is_dir() else ():
+        out[f"photo:{path.name}"] = _entry(read_image(path, ldr_as_uint8=True))
+        log(f"  {path.name} ({time.perf_counter() - t0:.0f} s)")
     return out
 
 
@@ -117,6 +132,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m training.digests", description=__doc__.split("\n\n")[0])
     ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI, help="folder of real HDR panoramas")
     ap.add_argument("--evs", type=float, nargs="+", default=[-2.0, 0.0, 2.0], help="exposures (default -2 0 2)")
+    ap.add_argument("--photos", type=Path, default=DEFAULT_HDRI.parent / "ldr",
+                    help="folder of 8-bit photos estimated too (default ../shared/data/ldr)")
     group = ap.add_mutually_exclusive_group(required=True)
     group.add_argument("--out", type=Path, help="write the digests here (JSON)")
     group.add_argument("--compare", type=Path, help="compare against digests written earlier")
@@ -140,7 +157,7 @@ def main(argv=None) -> int:
             print(f"differs: {d}")
         print(f"{args.eval[1].name}: {'the same numbers' if not differ else f'{len(differ)} numbers differ'}", file=sys.stderr)
         return 1 if differ else 0
-    found = digests(args.hdri, args.evs, log=lambda m: print(m, file=sys.stderr))
+    found = digests(args.hdri, args.evs, args.photos, log=lambda m: print(m, file=sys.stderr))
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(found, indent=1, sort_keys=True) + "\n")

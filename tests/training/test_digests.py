@@ -12,9 +12,14 @@ def test_the_same_estimates_compare_equal_and_a_changed_one_does_not(tmp_path):
         img = rng.random((32, 64, 3)).astype(np.float32) * 0.5
         img[4:6, 10:12] = 40.0  # a clipped sun at ev 0
         write_image(tmp_path / f"{name}.exr", img)
-    first = digests.digests(tmp_path, [0.0], log=lambda *_: None)
-    again = digests.digests(tmp_path, [0.0], log=lambda *_: None)
-    assert first == again and set(first) == {"a@0", "b@0"}
+    photos = tmp_path / "ldr"
+    photos.mkdir()
+    from panolight_core.io import write_srgb8
+
+    write_srgb8(photos / "p.jpg", (rng.random((32, 64, 3)) * 255).astype(np.uint8))
+    first = digests.digests(tmp_path, [0.0], photos, log=lambda *_: None)
+    again = digests.digests(tmp_path, [0.0], photos, log=lambda *_: None)
+    assert first == again and set(first) == {"a@0", "b@0", "a@clip+4", "b@clip+4", "photo:p.jpg"}
     assert first["a@0"]["lighting"]["coefficients"] and len(first["a@0"]["hdr"]) == 64
     changed = dict(first["a@0"], hdr_sums=[[v * (1 + 1e-6) for v in row] for row in first["a@0"]["hdr_sums"]])
     assert not digests._close(first["a@0"]["hdr_sums"], changed["hdr_sums"])
