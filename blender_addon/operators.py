@@ -209,7 +209,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
             self.report({"WARNING"}, f"PanoLight: {store.stored_panorama(world).filepath or 'the panorama'}: {problem}")
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
-        note = core.lighting.lights.key_light_note(doc, light="lamp", raise_with="Sun lamp strength",
+        note = core.estimators.keylight.key_light_note(doc, light="lamp", raise_with="Sun lamp strength",
                                                    as_is="Restore a clipped sun unticked")
         if note:
             self.report({"INFO"}, f"PanoLight: {note}")

@@ -76,6 +76,6 @@ def key_light_range(world) -> dict | None:
     raw = world.get(LIGHTING_KEY) if world is not None else None
     doc = core.io.metadata.json_object(raw, LIGHTING_MAX_BYTES) if raw else None
     try:
-        return core.lighting.lights.key_light_range(doc) if doc is not None else None
+        return core.estimators.keylight.key_light_range(doc) if doc is not None else None
     except (TypeError, ValueError, KeyError, IndexError, AttributeError):
         return None

@@ -187,6 +187,15 @@ def test_no_core_import_runs_back_up_a_layer():
     assert not up, "\n".join(up)
 
 
+def test_the_lighting_model_never_imports_the_estimators():
+    """The lighting model (lights, SH order, relighting) stands on its own: the key light's notes live with the key
+    light (estimators/keylight), and the equirect grid's connected components in sh.blobs."""
+    modules = _modules()
+    found = sorted(f"{name} -> {imp}" for name, path in modules.items() if name.startswith("panolight_core.lighting")
+                   for imp in _imports(name, path, modules) if imp.startswith("panolight_core.estimators"))
+    assert not found, "\n".join(found)
+
+
 def test_no_core_function_takes_more_than_8_parameters():
     """Shipped signatures hold what ships: a study's knobs live in training (its variants, KeyLightParams)."""
     many = []

@@ -10,12 +10,12 @@ import warnings
 from pathlib import Path
 
 from ..errors import PanoLightError, PanoLightWarning, printable
+from ..estimators.keylight import key_light_note
 from ..io.atomic import atomic_path, folder_lock, read_small_file
 from ..io.checks import RAW_EXTENSIONS
 from ..io.metadata import json_object
 from ..io.ownership import MANIFEST, digest
 from ..io.staging import clean_stale
-from ..lighting.lights import key_light_note
 from .workers import keep_freed_memory, run_workers
 
 EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg") + RAW_EXTENSIONS

@@ -174,8 +174,8 @@ def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, or
     rec = est.recovery
     if rec is None:
         return est
-    from .pointed_sun import SkyCannotWeigh, photo_places_sun
-    from .pointed_sun import with_pointed_sun as point
+    from .keylight import SkyCannotWeigh, photo_places_sun
+    from .keylight import with_pointed_sun as point
 
     info = {k: v for k, v in est.info.items() if k not in ("clipped_regions", "sun_search")}
     said = {"direction": [round(float(v), 6) for v in direction],

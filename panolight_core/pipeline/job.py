@@ -13,6 +13,7 @@ from .. import sh
 from ..camera import linear
 from ..camera.resample import area_downsample_rows
 from ..errors import PanoLightError, PanoLightWarning, naming
+from ..estimators.keylight import key_light_note
 from ..io import ownership, read_image, write_image, write_srgb8
 from ..io.atomic import folder_lock
 from ..io.capture import read_capture
@@ -21,7 +22,6 @@ from ..io.images import PACKED_ABOVE_MEGAPIXELS, RAW_FORMAT, sniff_format, write
 from ..io.lighting import write_lighting
 from ..io.read_raw import read_raw
 from ..io.staging import clean_stale, make_stage
-from ..lighting.lights import key_light_note
 from .brackets import BracketSet, read_brackets
 from .estimate import estimate_lighting, require_finite
 from .settings import Settings, check_map_cost

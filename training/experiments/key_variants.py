@@ -22,12 +22,14 @@ import sys
 from dataclasses import replace
 
 from panolight_core.estimators import keylight
+from panolight_core.estimators.keylight import find, weighing
 
 
 @contextlib.contextmanager
 def one_account():
-    """``keylight.key_energy`` as ``one-account`` weighs a clear-sky sun, for the ``with`` block."""
-    shipped = keylight.key_energy
+    """``keylight.key_energy`` as ``one-account`` weighs a clear-sky sun, for the ``with`` block (``weighing.weigh``
+    calls it)."""
+    shipped = weighing.key_energy
 
     def whole(physical, learned, decided, trusted, params=keylight.PARAMS):
         energy = shipped(physical, learned, decided, trusted, params)
@@ -35,18 +37,18 @@ def one_account():
             return energy
         return max(energy, min(decided, physical * params.sky_spread) if trusted else decided)
 
-    keylight.key_energy = whole
+    weighing.key_energy = whole
     try:
         yield
     finally:
-        keylight.key_energy = shipped
+        weighing.key_energy = shipped
 
 
 @contextlib.contextmanager
 def belief(within_deg: float, untrusted: bool = False):
     """``keylight.find_key_lights`` as ``belief:DEG`` (``untrusted``: ``belief:DEG:any``) weighs a sure sun, for the
-    ``with`` block."""
-    shipped = keylight.find_key_lights
+    ``with`` block (``find.with_key_lights`` calls it)."""
+    shipped = find.find_key_lights
 
     def sure(maps, regions, prediction, params=keylight.PARAMS, fits=None):
         keys = shipped(maps, regions, prediction, params, fits)
@@ -54,11 +56,11 @@ def belief(within_deg: float, untrusted: bool = False):
                                                   and k.physical and math.degrees(k.direction_68) <= within_deg) else k
                 for k in keys]
 
-    keylight.find_key_lights = sure
+    find.find_key_lights = sure
     try:
         yield
     finally:
-        keylight.find_key_lights = shipped
+        find.find_key_lights = shipped
 
 
 def variant(text: str):

@@ -114,11 +114,11 @@ def scene_row(path: Path, stops=(2.0, 4.0, 6.0), estimator: str = "auto") -> dic
 
 
 def range_rows(path: Path, stops=(2.0, 4.0, 6.0), estimator: str = "auto") -> list[dict]:
-    """The run's note states a restored key light's 68 % range (``lighting.lights.key_light_range``): for a scene
+    """The run's note states a restored key light's 68 % range (``keylight.key_light_range``): for a scene
     with a dominant source, at each clip level whose brightest key light stands within metrics.SOURCE_CONE_DEG of
     the truth's, that range's ends over the light's strength and the factor the truth asks (1 / r: the light
     dominates the cone r is measured in)."""
-    from panolight_core.lighting.lights import key_light_range
+    from panolight_core.estimators.keylight import key_light_range
 
     hdr = load_hdr(path)
     ds = metrics.dominant_source(hdr)

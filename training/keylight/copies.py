@@ -21,7 +21,7 @@ import numpy as np
 from panolight_core import metrics
 from panolight_core.camera import hdr_to_ldr
 from panolight_core.camera.resample import area_downsample
-from panolight_core.lighting.lights import key_light_range
+from panolight_core.estimators.keylight import key_light_range
 from panolight_core.pipeline.estimate import estimate_lighting
 from panolight_core.pipeline.settings import Settings
 from training.common.real_hdri import clipped_truth, load_hdr, scene_files

@@ -41,9 +41,9 @@ def turned_back(direction, shift: int, width: int) -> np.ndarray:
 
 
 def key_light(pixels: np.ndarray, estimator: str = "auto") -> dict | None:
-    """The brightest key light (``lighting.lights.key_light_range``) of the default estimate of ``pixels`` (uint8
+    """The brightest key light (``keylight.key_light_range``) of the default estimate of ``pixels`` (uint8
     (H, W, 3)), or None."""
-    from panolight_core.lighting.lights import key_light_range
+    from panolight_core.estimators.keylight import key_light_range
     from panolight_core.pipeline.estimate import estimate_lighting
     from panolight_core.pipeline.settings import Settings
 

@@ -15,7 +15,7 @@ For each photo (default: every JPEG in ../shared/data/ldr; never trained or tune
 - EVALUATION.md's shadow contrast C of a surface facing the key light (``metrics.model_shadow_contrast``);
 - the key light's direction against the visible sun (``SUNS``, ../shared/data/ldr/README.md), and its
   colour (the tunnel's sodium lamps must come out orange);
-- what the product tells the artist of the key light (``lighting.lights.key_light_note``) and, for a key light
+- what the product tells the artist of the key light (``keylight.key_light_note``) and, for a key light
   kept below its own evidence, the same render estimated again with ``--sun-strength`` at the low end of its 68 %
   range, as the note advises (Blender: Sun lamp strength).
 Writes OUT/<photo>.png (photo | composite per estimator) and OUT/artist_check.md (the table).
@@ -34,7 +34,8 @@ import numpy as np
 
 from panolight_core import metrics
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
-from panolight_core.lighting.lights import KEPT_BELOW, key_light_note, key_light_range
+from panolight_core.estimators.keylight import key_light_note, key_light_range
+from panolight_core.estimators.keylight.notes import KEPT_BELOW
 
 ROOT = Path(__file__).resolve().parents[2]
 LDR = ROOT.parent / "shared" / "data" / "ldr"
@@ -201,7 +202,7 @@ def write(results, out: Path) -> Path:
              for r in results for e in r["estimates"] if e["note"]]
     if notes:
         lines += ["", "What `panolight estimate` and the Blender status bar tell the artist "
-                  "(`lighting.lights.key_light_note`; a key light kept below its evidence is also rendered at the low "
+                  "(`keylight.key_light_note`; a key light kept below its evidence is also rendered at the low "
                   "end of its 68 % range with `--sun-strength`, as the note advises):", ""] + notes
     lines += pictures
     report = out / "artist_check.md"

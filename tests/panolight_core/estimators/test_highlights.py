@@ -6,20 +6,8 @@ import pytest
 from panolight_core import metrics, sh
 from panolight_core.camera import hdr_to_ldr
 from panolight_core.estimators import estimate
-from panolight_core.estimators.highlights import CORE_RADIUS, label_blobs, power_law_gain, recover_highlights
+from panolight_core.estimators.highlights import CORE_RADIUS, power_law_gain, recover_highlights
 from panolight_core.synthetic import environment
-
-
-def test_labels_join_across_seam_and_pole():
-    m = np.zeros((6, 12), bool)
-    m[3, 0] = m[3, 11] = True  # across u = 0
-    m[0, 2] = m[0, 8] = True  # across the north pole (columns x and x + w/2)
-    m[4, 5] = True  # alone
-    labels, n = label_blobs(m)
-    assert n == 3
-    assert labels[3, 0] == labels[3, 11] and labels[0, 2] == labels[0, 8]
-    assert len({labels[3, 0], labels[0, 2], labels[4, 5]}) == 3
-    assert (labels[~m] == -1).all()
 
 
 def test_power_law_gain_properties():
@@ -86,22 +74,3 @@ def test_beats_naive_on_synthetic_outdoor_scenes_at_ev0():
         analytic.append(metrics.irr_rmse(gt, estimate(ldr, 2, "analytic").coeffs))
     assert len(naive) >= 8
     assert np.mean(analytic) < np.mean(naive)
-
-
-def test_component_at_is_label_blobs_component(rng):
-    from panolight_core.estimators.highlights import component_at, label_blobs
-
-    for trial in range(60):
-        h = int(rng.integers(2, 24))
-        w = 2 * h
-        mask = rng.random((h, w)) < rng.uniform(0.2, 0.7)
-        if trial % 3 == 0:  # regions touching the poles and the seam
-            mask[0, :] |= rng.random(w) < 0.5
-            mask[:, 0] |= rng.random(h) < 0.5
-            mask[:, -1] |= rng.random(h) < 0.5
-        labels, _ = label_blobs(mask)
-        ys, xs = np.nonzero(mask)
-        for k in rng.choice(len(ys), size=min(4, len(ys)), replace=False) if len(ys) else []:
-            y, x = ys[k], xs[k]
-            assert np.array_equal(component_at(mask, y, x), labels == labels[y, x]), (trial, y, x)
-    assert not component_at(np.zeros((4, 8), bool), 1, 1).any()

@@ -490,17 +490,18 @@ def test_a_region_in_a_blue_sky_takes_white_not_the_sky_s_gradient():
     outer = (~region) & ~inner & (ang < 3.0 + 6 * 180.0 / h)
     diff = rad[inner].mean(0) - rad[outer].mean(0)
     assert diff[0] > diff[2] > 0  # the rings' difference is warm: the old rule's colour
-    np.testing.assert_allclose(keylight._ring_color(rad, frac_any, labels, 0, s, radius, keylight.PARAMS.shoulder), np.ones(3))
+    np.testing.assert_allclose(keylight.ring_colour(rad, frac_any, labels, 0, s, radius, keylight.PARAMS.shoulder), np.ones(3))
     grey = (0.3 + 0.3 * near)[..., None] * np.array([1.0, 1.0, 1.0]) + (0.3 * near)[..., None] * np.array([1.0, 0.55, 0.12])
-    col = keylight._ring_color(grey, frac_any, labels, 0, s, radius, keylight.PARAMS.shoulder)
+    col = keylight.ring_colour(grey, frac_any, labels, 0, s, radius, keylight.PARAMS.shoulder)
     assert col[0] > col[1] > col[2]
 
 
 def test_the_artist_points_at_a_sun_the_photo_hides_and_its_sky_weighs_it():
     """A building in front of the sun (issue 46): the pointed sun stands exactly where the artist says, weighed by
     the clear-sky fit with the sun fixed there (x sky_correction, its 68 % range around it); no other sun."""
-    from panolight_core.estimators import keylight, pointed_sun
+    from panolight_core.estimators import keylight
     from panolight_core.estimators import sky as clear_sky
+    from panolight_core.estimators.keylight import pointer as pointed_sun
 
     ldr, s, _ = _retouched_sky(paint=0.02)  # occluded: the estimate places no sun of its own there
     rec = sources.recover(ldr)
@@ -519,7 +520,7 @@ def test_the_artist_points_at_a_sun_the_photo_hides_and_its_sky_weighs_it():
 def test_a_pointed_sun_weighed_by_the_ground_s_contrast_casts_that_shadow(contrast):
     """With --sun-contrast R a white surface facing the sun is R times as bright lit as in its shadow: the sun
     carries 1 - 1/R of its irradiance (EVALUATION.md's shadow contrast), the rest being the lighting without it."""
-    from panolight_core.estimators import pointed_sun
+    from panolight_core.estimators.keylight import pointer as pointed_sun
 
     ldr, s, _ = _retouched_sky(paint=0.02)
     rec = sources.recover(ldr)
@@ -531,7 +532,8 @@ def test_a_pointed_sun_weighed_by_the_ground_s_contrast_casts_that_shadow(contra
 
 def test_a_pointed_sun_in_a_clipped_patch_takes_its_energy_from_the_patch_and_a_sunless_sky_is_refused():
     from panolight_core.errors import PanoLightError
-    from panolight_core.estimators import keylight, pointed_sun
+    from panolight_core.estimators import keylight
+    from panolight_core.estimators.keylight import pointer as pointed_sun
 
     ldr, s, _ = _retouched_sky(paint=4.0)  # the sun's patch clipped
     rec = keylight.with_key_lights(sources.recover(ldr))

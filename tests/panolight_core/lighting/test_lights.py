@@ -6,7 +6,8 @@ import pytest
 
 from panolight_core import metrics, sh
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
-from panolight_core.lighting.lights import extract_lights, key_light_note, key_light_range, light_irradiance, sun_lamp
+from panolight_core.estimators.keylight import key_light_note, key_light_range
+from panolight_core.lighting.lights import extract_lights, light_irradiance, sun_lamp
 
 
 def _map(h=128, bg=0.1):

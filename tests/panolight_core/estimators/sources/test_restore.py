@@ -143,7 +143,7 @@ def test_a_warm_sun_s_light_stands_at_its_plateau_s_core_not_its_aureole(day, mo
     assert metrics.angle_deg(key["peak_direction"], s) < 1.0
     assert not [light for light in res.model.lights if light is not key
                 and metrics.angle_deg(light["direction"], s) < 15.0]
-    monkeypatch.setattr(keylight, "at_cores", lambda regions, core: regions)  # at the plateau's centroid instead
+    monkeypatch.setattr(keylight.find, "at_cores", lambda regions, core: regions)  # at the plateau's centroid instead
     off = metrics.brightest_light(estimate_lighting(clipped).model.lights)
     assert metrics.angle_deg(off["peak_direction"], s) > 2.0
 

@@ -1,6 +1,6 @@
-"""The artist's sun: a sun where the artist says it is (``--sun``, ``--sun-direction``), weighed by the clear sky
-with the sun fixed there or by the photo's lit / shadow ground (``--sun-contrast``), in place of any sun the
-estimate found (issue 46; docs/keylight.md "The artist's sun")."""
+"""The artist's sun: a sun where the artist says it is (``--sun``, ``--sun-direction``, Blender's *Pick sun*, or
+the photo's capture metadata), weighed by the clear sky with the sun fixed there or by the photo's lit / shadow
+ground (``--sun-contrast``), in place of any sun the estimate found (docs/keylight.md "The artist's sun")."""
 from __future__ import annotations
 
 import math
@@ -8,12 +8,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from .. import sh
-from ..camera.ceiling import POINTED_REACH_DEG
-from ..camera.color import LUMINANCE_WEIGHTS
-from ..errors import PanoLightError
-from . import sky as clear_sky
-from .keylight import PARAMS, SUN_DIAMETER_DEG, KeyLight, KeyLightParams, camera_colour, key_energy
+from ... import sh
+from ...camera.ceiling import POINTED_REACH_DEG
+from ...camera.color import LUMINANCE_WEIGHTS
+from ...errors import PanoLightError
+from .. import sky as clear_sky
+from .light import KeyLight
+from .params import PARAMS, SUN_DIAMETER_DEG, KeyLightParams
+from .weighing import camera_colour, clear_sky_energy, weigh
 
 POINTED_CELLS = 1.0  # a pointed sun stands for the clipped region it lies in, or within this many work cells of
 METADATA_DEFERS_DEG = 5.0  # a sun from the capture's metadata gives way to one the photo shows and places within this
@@ -76,15 +78,16 @@ def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyL
         energy = (contrast - 1.0) * max(rest - excess, 0.0)  # the sun took the region's whole fill
         if energy < excess:  # ... or only part of it: E = (R - 1) (rest - E)
             energy = (contrast - 1.0) * rest / contrast
+        weight = weigh(None, given=energy, params=params)
         color = camera_colour(fit.sun_rgb, elevation, params) if fit is not None and fit.clear else np.ones(3)
         method = f"the artist's direction, weighed by the lit/shadow contrast {contrast:g}"
         physical = None
     elif rec.source is not None and region >= 0:  # an HDR file's restored plateau: weighed as a found one is,
         # at its belief (the trees' mean, for a clear-sky sun the geometric mean of it and the fit's), only placed here
         clear = fit is not None and fit.clear
-        physical = params.sky_correction * fit.sun_energy if clear else None
+        physical = clear_sky_energy(fit, params) if clear else None
         learned = regions.added_energy(np.maximum(rec.mu, 0.0), [region])  # a plateau holds at most its source
-        energy = key_energy(physical, learned, 0.0, False, replace(params, belief=True))
+        weight = weigh(physical, learned, 0.0, params=replace(params, belief=True))
         own = [k for k in rec.keys if region in (k.region, *k.parts)]
         color = (camera_colour(fit.sun_rgb, elevation, params) if clear else
                  max(own, key=lambda k: k.energy).color if own else np.ones(3))
@@ -95,11 +98,11 @@ def with_pointed_sun(rec, direction, contrast: float | None = None, params: KeyL
             why = "it is below the horizon" if d[2] <= 0 else "no clear sky fits the photo with the sun there"
             raise SkyCannotWeigh(f"the sun pointed at ({elevation:.1f} deg up) cannot be weighed by its sky ({why}): "
                                  f"give --sun-contrast R, the photo's lit / shadowed ground (e.g. 3)", why)
-        physical = energy = params.sky_correction * fit.sun_energy
+        physical = clear_sky_energy(fit, params)
+        weight = weigh(physical, given=physical, params=params)  # the fit alone weighs it
         color = camera_colour(fit.sun_rgb, elevation, params)
         method = f"the artist's direction, weighed by its clear-sky fit (turbidity {fit.turbidity:g})"
-    sun = KeyLight(d, float(energy), np.asarray(color, dtype=np.float64), math.radians(SUN_DIAMETER_DEG),
-                   (energy / params.sky_spread, energy * params.sky_spread), region, method, physical, fit, 0.0,
-                   learned=float(energy), decided=float(energy))
-    keys = others + ([sun] if energy > 0 else [])  # the estimate's keys all carry energy
+    sun = KeyLight(d, weight.energy, np.asarray(color, dtype=np.float64), math.radians(SUN_DIAMETER_DEG),
+                   weight.energy_68, region, method, physical, fit, 0.0, learned=weight.energy, decided=weight.energy)
+    keys = others + ([sun] if weight.energy > 0 else [])  # the estimate's keys all carry energy
     return rec.with_keys(keys, {"searched": False, "why": "the artist gave the sun's direction"})
