@@ -99,14 +99,13 @@ def _read_panorama(image):
     return pixels
 
 
-def _make_hdri(world, pixels, result, sun_strength: float = 1.0):
-    """The reconstructed HDRI as PanoLight's float image, filled by row blocks, its key lights (sun, lamps)
-    times ``sun_strength``, and marked with the estimate and the strength it belongs to (made only when a world
-    is lit with it: at 16K it is 2 GB in Blender)."""
-    image = images.radiance_image(result.hdr_blocks(pixels, sun_strength), images.HDRI_IMAGE_NAME,
-                                  shape=pixels.shape[:2])
+def _make_hdri(world, pixels, result):
+    """The reconstructed HDRI as PanoLight's float image, filled by row blocks (the CLI's hdr.exr: its key lights
+    at the estimate's sun strength), and marked with the estimate and the strength it belongs to (made only when a
+    world is lit with it: at 16K it is 2 GB in Blender)."""
+    image = images.radiance_image(result.hdr_blocks(pixels), images.HDRI_IMAGE_NAME, shape=pixels.shape[:2])
     image[store.ESTIMATE_KEY] = world.get(store.ESTIMATE_KEY, "")
-    image[store.SUN_STRENGTH_KEY] = float(sun_strength)
+    image[store.SUN_STRENGTH_KEY] = float(result.document.get("sun_strength", 1.0))
     return image
 
 
@@ -186,6 +185,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
     _thread = None
     _timer = None
     _result = None
+    _used = None  # the Settings of the estimate being made
     _error = None
     _stop = None
     _world_name = ""
@@ -194,15 +194,15 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
         world = context.scene.world
         settings = _checked(context).estimate_settings()  # invalid settings fail before any pixel is read
         panorama = store.stored_panorama(world)
-        self._pixels = _read_panorama(panorama)
+        self._pixels, self._used = _read_panorama(panorama), settings
         return world, self._pixels, settings, _capture(panorama, settings)
 
     def _store(self, context, world, result):
         doc = result.document
-        store.store_lighting(world, doc)
+        store.store_lighting(world, doc, self._used)
         s = _settings(context)
         if s.lighting_source == "HDRI":
-            _make_hdri(world, self._pixels, result, s.sun_strength)
+            _make_hdri(world, self._pixels, result)
         self._pixels = None
         n = len(doc.get("lights", []))
         for problem in result.warnings:  # an all-black, absurdly bright or clipped-white panorama
@@ -297,11 +297,14 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         doc = store.stored_lighting(world)
         panorama = store.stored_panorama(world)
         s = _checked(context)
+        fresh = None
+        if float(doc.get("sun_strength", 1.0)) != float(s.sun_strength):  # the slider moved since Estimate
+            fresh = self._at_new_strength(context, world, panorama)
+            doc = fresh[1].document
         if s.lighting_source == "HDRI":
             image = images.own_image(images.HDRI_IMAGE_NAME)
-            if image is None or image.get(store.ESTIMATE_KEY) != world.get(store.ESTIMATE_KEY) or \
-                    image.get(store.SUN_STRENGTH_KEY, 1.0) != s.sun_strength:
-                image = self._hdri_now(context, world, panorama, doc)
+            if image is None or image.get(store.ESTIMATE_KEY) != world.get(store.ESTIMATE_KEY):
+                image = _make_hdri(world, *fresh) if fresh else self._hdri_now(context, world, panorama, doc)
             lights = []  # the sun and lamps are in the HDRI itself, at Sun lamp strength
         else:
             coeffs = np.asarray(doc["coefficients"], dtype=np.float64)
@@ -311,12 +314,27 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
             image = images.radiance_image(radiance)
             lights = doc.get("lights", []) if s.create_lights else []
         build_world(panorama, image, **_world_kwargs(context))
-        set_lights(lights, context.scene, s.lighting_strength * s.sun_strength, s.lighting_rotation)
+        set_lights(lights, context.scene, s.lighting_strength, s.lighting_rotation)  # the key lights at Sun lamp strength
         context.scene.world = world
         what = "the reconstructed HDRI" if s.lighting_source == "HDRI" else \
             f"SH order {doc['lmax']}, {len(lights)} sun lamp(s)"
         self.report({"INFO"}, f"PanoLight: environment built ({what})")
         return {"FINISHED"}
+
+    def _at_new_strength(self, context, world, panorama):
+        """(pixels, the core's Result) of the stored estimate at the panel's Sun lamp strength, stored in its place:
+        what ``panolight estimate --sun-strength`` gives (the core's one operation on the key lights, and the
+        fill they leave). Refused when other settings changed too: that would be another estimate."""
+        settings = _checked(context).estimate_settings()
+        if not store.same_settings_but_strength(world, settings):
+            raise Error("the panel's settings changed since Estimate lighting (not only Sun lamp strength): run "
+                        "Estimate lighting again")
+        pixels = _read_panorama(panorama)
+        result = _fit(pixels, settings, _capture(panorama, settings))
+        store.store_lighting(world, result.document, settings)
+        for problem in result.warnings:  # "sun strength 2 changes nothing: the estimate has no key light"
+            self.report({"WARNING"}, f"PanoLight: {problem}")
+        return pixels, result
 
     def _hdri_now(self, context, world, panorama, doc):
         """The HDRI of the stored estimate, made now (it is not kept in the .blend): the panorama is read
@@ -329,7 +347,7 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         if not same_lighting(result.document, doc):
             raise Error("the panel's settings changed since Estimate lighting, so the HDRI would belong to "
                         "another estimate: run Estimate lighting again (or restore the settings)")
-        return _make_hdri(world, pixels, result, _settings(context).sun_strength)
+        return _make_hdri(world, pixels, result)
 
 
 def same_lighting(a: dict, b: dict) -> bool:

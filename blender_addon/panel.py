@@ -65,10 +65,11 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                      max=_settings.MAX_SUN_STRENGTH)
     sun_strength: FloatProperty(
         name="Sun lamp strength", default=1.0, min=0.0, soft_max=10.0, max=_settings.MAX_SUN_STRENGTH,
-        description="Scales PanoLight's sun lamps alone (on top of Lighting strength), not the SH lighting; with "
-                    "the reconstructed HDRI, the sun and lamps inside it (Build environment remakes it). The "
-                    "estimate gives a sun the strength it is sure of: if the photo's shadows are harder than the "
-                    "render's, raise it within the range the panel shows")
+        description="Scales the key lights, the suns and lamps the estimate weighed (panolight estimate "
+                    "--sun-strength: the same lamps, the same HDRI); other lights and the SH lighting keep theirs. "
+                    "Build environment estimates again at a new strength. The estimate gives a sun the strength it "
+                    "is sure of: if the photo's shadows are harder than the render's, raise it within the range the "
+                    "panel shows")
     background_rotation: FloatProperty(name="Background rotation", subtype="ANGLE", default=0.0)
     lighting_rotation: FloatProperty(name="Lighting rotation", subtype="ANGLE", default=0.0,
                                      description="Turns the SH lighting and the sun lamps together")
@@ -94,7 +95,7 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                   window=self.window, window_width=self.window_width or None,
                                   exposure_ev=self.exposure, sun_direction=sun,
                                   sun_contrast=(self.sun_contrast or None) if self.sun_pointed else None,
-                                  sun_metadata=self.sun_metadata,
+                                  sun_metadata=self.sun_metadata, sun_strength=self.sun_strength,
                                   restore="auto" if self.restore_clipped else "none")
 
 

@@ -19,6 +19,7 @@ SOURCE_KEY = "panolight_source"  # image ID property: the file an upright copy w
 BRACKETS_KEY = "panolight_brackets"  # image ID property: the bracket set (JSON: files, evs) a merged image was made from
 ESTIMATE_KEY = "panolight_estimate"  # world and HDRI image ID property: which estimate the HDRI is of
 LIGHTING_MAX_BYTES = 1 << 26  # a lighting document of SH order 100 is about 0.6 MB
+SETTINGS_KEY = "panolight_settings"  # world ID property: the core Settings the estimate was made with (JSON)
 SUN_STRENGTH_KEY = "panolight_sun_strength"  # HDRI image ID property: the Sun lamp strength its key lights carry
 
 
@@ -52,17 +53,39 @@ def stored_lighting(world) -> dict:
     return core.io.lighting.validate(doc, "the estimated lighting")
 
 
-def store_lighting(world, doc: dict | None) -> None:
-    """Store an estimate on ``world`` (None forgets it: a new panorama needs a new estimate), with a new
-    ESTIMATE_KEY token (the HDRI image made from it carries the same token)."""
+def store_lighting(world, doc: dict | None, settings=None) -> None:
+    """Store an estimate on ``world`` (None forgets it: a new panorama needs a new estimate), with the core
+    ``Settings`` it was made with and a new ESTIMATE_KEY token (the HDRI image made from it carries the same token)."""
     import uuid
 
     if doc is None:
-        world.pop(LIGHTING_KEY, None)
-        world.pop(ESTIMATE_KEY, None)
+        for key in (LIGHTING_KEY, ESTIMATE_KEY, SETTINGS_KEY):
+            world.pop(key, None)
     else:
         world[LIGHTING_KEY] = json.dumps(doc)
         world[ESTIMATE_KEY] = uuid.uuid4().hex
+        if settings is not None:
+            world[SETTINGS_KEY] = json.dumps(_settings_record(settings))
+        else:
+            world.pop(SETTINGS_KEY, None)
+
+
+def _settings_record(settings) -> dict:
+    """The core Settings as JSON values (tuples as lists), as SETTINGS_KEY keeps them."""
+    import dataclasses
+
+    return json.loads(json.dumps(dataclasses.asdict(settings)))
+
+
+def same_settings_but_strength(world, settings) -> bool:
+    """Whether the stored estimate was made with ``settings`` but for their sun strength (validated: an edited or
+    missing record is not): then a new strength is that estimate's key lights scaled, nothing else."""
+    stored = core.io.metadata.json_object(world.get(SETTINGS_KEY)) if world is not None else None
+    if stored is None:
+        return False
+    now = _settings_record(settings)
+    return {k: v for k, v in stored.items() if k != "sun_strength"} == \
+        {k: v for k, v in now.items() if k != "sun_strength"}
 
 
 def has_lighting(world) -> bool:
@@ -71,7 +94,7 @@ def has_lighting(world) -> bool:
 
 def key_light_range(world) -> dict | None:
     """The stored estimate's key light and its 68 % energy range over the strength it was given
-    (``lighting.lights.key_light_range``), for the panel; None without an estimate or a key light. Never raises:
+    (``keylight.key_light_range``), for the panel; None without an estimate or a key light. Never raises:
     the panel draws it on every redraw."""
     raw = world.get(LIGHTING_KEY) if world is not None else None
     doc = core.io.metadata.json_object(raw, LIGHTING_MAX_BYTES) if raw else None

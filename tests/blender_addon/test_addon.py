@@ -522,23 +522,24 @@ def _estimate_reports(path, **read_options) -> list[str]:
     _configure()
     reports = []
 
+    settings = bpy.context.scene.panolight.estimate_settings()
+
     class Operator:  # what the estimate operator reports, recorded
-        _pixels = None
+        _pixels, _used = None, settings
 
         def report(self, kind, text):
             reports.append(text)
 
-    result = blender_addon.core.core.pipeline.estimate_lighting(read_image(path, **read_options),
-                                                                bpy.context.scene.panolight.estimate_settings())
+    result = blender_addon.core.core.pipeline.estimate_lighting(read_image(path, **read_options), settings)
     PANOLIGHT_OT_estimate_lighting._store(Operator(), bpy.context, bpy.context.scene.world, result)
     return reports
 
 
 def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
     """A photo whose sun is retouched out: the estimate says a sun was placed from the sky, where and how sure, in
-    the status bar, in Blender's words (``lighting.lights.key_light_note``: its lamp, Sun lamp strength)."""
+    the status bar, in Blender's words (``keylight.key_light_note``: its lamp, Sun lamp strength)."""
+    from panolight_core.estimators.keylight import key_light_note
     from panolight_core.io import write_srgb8
-    from panolight_core.lighting.lights import key_light_note
     from tests.panolight_core.estimators.test_keylight import _retouched_sky
 
     path = write_srgb8(tmp_path / "retouched.png", _retouched_sky(paint=1.0)[0])
@@ -551,8 +552,9 @@ def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
 
 
 def test_sun_lamp_strength_scales_the_lamps_alone_and_the_panel_shows_the_key_lights_range(tmp_path):
-    """Sun lamp strength multiplies PanoLight's sun lamps, not the SH lighting; the panel's range comes from the
-    stored estimate, and a stored estimate it cannot read shows none (the panel never raises)."""
+    """Sun lamp strength scales the key lights, as --sun-strength does: an HDR input without one (exact lights only)
+    keeps every lamp and its SH lighting, and the status bar says the setting changed nothing; the panel's range
+    comes from the stored estimate, and a stored estimate it cannot read shows none (the panel never raises)."""
     _estimate_and_build(_small_city(tmp_path, 32))
     s = bpy.context.scene.panolight
     world = bpy.context.scene.world
@@ -567,8 +569,8 @@ def test_sun_lamp_strength_scales_the_lamps_alone_and_the_panel_shows_the_key_li
     s.sun_strength = 2.5
     try:
         assert bpy.ops.panolight.build_environment() == {"FINISHED"}
-        np.testing.assert_allclose(lamps(), [2.5 * e for e in before], rtol=1e-6)
-        assert lighting() == sh_before
+        np.testing.assert_allclose(lamps(), before, rtol=1e-6)  # none is a key light (Blender scaled all of them)
+        assert lighting() == sh_before and store.stored_lighting(world)["sun_strength"] == 2.5
     finally:
         s.sun_strength = 1.0
     doc = store.stored_lighting(world)
@@ -834,6 +836,51 @@ def test_pick_sun_turns_a_click_into_the_sun_the_panorama_shows_there(tmp_path):
         assert metrics.angle_deg(beam, seen) < 1e-3  # the lamp shines from where the background shows the sun
     finally:
         p.sun_pointed, p.background_rotation, p.lighting_rotation = False, 0.0, 0.0
+
+
+def test_one_sun_strength_gives_the_clis_lamps_in_both_modes(tmp_path):
+    """Sun strength is one core operation (the key lights scaled, the rest of the lighting made again around them):
+    on a sunny JPEG, Sun lamp strength 2 builds the lamps ``panolight estimate --sun-strength 2`` writes (SH and lamps
+    mode), and the HDRI its hdr.exr holds (HDRI mode); the other lights are not scaled (Blender's SH mode used to
+    double them)."""
+    from panolight_core.apps.cli import main
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.io import write_srgb8
+    from panolight_core.lighting.lights import sun_lamp
+
+    photo = write_srgb8(tmp_path / "city.jpg", hdr_to_ldr(load_studio_hdri("city"), 0.0))
+    assert main(["estimate", str(photo), "-o", str(tmp_path / "cli"), "--sun-strength", "2", "-q"]) == 0
+    cli = __import__("json").loads((tmp_path / "cli" / "lighting.json").read_text())
+    assert any(light.get("source") for light in cli["lights"])  # a key light to scale
+    want = sorted(sun_lamp(light)["energy"] for light in cli["lights"])
+    assert bpy.ops.panolight.load_panorama(filepath=str(photo)) == {"FINISHED"}
+    _configure()
+    s = bpy.context.scene.panolight
+    from blender_addon.lights import LIGHTS_COLLECTION
+
+    try:
+        assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+        s.sun_strength = 2.0  # moved after Estimate: Build makes the estimate at the new strength
+        assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+        got = sorted(o.data.energy for o in store.ours(bpy.data.collections, LIGHTS_COLLECTION).objects)
+        np.testing.assert_allclose(got, want, rtol=1e-5)
+        np.testing.assert_allclose(store.stored_lighting(bpy.context.scene.world)["coefficients"],
+                                   cli["coefficients"], rtol=1e-9, atol=1e-12)
+        s.lighting_source = "HDRI"
+        assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+        assert len(store.ours(bpy.data.collections, LIGHTS_COLLECTION).objects) == 0  # the lights are in the HDRI
+        image = images.own_image(images.HDRI_IMAGE_NAME)
+        w, h = image.size
+        px = np.empty(w * h * 4, np.float32)
+        image.pixels.foreach_get(px)
+        np.testing.assert_allclose(px.reshape(h, w, 4)[::-1, :, :3], read_image(tmp_path / "cli" / "hdr.exr"),
+                                   rtol=2e-3, atol=1e-4)  # hdr.exr of a JPEG is half floats
+        s.estimator = "naive"  # another setting changed too: another estimate, refused
+        s.sun_strength = 3.0
+        with pytest.raises(RuntimeError, match="settings changed since Estimate lighting"):
+            bpy.ops.panolight.build_environment()
+    finally:
+        s.lighting_source, s.sun_strength, s.estimator = "SH", 1.0, "auto"
 
 
 def test_a_click_the_sky_cannot_weigh_is_reported_and_changes_nothing(tmp_path):

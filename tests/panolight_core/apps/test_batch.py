@@ -293,7 +293,7 @@ def test_workers_die_with_a_killed_batch(tmp_path):
 
 
 def test_the_report_names_the_plates_whose_key_light_needs_a_look(tmp_path, capsys):
-    """A render farm's report carries each input's key-light note (``lighting.lights.key_light_note``): a sun put
+    """A render farm's report carries each input's key-light note (``keylight.key_light_note``): a sun put
     back from the sky of a photo whose sun was retouched out; a grey panorama with no light at all; a lamp whose
     key light is as strong as its evidence has nothing to say. The terminal says it too, one line per input
     (issue 46: batch printed none of it)."""

@@ -209,7 +209,7 @@ def test_a_hidden_sun_is_placed_from_the_photo_s_metadata_and_a_visible_one_keep
     from datetime import datetime, timezone
 
     from panolight_core import metrics
-    from panolight_core.lighting.lights import key_light_note
+    from panolight_core.estimators.keylight import key_light_note
     from tests.panolight_core.estimators.test_keylight import _clear_sky_with_pole, _retouched_sky
     from tests.panolight_core.io.test_capture import write_photo
 
