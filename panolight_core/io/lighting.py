@@ -59,6 +59,24 @@ def validate(doc, source="lighting") -> dict:
 
     if not isinstance(doc, dict):
         bad(f"top level must be a JSON object, got {type(doc).__name__}")
+    _check_header(doc, bad)
+    lights = doc.get("lights", [])
+    if not isinstance(lights, list):
+        bad("'lights' must be a list")
+    for i, light in enumerate(lights):
+        _check_light(f"light {i}", light, bad)
+    src = doc.get("source")
+    if src is not None:
+        if not isinstance(src, dict):
+            bad(f"'source' must be an object with 'path' and 'sha256', got {type(src).__name__}")
+        for key in ("path", "sha256"):
+            if key in src and not isinstance(src[key], str):
+                bad(f"'source.{key}' must be a string")
+    return doc
+
+
+def _check_header(doc: dict, bad) -> None:
+    """The required keys, the order, frame, basis, version and units, and (lmax + 1)^2 rows of 3 finite numbers."""
     for key in ("lmax", "coefficients", "frame", "basis"):
         if key not in doc:
             bad(f"missing required key {key!r}")
@@ -80,40 +98,31 @@ def validate(doc, source="lighting") -> dict:
         bad(f"unsupported format_version {doc['format_version']!r} (this PanoLight reads {FORMAT_VERSION})")
     if "units" in doc and not isinstance(doc["units"], str):
         bad("'units' must be a string")
-    lights = doc.get("lights", [])
-    if not isinstance(lights, list):
-        bad("'lights' must be a list")
-    for i, light in enumerate(lights):
-        where = f"light {i}"
-        if not isinstance(light, dict):
-            bad(f"{where} must be an object")
-        for key in ("type", "direction", "color", "intensity"):
-            if key not in light:
-                bad(f"{where} is missing {key!r}")
-        if light["type"] not in LIGHT_TYPES:
-            bad(f"{where}: type must be one of {LIGHT_TYPES}, got {light['type']!r}")
-        d = light["direction"]
-        if not isinstance(d, list) or len(d) != 3 or not all(_number(v) for v in d):
-            bad(f"{where}: direction must be 3 finite numbers")
-        if abs(math.sqrt(sum(v * v for v in d)) - 1.0) > 1e-3:
-            bad(f"{where}: direction must be a unit vector, got {d}")
-        col = light["color"]
-        if not isinstance(col, list) or len(col) != 3 or not all(_number(v) and v >= 0 for v in col):
-            bad(f"{where}: color must be 3 finite non-negative numbers")
-        if not _number(light["intensity"]) or light["intensity"] < 0:
-            bad(f"{where}: intensity must be a finite non-negative number")
-        if "angle" in light and (not _number(light["angle"]) or not 0 <= light["angle"] <= math.pi):
-            bad(f"{where}: angle must be in [0, pi] radians")
-        if light["type"] == "area" and "angle" not in light:
-            bad(f"{where}: an area light needs its angular diameter 'angle' (radians)")
-    src = doc.get("source")
-    if src is not None:
-        if not isinstance(src, dict):
-            bad(f"'source' must be an object with 'path' and 'sha256', got {type(src).__name__}")
-        for key in ("path", "sha256"):
-            if key in src and not isinstance(src[key], str):
-                bad(f"'source.{key}' must be a string")
-    return doc
+
+
+def _check_light(where: str, light, bad) -> None:
+    """One light: its type, unit direction, non-negative colour and intensity, and angle (an area light's)."""
+    if not isinstance(light, dict):
+        bad(f"{where} must be an object")
+    for key in ("type", "direction", "color", "intensity"):
+        if key not in light:
+            bad(f"{where} is missing {key!r}")
+    if light["type"] not in LIGHT_TYPES:
+        bad(f"{where}: type must be one of {LIGHT_TYPES}, got {light['type']!r}")
+    d = light["direction"]
+    if not isinstance(d, list) or len(d) != 3 or not all(_number(v) for v in d):
+        bad(f"{where}: direction must be 3 finite numbers")
+    if abs(math.sqrt(sum(v * v for v in d)) - 1.0) > 1e-3:
+        bad(f"{where}: direction must be a unit vector, got {d}")
+    col = light["color"]
+    if not isinstance(col, list) or len(col) != 3 or not all(_number(v) and v >= 0 for v in col):
+        bad(f"{where}: color must be 3 finite non-negative numbers")
+    if not _number(light["intensity"]) or light["intensity"] < 0:
+        bad(f"{where}: intensity must be a finite non-negative number")
+    if "angle" in light and (not _number(light["angle"]) or not 0 <= light["angle"] <= math.pi):
+        bad(f"{where}: angle must be in [0, pi] radians")
+    if light["type"] == "area" and "angle" not in light:
+        bad(f"{where}: an area light needs its angular diameter 'angle' (radians)")
 
 
 def read_lighting(path) -> tuple[np.ndarray, dict]:

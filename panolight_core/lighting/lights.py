@@ -141,17 +141,7 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
             weak.append(bound / (total / 4.0))
             used |= region
             continue
-        tau = base
-        while True:
-            if tau >= peak:
-                core = np.zeros_like(avail)
-                core[y, x] = True
-            else:  # at the base threshold the core is the region itself
-                core = region if tau == base else component_at(avail & (lum > tau), y, x)
-            area = float((omega * core).sum())
-            if math.sqrt(area / math.pi) <= max_radius or tau >= peak:
-                break
-            tau = min(peak, max(tau, peak * 1e-6) * math.sqrt(10.0))
+        core, tau, area = _compact_core(avail, region, lum, omega, (y, x), base, max_radius)
         radius = math.sqrt(area / math.pi)
         wl = lum * omega * core
         centre = (dirs * wl[..., None]).sum(axis=(0, 1))
@@ -184,17 +174,42 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
                        "peak_direction": peak_dir.tolist(), "color": (e_rgb / intensity).tolist(),
                        "intensity": intensity, "angle": diameter})
     info["energy_fraction_in_lights"] = sum(l["intensity"] for l in lights) / total
+    _add_weak_reasons(reasons, weak, rest, min_irradiance_share)
+    if not lights:
+        info["reason"] = "; ".join(reasons) or (f"no region is brighter than {base:g}" if threshold is not None
+                                                else f"no region is brighter than {peak_ratio:g} x the median luminance")
+    return lights, residual, info
+
+
+def _compact_core(avail, region, lum, omega, at: tuple, base: float, max_radius: float):
+    """(core, threshold, solid angle) of the source whose peak is pixel ``at`` in its bright ``region``: the region
+    at a threshold that starts at ``base`` and rises by sqrt(10) until it is at most ``max_radius`` (radians)
+    wide, or the peak pixel alone."""
+    y, x = at
+    peak = float(lum[y, x])
+    tau = base
+    while True:
+        if tau >= peak:
+            core = np.zeros_like(avail)
+            core[y, x] = True
+        else:  # at the base threshold the core is the region itself
+            core = region if tau == base else component_at(avail & (lum > tau), y, x)
+        area = float((omega * core).sum())
+        if math.sqrt(area / math.pi) <= max_radius or tau >= peak:
+            return core, tau, area
+        tau = min(peak, max(tau, peak * 1e-6) * math.sqrt(10.0))
+
+
+def _add_weak_reasons(reasons: list, weak: list, rest: float | None, min_share: float) -> None:
+    """Append why the regions passed over unweighed made no light: too weak each (``weak``: their irradiance
+    shares), or all that was left together (``rest``)."""
     if weak:
         reasons.append(f"{len(weak)} bright regions add at most {max(weak):.1%} each" if len(weak) > 1 else
                        f"a bright region adds at most {weak[0]:.1%}")
     if rest is not None:
         reasons.append(f"the {'other ' if reasons else ''}bright pixels add at most {rest:.1%} together")
     if weak or rest is not None:
-        reasons[-1] += f" (a light needs {min_irradiance_share:.0%})"
-    if not lights:
-        info["reason"] = "; ".join(reasons) or (f"no region is brighter than {base:g}" if threshold is not None
-                                                else f"no region is brighter than {peak_ratio:g} x the median luminance")
-    return lights, residual, info
+        reasons[-1] += f" (a light needs {min_share:.0%})"
 
 
 def light_coeffs(lights, lmax: int) -> np.ndarray:
