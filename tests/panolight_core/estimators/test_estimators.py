@@ -39,7 +39,7 @@ def test_a_registered_per_source_model_file_is_the_one_used(tmp_path, monkeypatc
     from panolight_core import estimators
     from panolight_core.estimators import register_source_model, sources
 
-    monkeypatch.setattr(estimators, "_REGISTRY", dict(estimators._REGISTRY))  # the test's labels go with it
+    monkeypatch.setattr(estimators.registry, "_REGISTRY", dict(estimators.registry._REGISTRY))  # the test's labels go with it
     from panolight_core.camera import hdr_to_ldr
     from panolight_core.io.safetensors_np import load_safetensors
     from panolight_core.synthetic import environment
