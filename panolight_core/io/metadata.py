@@ -109,16 +109,17 @@ MAX_OFFSET_H = 14  # the widest time zones: UTC-12 to UTC+14
 
 def exif_date(raw) -> datetime | None:
     """EXIF's "YYYY:MM:DD" (GPSDateStamp) as a naive midnight; None when not a real calendar date."""
-    match = _EXIF_DATE.match(text(raw, 32) or "")
-    try:
-        return datetime(*(int(g) for g in match.groups())) if match else None
-    except ValueError:
-        return None
+    return _calendar(_EXIF_DATE, raw)
 
 
 def exif_datetime(raw) -> datetime | None:
     """EXIF's "YYYY:MM:DD HH:MM:SS" (DateTimeOriginal) as a naive datetime; None when not a real date and time."""
-    match = _EXIF_TIME.match(text(raw, 32) or "")
+    return _calendar(_EXIF_TIME, raw)
+
+
+def _calendar(pattern: re.Pattern, raw) -> datetime | None:
+    """The naive datetime of the numbers ``pattern`` reads from ``raw``'s text; None when it is not a real one."""
+    match = pattern.match(text(raw, 32) or "")
     try:
         return datetime(*(int(g) for g in match.groups())) if match else None
     except ValueError:
