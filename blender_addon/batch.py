@@ -38,6 +38,8 @@ def parse(argv, core):
                          "into one HDR (the panel's Load panorama with several files)")
     ap.add_argument("--evs", default="", metavar="EV,EV,...",
                     help="a bracket set's exposures in stops, one per file in name order (default: each file's EXIF)")
+    ap.add_argument("--no-align", dest="align", action="store_false",
+                    help="a bracket set shot on a tripod: merged as shot (the panel's Align brackets unticked)")
     ap.add_argument("--output-blend", help="save the .blend here")
     ap.add_argument("--render", help="render the scene's camera to this image (PNG or EXR)")
     ap.add_argument("--samples", type=int, default=64, help="Cycles samples for --render (default 64)")
@@ -89,7 +91,8 @@ def run(args, addon) -> None:
     configure(bpy.context.scene, args, addon.core.core)
     paths = [str(Path(p).resolve()) for p in args.input]
     load = ({"filepath": paths[0]} if len(paths) == 1 else
-            {"directory": str(Path(paths[0]).parent), "files": [{"name": p} for p in paths], "evs": args.evs})
+            {"directory": str(Path(paths[0]).parent), "files": [{"name": p} for p in paths], "evs": args.evs,
+             "align": args.align})
     for op, kwargs in ((bpy.ops.panolight.load_panorama, load),
                        (bpy.ops.panolight.estimate_lighting, {}),
                        (bpy.ops.panolight.build_environment, {})):

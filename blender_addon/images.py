@@ -47,7 +47,7 @@ def file_pixels(image):
         saved = core.pipeline.brackets.BracketSet.from_record(brackets)  # validated: an edited one is refused
         if not all(p.is_file() for p in saved.paths):
             return None
-        return core.pipeline.brackets.read_brackets(saved.paths, saved.evs)[0]
+        return core.pipeline.brackets.read_brackets(saved.paths, saved.evs, saved.align)[0]
     source = image.get(SOURCE_KEY)  # PanoLight's upright copy of a turned file: read the file itself
     if source is None:
         if image.source != "FILE" or image.packed_file is not None or image.is_dirty:
@@ -75,14 +75,15 @@ def upright_panorama(filepath: str, pixels: np.ndarray, name: str | None = None)
     return image
 
 
-def bracket_panorama(paths, evs=None):
+def bracket_panorama(paths, evs=None, align: bool = True):
     """PanoLight's own packed float image of a bracket set merged by the core (``pipeline.brackets.read_brackets``:
-    exposures from the files' EXIF, or ``evs`` in stops), named after its reference frame; the set is kept
-    (``file_pixels`` merges it again, to the CLI's numbers). Returns (image, the merge's record)."""
-    merged, info = core.pipeline.brackets.read_brackets(paths, evs)
+    exposures from the files' EXIF, or ``evs`` in stops; ``align`` False: a tripod set, frames as they are), named
+    after its reference frame; the set is kept (``file_pixels`` merges it again, to the CLI's numbers). Returns
+    (image, the merge's record)."""
+    merged, info = core.pipeline.brackets.read_brackets(paths, evs, align)
     reference = Path(info["files"][info["reference"]])
     image = upright_panorama(str(reference), merged, f"{reference.stem} ({len(paths)} brackets)")
-    image[BRACKETS_KEY] = core.pipeline.brackets.BracketSet(paths, tuple(evs) if evs else None).record()
+    image[BRACKETS_KEY] = core.pipeline.brackets.BracketSet(paths, tuple(evs) if evs else None, align).record()
     return image, info
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import bpy
 import numpy as np
-from bpy.props import CollectionProperty, StringProperty
+from bpy.props import BoolProperty, CollectionProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
 from . import images, store
@@ -125,6 +125,9 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
                         description="Several files selected: a bracket set of one scene, merged into one HDR. Its "
                                     "exposures in stops, one per file in name order (e.g. -2,0,2); empty: from "
                                     "each file's EXIF (ExposureTime x ISO / FNumber^2)")
+    align: BoolProperty(name="Align brackets", default=True,
+                        description="A hand-held set: each frame moved onto the middle one where that makes them "
+                                    "agree better. Off: a tripod set, merged as shot (--no-align)")
 
     def invoke(self, context, event):
         context.window_manager.fileselect_add(self)
@@ -135,7 +138,7 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         chosen = sorted(Path(bpy.path.abspath(self.directory)) / f.name for f in self.files if f.name)
         if len(chosen) > 1:  # a bracket set, merged by the core as the CLI merges it
             evs = core.pipeline.brackets.parse_evs(self.evs) if self.evs.strip() else None
-            image, info = images.bracket_panorama(chosen, evs)
+            image, info = images.bracket_panorama(chosen, evs, self.align)
             return self._show(context, image, f" merged from {len(chosen)} frames ({', '.join(f'{v:+g}' for v in info['stops'])} stops)")
         path = Path(bpy.path.abspath(self.filepath))
         if not path.is_file():

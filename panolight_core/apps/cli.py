@@ -51,6 +51,9 @@ estimators: see --estimator; auto is the best measured on real photographs (docs
 LDR results are relative to the camera's clip level (1 = white); --exposure EV scales them by 2^EV.
 """
 
+NO_ALIGN_HELP = ("a bracket set shot on a tripod: merge its frames as they are. By default a hand-held set's frames "
+                 "are aligned, each moved only where the move makes it agree better with the middle frame")
+
 EPILOG_BATCH = """\
 examples:
   panolight batch shots/ -o out/                         # every .exr .hdr .png .jpg and camera RAW in shots/
@@ -83,7 +86,7 @@ def run_estimate(args) -> int:
     if len(inputs) == 1 and evs is not None:
         raise PanoLightError(f"{inputs[0]}: --evs gives a bracket set's exposures; one file is estimated as it "
                              f"is (give every frame of the set)")
-    src = Path(inputs[0]) if len(inputs) == 1 else BracketSet(inputs, evs)
+    src = Path(inputs[0]) if len(inputs) == 1 else BracketSet(inputs, evs, getattr(args, "align", True))
     out = Path(args.output) if args.output else Path("out") / Path(inputs[0]).stem
     with _exr_threads():
         doc = job(src, out, estimate_settings.from_args(args), **_job_kwargs(args))
@@ -146,9 +149,9 @@ def run_batch(args) -> int:
         if args.evs is not None:
             raise PanoLightError("--brackets auto groups the files by their EXIF exposures: give --brackets N with "
                                  "--evs")
-        inputs = group_by_exposure(inputs)
+        inputs = group_by_exposure(inputs, args.align)
     elif args.brackets:
-        inputs = group_brackets(inputs, args.brackets, args.evs)
+        inputs = group_brackets(inputs, args.brackets, args.evs, args.align)
     elif args.evs is not None:
         raise PanoLightError("--evs gives each bracket set's exposures: give --brackets N too")
     kwargs = _job_kwargs(args)
@@ -156,6 +159,7 @@ def run_batch(args) -> int:
         warnings.simplefilter("ignore", PanoLightWarning)
         recorded = {**dataclasses.asdict(settings),  # what the outputs depend on (the resume key)
                     **{k: v for k, v in kwargs.items() if k not in ("overwrite", "max_megapixels")}}
+        recorded["align"] = args.align  # how a bracket set is merged
         recorded = json.loads(json.dumps(recorded))  # as the report stores it (tuples as lists): resume compares
         report = batch(inputs, Path(args.output), functools.partial(job, settings=settings, **kwargs), shard_spec,
                        args.quiet, settings=recorded, jobs=args.jobs or default_jobs())
@@ -285,6 +289,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--evs", type=estimate_settings.argparse_type(parse_evs), default=None, metavar="EV,EV,...",
                    help="a bracket set's exposures in stops, one per file in their order (e.g. -2,0,2), where the "
                         "files' EXIF lacks or misstates them")
+    p.add_argument("--no-align", dest="align", action="store_false", help=NO_ALIGN_HELP)
 
     b = _command(sub, "batch", run_batch, estimate_options="auto", epilog=EPILOG_BATCH,
                  help="estimate many panoramas (folders, lists, render-farm shards)",
@@ -300,6 +305,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "files' EXIF exposures, a new set where an exposure repeats (a lone frame estimated alone)")
     b.add_argument("--evs", type=estimate_settings.argparse_type(parse_evs), default=None, metavar="EV,EV,...",
                    help="with --brackets: every set's exposures in stops, in name order (default: each file's EXIF)")
+    b.add_argument("--no-align", dest="align", action="store_false", help=NO_ALIGN_HELP)
     b.add_argument("--jobs", type=estimate_settings.number("--jobs", 0, 256, integer=True), default=0, metavar="N",
                    help="worker processes (default 0: one more than the CPUs this process may use; 1: no pool). "
                         "Each holds one panorama: at 16K, about 1.3 GB")

@@ -19,11 +19,13 @@ from ..io.metadata import json_object, number, text
 
 @dataclass(frozen=True)
 class BracketSet:
-    """A bracket set to estimate (``pipeline.run_estimate`` takes it in place of one file): its frames' paths and
-    their exposures in stops (None: from each file's EXIF)."""
+    """A bracket set to estimate (``pipeline.run_estimate`` takes it in place of one file): its frames' paths,
+    their exposures in stops (None: from each file's EXIF), and whether its frames are aligned (False: a tripod set,
+    ``--no-align``)."""
 
     paths: tuple
     evs: tuple | None = None
+    align: bool = True
 
     def __post_init__(self):
         object.__setattr__(self, "paths", tuple(Path(p) for p in self.paths))
@@ -33,7 +35,8 @@ class BracketSet:
 
     def record(self) -> str:
         """The set as JSON text (what Blender keeps on its merged image): ``from_record`` reads it back."""
-        return json.dumps({"files": [str(p) for p in self.paths], "evs": list(self.evs) if self.evs else None})
+        return json.dumps({"files": [str(p) for p in self.paths], "evs": list(self.evs) if self.evs else None,
+                           "align": self.align})
 
     @classmethod
     def from_record(cls, raw) -> "BracketSet":
@@ -47,7 +50,7 @@ class BracketSet:
         if len(paths) < 2 or None in paths or (stops is not None and (None in stops or len(stops) != len(paths))):
             raise PanoLightError("the stored bracket set is not a valid record (files, and one exposure in stops "
                                  "per file or none): load the set again")
-        return cls(paths, None if stops is None else tuple(stops))
+        return cls(paths, None if stops is None else tuple(stops), doc.get("align") is not False)
 
     @property
     def stem(self) -> str:
@@ -55,7 +58,7 @@ class BracketSet:
         return self.paths[0].stem
 
 
-def group_brackets(files, size: int, evs=None) -> list[BracketSet]:
+def group_brackets(files, size: int, evs=None, align: bool = True) -> list[BracketSet]:
     """Sorted ``files`` in consecutive sets of ``size`` frames (a camera's bracket sequence, IMG_0001-0003 ...),
     each with ``evs`` (or None: the files' EXIF). PanoLightError when the files do not divide into whole sets."""
     files = sorted((Path(f) for f in files), key=str)
@@ -64,7 +67,7 @@ def group_brackets(files, size: int, evs=None) -> list[BracketSet]:
                              f"(sorted by name, each set its consecutive files)")
     if evs is not None and len(evs) != size:
         raise PanoLightError(f"--evs gives {len(evs)} exposure(s) for sets of {size} frames: one per frame")
-    return [BracketSet(files[i:i + size], evs) for i in range(0, len(files), size)]
+    return [BracketSet(files[i:i + size], evs, align) for i in range(0, len(files), size)]
 
 
 def exif_exposure(path: Path, remedy: str) -> float:
@@ -80,7 +83,7 @@ def exif_exposure(path: Path, remedy: str) -> float:
         raise naming(path, exc) from None
 
 
-def group_by_exposure(files) -> list:
+def group_by_exposure(files, align: bool = True) -> list:
     """Sorted ``files`` grouped by each file's EXIF exposure (``--brackets auto``): consecutive frames make one set
     until a frame's exposure repeats one the set holds (within MIN_EXPOSURE_STEP: the camera's bracket sequence began
     again), so sets of any size share a folder. A set of one frame is that file alone (a single shot between the
@@ -95,7 +98,7 @@ def group_by_exposure(files) -> list:
         current.append(path)
         seen.append(e)
     sets.append(current)
-    return [BracketSet(s) if len(s) > 1 else s[0] for s in sets if s]
+    return [BracketSet(s, None, align) if len(s) > 1 else s[0] for s in sets if s]
 
 
 def parse_evs(text: str) -> tuple[float, ...]:
@@ -126,7 +129,7 @@ def bracket_exposures(paths, evs=None) -> tuple[list[float], str]:
     return found, origin
 
 
-def read_brackets(paths, evs=None, **read_options) -> tuple[np.ndarray, dict]:
+def read_brackets(paths, evs=None, align: bool = True, **read_options) -> tuple[np.ndarray, dict]:
     """The merged float32 HDR (H, W, 3) of the frames ``paths``, all 8-bit pictures or all camera RAWs
     (``io.read_image`` with ``read_options`` each), at their exposures (``bracket_exposures``), and the record
     lighting.json keeps (``source.brackets``). PanoLightError, naming the file, for an HDR frame, a set that mixes
@@ -153,5 +156,5 @@ def read_brackets(paths, evs=None, **read_options) -> tuple[np.ndarray, dict]:
             raise PanoLightError(f"{p}: {frame.shape[1]}x{frame.shape[0]}, but {paths[0].name} is "
                                  f"{frames[0].shape[1]}x{frames[0].shape[0]}: a bracket set's frames have one size")
         frames.append(frame)
-    merged, info = merge_brackets(frames, exposures, names=[p.name for p in paths])
-    return merged, {"files": [str(p) for p in paths], "exposures_from": origin, **info}
+    merged, info = merge_brackets(frames, exposures, align=align, names=[p.name for p in paths])
+    return merged, {"files": [str(p) for p in paths], "exposures_from": origin, "aligned": bool(align), **info}

@@ -116,7 +116,7 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     budget = {} if max_megapixels is None else {"max_megapixels": max_megapixels}
     bracket = raw = None
     if isinstance(src, BracketSet):
-        pixels, bracket = read_brackets(src.paths, src.evs, **budget)
+        pixels, bracket = read_brackets(src.paths, src.evs, src.align, **budget)
         logger.info(f"merged {len(src.paths)} frames (exposures from {bracket['exposures_from']}; "
                     f"{', '.join(f'{v:+g}' for v in bracket['stops'])} stops"
                     f"{'; ' + bracket['response']['curve'] + ' curve' if 'response' in bracket else ''}; ceiling "

@@ -1035,6 +1035,11 @@ def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp
     with pytest.raises(RuntimeError, match=r"shot_1.png \(exposed 2 stops more than shot_2.png\) is darker"):
         bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="2,0,-2")  # told the other way
     assert bpy.context.scene.world[store.PANORAMA_KEY] == image  # the set loaded before stays
+    assert bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="-2,0,2", align=False) == \
+        {"FINISHED"}  # a tripod set: merged as shot, and merged so again at Estimate
+    tripod = bpy.context.scene.world[store.PANORAMA_KEY]
+    assert blender_addon.core.core.pipeline.brackets.BracketSet.from_record(tripod[store.BRACKETS_KEY]).align is False
+    image = tripod
     # trust round 4: an edited bracket record (bad JSON, or not the files and exposures) broke Estimate with a
     # traceback; it is refused in one line
     for edited in ("{not json", '{"files": ["a.png"], "evs": null}', '{"files": ["a", "b"], "evs": [1]}'):

@@ -162,6 +162,25 @@ def test_a_hand_held_set_is_aligned_round_the_panorama_and_merges_as_the_still_o
         merge_brackets(far, [0.25, 1.0, 4.0])
 
 
+def test_a_shift_that_makes_a_still_pair_agree_worse_is_not_made(monkeypatch):
+    """A still tripod pair 4 stops apart that the bitmaps moved 16 rows and 10 columns (a real Canon pair: then
+    refused as "a set grouped across two scenes", though unmoved it agreed): a frame is moved only where the move
+    makes it rank its blocks more like the middle frame's. Without alignment (--no-align) nothing moves."""
+    from panolight_core.camera.brackets import AlignmentReference, kept_shift, shift_frame
+    from panolight_core.data import load_studio_hdri
+
+    truth = load_studio_hdri("city")
+    frames = [hdr_to_ldr(truth, ev, 90) for ev in (-2, 2)]  # 1/250 s and 1/4000 s of one still scene
+    assert kept_shift(frames[0], frames[1], 16.0, (16, 10)) == (0, 0)
+    moved = shift_frame(frames[1], 5, -30)  # a frame truly turned is still put back
+    assert kept_shift(frames[0], moved, 16.0, (-5, 30)) == (-5, 30)
+    monkeypatch.setattr(AlignmentReference, "shift_of", lambda self, frame, ratio=1.0: (16, 10))  # what it found
+    merged, info = merge_brackets(frames, [1.0, 16.0])
+    assert info["shifts"] == [[0, 0], [0, 0]] and info["agreement"][0]["rank_correlation"] > 0.9
+    _, plain = merge_brackets(frames, [1.0, 16.0], align=False)
+    assert "shifts" not in plain
+
+
 def test_the_alignment_s_median_code_is_numpy_s_median_read_from_the_histogram():
     from panolight_core.camera.brackets import _median_code
 

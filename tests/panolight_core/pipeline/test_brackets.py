@@ -194,3 +194,20 @@ def test_a_bracket_record_round_trips_and_any_other_text_is_refused_in_one_line(
             assert len(s.paths) >= 2 and (s.evs is None or len(s.evs) == len(s.paths))
 
     fuzz()
+
+
+def test_a_tripod_set_is_merged_as_shot_with_no_align(tmp_path, day):
+    """--no-align (estimate and batch; Blender's Align brackets): the frames are merged as they are, and
+    lighting.json says so (source.brackets.aligned)."""
+    truth, _, _ = day
+    files = [_frame(tmp_path / f"t{i}.jpg", hdr_to_ldr(truth, ev)) for i, ev in enumerate((-2, 0, 2))]
+    assert main(["estimate", *files, "--evs", "-2,0,2", "--no-align", "-o", str(tmp_path / "a"), "-q"]) == 0
+    b = json.loads((tmp_path / "a" / "lighting.json").read_text())["source"]["brackets"]
+    assert b["aligned"] is False and "shifts" not in b
+    assert main(["estimate", *files, "--evs", "-2,0,2", "-o", str(tmp_path / "b"), "-q"]) == 0
+    b = json.loads((tmp_path / "b" / "lighting.json").read_text())["source"]["brackets"]
+    assert b["aligned"] is True and b["shifts"] == [[0, 0]] * 3
+    assert main(["batch", *files, "-o", str(tmp_path / "c"), "--brackets", "3", "--evs", "-2,0,2", "--no-align",
+                 "-q", "--jobs", "1"]) == 0
+    doc = json.loads((tmp_path / "c" / "t0" / "lighting.json").read_text())
+    assert doc["source"]["brackets"]["aligned"] is False
