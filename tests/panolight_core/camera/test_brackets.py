@@ -181,6 +181,27 @@ def test_a_shift_that_makes_a_still_pair_agree_worse_is_not_made(monkeypatch):
     assert "shifts" not in plain
 
 
+def test_no_dark_ring_round_a_sun_clipped_in_every_frame():
+    """JPEG frames ring 10-20 codes round a clipped edge: a brighter frame's ringing pixel was trusted where every
+    darker frame clipped, and came out far under the truth (a dark ring round the sun). A code from RING_CODE up in
+    a compression block holding a clipped code counts as clipped, and a pixel clipped in every frame is never darker
+    than the darkest frame's white."""
+    from panolight_core import sh
+    from panolight_core.camera.brackets import RING_CODE, clipped_or_ringing
+
+    top = np.full((32, 48), 200, np.uint8)
+    top[3, 5], top[4, 6], top[20, 40] = 252, 240, 240  # a clipped pixel and ringing in its block; 240 alone
+    lost = clipped_or_ringing(top)
+    assert lost[3, 5] and lost[4, 6] and not lost[20, 40] and lost.sum() == 2 and RING_CODE <= 240
+    truth, s, _ = _clear_day(512)
+    frames = [hdr_to_ldr(truth, ev, 90) for ev in (-2, 0, 2)]
+    merged, info = merge_brackets(frames, [0.25, 1.0, 4.0])
+    t = truth * auto_exposure(truth, 0.0)
+    near = np.degrees(np.arccos(np.clip(sh.pixel_directions(512, 1024) @ s, -1.0, 1.0))) < 10.0
+    over = near & (t.max(axis=-1) > info["ceiling"])
+    assert over.sum() > 10 and merged.max(axis=-1)[over].min() >= info["ceiling"] * 0.999
+
+
 def test_the_alignment_s_median_code_is_numpy_s_median_read_from_the_histogram():
     from panolight_core.camera.brackets import _median_code
 
