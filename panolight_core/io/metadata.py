@@ -209,15 +209,20 @@ MAX_ISO = 1.0e7
 
 
 def exposure(get) -> dict | None:
-    """{"time_s", "f_number", "iso"} from raw tag values (``get(name)``, None when absent): each a positive finite
-    number, as a number, its text, a rational's text ("1/250") or the first of several values (ISOSpeedRatings);
-    None when the time or the f-number is not one. An ISO that is not one is taken as 100."""
+    """{"time_s", "f_number", "iso", "taken_s"} from raw tag values (``get(name)``, None when absent): each a positive
+    finite number, as a number, its text, a rational's text ("1/250") or the first of several values
+    (ISOSpeedRatings); None when the time or the f-number is not one. An ISO that is not one is taken as 100.
+    taken_s: when the shot was taken (DateTimeOriginal and SubSecTimeOriginal, the camera's own clock), seconds
+    from year 1, or None: what tells a bracket sequence from shots minutes apart."""
     time_s = positive(get("ExposureTime"), MAX_EXPOSURE_S)
     f_number = positive(get("FNumber"), MAX_F_NUMBER)
     if time_s is None or f_number is None:
         return None
     iso = positive(get("Exif:PhotographicSensitivity"), MAX_ISO) or positive(get("Exif:ISOSpeedRatings"), MAX_ISO)
-    return {"time_s": time_s, "f_number": f_number, "iso": iso or 100.0}
+    taken = exif_datetime(get("Exif:DateTimeOriginal"))
+    taken_s = None if taken is None else (taken - datetime(1, 1, 1)).total_seconds() + \
+        subseconds(get("Exif:SubsecTimeOriginal"))
+    return {"time_s": time_s, "f_number": f_number, "iso": iso or 100.0, "taken_s": taken_s}
 
 
 MAX_JSON_DEPTH = 32  # no record PanoLight writes nests deeper

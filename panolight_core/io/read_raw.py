@@ -126,5 +126,16 @@ def read_raw_exposure(path) -> dict | None:
         raw.close()
     from .metadata import exposure
 
-    tags = {"ExposureTime": other.shutter_speed, "FNumber": other.aperture, "Exif:ISOSpeedRatings": other.iso_speed}
+    tags = {"ExposureTime": other.shutter_speed, "FNumber": other.aperture, "Exif:ISOSpeedRatings": other.iso_speed,
+            "Exif:DateTimeOriginal": _exif_time(getattr(other, "timestamp", None))}
     return exposure(tags.get)
+
+
+def _exif_time(timestamp) -> str | None:
+    """LibRaw's shot timestamp (seconds since 1970) as EXIF's "YYYY:MM:DD HH:MM:SS"; None when absent or absurd."""
+    from datetime import datetime, timezone
+
+    from .metadata import number
+
+    seconds = number(timestamp, 1.0, 253402300799.0)  # after 1970, before year 10000
+    return None if seconds is None else datetime.fromtimestamp(seconds, timezone.utc).strftime("%Y:%m:%d %H:%M:%S")

@@ -73,30 +73,44 @@ def group_brackets(files, size: int, evs=None, align: bool = True) -> list[Brack
 def exif_exposure(path: Path, remedy: str) -> float:
     """A frame's relative exposure from its EXIF (``camera.brackets.exposure``). PanoLightError naming the file,
     followed by ``remedy``, where it records none; naming it too where its values are not an exposure."""
+    return exif_shot(path, remedy)[0]
+
+
+def exif_shot(path: Path, remedy: str) -> tuple[float, float, float | None]:
+    """(relative exposure, exposure time s, when it was taken: s on the camera's clock or None) of a frame from its
+    EXIF; PanoLightError as ``exif_exposure``."""
     exif = read_exposure(path)
     if exif is None:
         sep = "" if remedy.startswith(";") else ", "
         raise PanoLightError(f"{path}: records no exposure (EXIF ExposureTime and FNumber){sep}{remedy}")
     try:
-        return exposure(exif["time_s"], exif["f_number"], exif["iso"])
+        return exposure(exif["time_s"], exif["f_number"], exif["iso"]), exif["time_s"], exif.get("taken_s")
     except PanoLightError as exc:
         raise naming(path, exc) from None
 
 
+BRACKET_GAP_S = 5.0  # a frame taken more than this after the previous one ended begins a new set: a camera's
+# bracket sequence follows on at once (a second or two between frames), shots of other scenes minutes later
+
+
 def group_by_exposure(files, align: bool = True) -> list:
-    """Sorted ``files`` grouped by each file's EXIF exposure (``--brackets auto``): consecutive frames make one set
-    until a frame's exposure repeats one the set holds (within MIN_EXPOSURE_STEP: the camera's bracket sequence began
-    again), so sets of any size share a folder. A set of one frame is that file alone (a single shot between the
-    sets: estimated as it is). PanoLightError naming a file that records no exposure."""
+    """Sorted ``files`` grouped by each file's EXIF (``--brackets auto``): consecutive frames make one set until a
+    frame's exposure repeats one the set holds (within MIN_EXPOSURE_STEP: the camera's bracket sequence began again)
+    or it was taken more than BRACKET_GAP_S after the previous frame ended (DateTimeOriginal and SubSecTimeOriginal:
+    shots of other scenes), so sets of any size share a folder. A set of one frame is that file alone (a single
+    shot: estimated as it is). PanoLightError naming a file that records no exposure."""
     files = sorted((Path(f) for f in files), key=str)
-    sets, current, seen = [], [], []
+    sets, current, seen, ended = [], [], [], None
     for path in files:
-        e = exif_exposure(path, "which --brackets auto groups the files by; give --brackets N and --evs instead")
-        if any(max(e, v) / min(e, v) < MIN_EXPOSURE_STEP for v in seen):
+        e, time_s, taken = exif_shot(path, "which --brackets auto groups the files by; give --brackets N and --evs "
+                                           "instead")
+        later = taken is not None and ended is not None and taken - ended > BRACKET_GAP_S
+        if later or any(max(e, v) / min(e, v) < MIN_EXPOSURE_STEP for v in seen):
             sets.append(current)
             current, seen = [], []
         current.append(path)
         seen.append(e)
+        ended = None if taken is None else taken + time_s
     sets.append(current)
     return [BracketSet(s, None, align) if len(s) > 1 else s[0] for s in sets if s]
 

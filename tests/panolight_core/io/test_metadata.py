@@ -68,7 +68,7 @@ _leaves = st.one_of(
                      "+14:00", "-12:00", "+99:99", "N", "S", "E", "W", "2024-06-21T10:30:00Z", "1e308", "nan"]))
 _values = st.recursive(_leaves, lambda inner: st.one_of(st.lists(inner, max_size=4), st.tuples(inner, inner, inner)),
                        max_leaves=8)
-_TAG_NAMES = ["ExposureTime", "FNumber", "Exif:PhotographicSensitivity", "Exif:ISOSpeedRatings", "GPS:Latitude",
+_TAG_NAMES = ["ExposureTime", "FNumber", "Exif:SubsecTimeOriginal", "Exif:PhotographicSensitivity", "Exif:ISOSpeedRatings", "GPS:Latitude",
               "GPS:LatitudeRef", "GPS:Longitude", "GPS:LongitudeRef", "GPS:DateStamp", "GPS:TimeStamp",
               "Exif:DateTimeOriginal", "Exif:OffsetTimeOriginal", "GPano:FirstPhotoDate"]
 _tag_sets = st.dictionaries(st.sampled_from(_TAG_NAMES), _values, max_size=len(_TAG_NAMES))
@@ -101,6 +101,7 @@ def test_the_capture_and_exposure_of_any_tags_are_typed_and_in_range(found, head
     if exposure is not None:
         assert 0 < exposure["time_s"] <= MAX_EXPOSURE_S and 0 < exposure["f_number"] <= MAX_F_NUMBER
         assert 0 < exposure["iso"] <= MAX_ISO
+        assert exposure["taken_s"] is None or (type(exposure["taken_s"]) is float and exposure["taken_s"] >= 0)
     got = parse_capture(found.get, heading)
     assert got.latitude is None or -90.0 <= got.latitude <= 90.0
     assert got.longitude is None or -180.0 <= got.longitude <= 180.0

@@ -211,3 +211,35 @@ def test_a_tripod_set_is_merged_as_shot_with_no_align(tmp_path, day):
                  "-q", "--jobs", "1"]) == 0
     doc = json.loads((tmp_path / "c" / "t0" / "lighting.json").read_text())
     assert doc["source"]["brackets"]["aligned"] is False
+
+
+def _timed_frame(path, ldr, time_s, taken: str, subsec: str = "00"):
+    """A JPEG with an exposure time (f/8, ISO 100) and the camera's DateTimeOriginal / SubSecTimeOriginal."""
+    exif = Image.Exif()
+    ifd = exif.get_ifd(0x8769)
+    ifd[0x829A] = IFDRational(*(1, round(1 / time_s)) if time_s < 1 else (round(time_s), 1))
+    ifd[0x829D], ifd[0x8827], ifd[0x9003], ifd[0x9291] = IFDRational(8, 1), 100, taken, subsec
+    Image.fromarray(ldr).save(path, quality=95, exif=exif)
+    return path
+
+
+def test_auto_grouping_splits_shots_taken_minutes_apart(tmp_path, day, capsys):
+    """Real case: four single shots of four scenes, ten minutes apart, at four exposures, were grouped into one set by
+    exposure alone, then refused: none got an estimate. The capture time splits them; a bracket sequence shot within
+    a second stays one set."""
+    from panolight_core.pipeline.brackets import BracketSet, group_by_exposure
+
+    truth, _, _ = day
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    for i, (ev, minute) in enumerate(((0, 0), (1, 10), (-1, 20), (2, 30))):  # auto-exposed: another exposure each
+        _timed_frame(shots / f"a{i}.jpg", hdr_to_ldr(truth, 0), 2.0 ** ev / 250, f"2024:06:21 12:{minute:02d}:00")
+    for i, ev in enumerate((0, -2, 2)):  # AEB: 0, -2, +2 in 0.4 s
+        _timed_frame(shots / f"b{i}.jpg", hdr_to_ldr(truth, ev), 2.0 ** ev / 250, "2024:06:21 13:00:00", f"{4 * i}")
+    groups = group_by_exposure(sorted(shots.iterdir()))
+    assert [g.name for g in groups[:4]] == ["a0.jpg", "a1.jpg", "a2.jpg", "a3.jpg"]  # each alone
+    assert isinstance(groups[4], BracketSet) and [p.name for p in groups[4].paths] == ["b0.jpg", "b1.jpg", "b2.jpg"]
+    out = tmp_path / "out"
+    assert main(["batch", str(shots), "-o", str(out), "--brackets", "auto", "--jobs", "1", "-q"]) == 0
+    report = json.loads((out / "batch_report.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["ok"] * 5
