@@ -225,11 +225,27 @@ def _process(job, src: Path, dst: Path, settings) -> dict:
         return {**result, "key_light": note} if note else result
     except PanoLightError as exc:
         error = str(exc)
+        if hasattr(src, "paths"):  # a bracket set refused: each frame is still a photo to estimate
+            return _frames_alone(job, src, dst, settings, error, t)
     except (KeyboardInterrupt, SystemExit):
         raise
     except Exception as exc:  # keep going past anything one file can cause; the report names it
         error = f"{type(exc).__name__}: {exc}"
     return {"input": str(src), "status": "failed", "error": error, "seconds": round(time.perf_counter() - t, 4)}
+
+
+def _frames_alone(job, src, dst: Path, settings, why: str, t: float) -> dict:
+    """A refused bracket set's frames, each estimated alone into ``dst/<frame>/``: a batch never ends with no
+    output for a photo that could be estimated. Its report entry says why the set was refused and what each frame
+    got; "ok" when every frame was estimated."""
+    frames = [_process(job, Path(p), dst / Path(p).stem, settings) for p in src.paths]
+    failed = [f for f in frames if f["status"] == "failed"]
+    result = {"input": str(src), "status": "failed" if failed else "ok", "output": str(dst),
+              "note": f"the set was refused ({why}): its frames were estimated alone", "frames": frames,
+              "seconds": round(time.perf_counter() - t, 4)}
+    if failed:
+        result["error"] = "; ".join(f["error"] for f in failed)
+    return result
 
 
 def _process_task(task):

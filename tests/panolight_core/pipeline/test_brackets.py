@@ -243,3 +243,20 @@ def test_auto_grouping_splits_shots_taken_minutes_apart(tmp_path, day, capsys):
     assert main(["batch", str(shots), "-o", str(out), "--brackets", "auto", "--jobs", "1", "-q"]) == 0
     report = json.loads((out / "batch_report.json").read_text())
     assert [r["status"] for r in report["results"]] == ["ok"] * 5
+
+
+def test_a_refused_set_falls_back_to_its_frames_alone(tmp_path, day, capsys):
+    """A batch never ends with no output for a photo that could be estimated: a set the merge refuses (here its
+    frames listed against their exposures) gets each frame estimated alone, in the set's folder, and says why."""
+    truth, _, _ = day
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    for i, ev in enumerate((2, 0, -2)):  # named in the opposite order of the --evs given
+        _frame(shots / f"s_{i}.jpg", hdr_to_ldr(truth, ev))
+    out = tmp_path / "out"
+    assert main(["batch", str(shots), "-o", str(out), "--brackets", "3", "--evs", "-2,0,2", "--jobs", "1"]) == 0
+    (r,) = json.loads((out / "batch_report.json").read_text())["results"]
+    assert r["status"] == "ok" and "the exposures are not the frames'" in r["note"]
+    assert [f["status"] for f in r["frames"]] == ["ok"] * 3
+    assert all((out / "s_0" / f"s_{i}" / "lighting.json").is_file() for i in range(3))
+    assert "its frames were estimated alone" in capsys.readouterr().err
