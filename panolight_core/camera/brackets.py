@@ -316,6 +316,19 @@ def check_agreement(frames, rel: np.ndarray, names=None) -> list[Agreement]:
     return found
 
 
+SAME_PICTURE_CODES = 1.0  # two frames whose blocks differ by less than this (median, in codes) are one picture: a
+# stop apart, a mid-tone moves some 30 codes; a JPEG saved twice moves under one
+
+
+def same_picture(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two (aligned) 8-bit frames are one picture (their ``block_codes`` within SAME_PICTURE_CODES, median over
+    at least MIN_AGREE_BLOCKS blocks both hold well exposed): what three public sets list under several exposures."""
+    ca, cb = block_codes(a), block_codes(b)
+    lo, hi = AGREE_CODES
+    both = (ca >= lo) & (ca <= hi) & (cb >= lo) & (cb <= hi)
+    return int(both.sum()) >= MIN_AGREE_BLOCKS and float(np.median(np.abs(ca[both] - cb[both]))) < SAME_PICTURE_CODES
+
+
 _CODE_EDGES = ((SRGB8_TO_LINEAR[1:].astype(np.float64) + SRGB8_TO_LINEAR[:-1]) / 2).astype(np.float32)
 
 

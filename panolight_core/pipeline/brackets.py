@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .. import threads
-from ..camera.brackets import MIN_EXPOSURE_STEP, check_exposures, exposure, merge_brackets
-from ..errors import PanoLightError, naming
+from ..camera.brackets import MIN_EXPOSURE_STEP, check_exposures, exposure, merge_brackets, same_picture
+from ..errors import PanoLightError, PanoLightWarning, naming
 from ..io.capture import read_exposure
 from ..io.images import RAW_FORMAT, read_image, sniff_format
 from ..io.metadata import json_object, number, text
@@ -170,5 +171,33 @@ def read_brackets(paths, evs=None, align: bool = True, **read_options) -> tuple[
             raise PanoLightError(f"{p}: {frame.shape[1]}x{frame.shape[0]}, but {paths[0].name} is "
                                  f"{frames[0].shape[1]}x{frames[0].shape[0]}: a bracket set's frames have one size")
         frames.append(frame)
-    merged, info = merge_brackets(frames, exposures, align=align, names=[p.name for p in paths])
-    return merged, {"files": [str(p) for p in paths], "exposures_from": origin, "aligned": bool(align), **info}
+    kept, frames, kept_exposures, dropped = _distinct(paths, frames, exposures)
+    merged, info = merge_brackets(frames, kept_exposures, align=align, names=[p.name for p in kept])
+    if dropped:  # the record speaks of every file given: the reference's index and each one's stops among them
+        ref = paths.index(kept[info["reference"]])
+        info.update(reference=ref, stops=[round(math.log2(e / exposures[ref]), 4) for e in exposures])
+    return merged, {"files": [str(p) for p in paths], "exposures_from": origin, "aligned": bool(align),
+                    **({"dropped": dropped} if dropped else {}), **info}
+
+
+def _distinct(paths, frames, exposures):
+    """(paths, frames, exposures, dropped) with each frame that is the same picture as the one before it in exposure
+    order (``camera.brackets.same_picture``: one frame listed under two exposures) left out, said in a warning
+    naming both; PanoLightError when fewer than two distinct frames are left."""
+    order = sorted(range(len(paths)), key=lambda i: exposures[i])
+    keep, dropped = [order[0]], []
+    for i in order[1:]:
+        j = keep[-1]
+        if frames[i].dtype == np.uint8 and same_picture(frames[j], frames[i]):
+            stops = math.log2(exposures[i] / exposures[j])
+            dropped.append({"file": str(paths[i]), "same_as": str(paths[j]), "stops_apart": round(stops, 3)})
+            warnings.warn(PanoLightWarning(f"{paths[i]}: the same picture as {paths[j].name} though its exposure says "
+                                           f"{stops:.3g} stops more: left out of the merge (check the set's EXIF or "
+                                           f"--evs)"), stacklevel=3)
+        else:
+            keep.append(i)
+    if len(keep) < 2:
+        raise PanoLightError(f"{paths[0]}: every frame of the set is the same picture under other exposures: "
+                             f"nothing to merge (estimate one frame alone)")
+    keep.sort()
+    return [paths[i] for i in keep], [frames[i] for i in keep], [exposures[i] for i in keep], dropped

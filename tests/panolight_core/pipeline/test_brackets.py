@@ -260,3 +260,23 @@ def test_a_refused_set_falls_back_to_its_frames_alone(tmp_path, day, capsys):
     assert [f["status"] for f in r["frames"]] == ["ok"] * 3
     assert all((out / "s_0" / f"s_{i}" / "lighting.json").is_file() for i in range(3))
     assert "its frames were estimated alone" in capsys.readouterr().err
+
+
+def test_one_picture_listed_under_two_exposures_is_left_out_and_said(tmp_path, day, capsys):
+    """Three public sets list one frame under several exposures, and it was merged in silence (the brightest tenth
+    came out 2.5x off). A frame that is the same picture as its neighbour in exposure is left out of the merge, with a
+    warning naming both; a set left with one picture is refused in one line."""
+    import shutil
+
+    truth, _, _ = day
+    a = _frame(tmp_path / "a.jpg", hdr_to_ldr(truth, 0))
+    b = shutil.copy(a, tmp_path / "b.jpg")  # the same file under another exposure
+    c = _frame(tmp_path / "c.jpg", hdr_to_ldr(truth, 2))
+    assert main(["estimate", a, str(b), c, "--evs", "0,1,2", "-o", str(tmp_path / "out"), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "b.jpg: the same picture as a.jpg though its exposure says 1 stops more: left out of the merge" in err
+    record = json.loads((tmp_path / "out" / "lighting.json").read_text())["source"]["brackets"]
+    assert [d["file"] for d in record["dropped"]] == [str(b)] and record["stops"] == pytest.approx([0, 1, 2], abs=1e-3)
+    assert record["files"][record["reference"]] == json.loads((tmp_path / "out" / "lighting.json").read_text())["source"]["path"]
+    assert main(["estimate", a, str(b), "--evs", "0,1", "-o", str(tmp_path / "none"), "-q"]) == 1
+    assert "every frame of the set is the same picture" in capsys.readouterr().err
