@@ -36,6 +36,12 @@ CHECKED_SUN_ELEVATION_DEG = 10.0  # under this the clear-sky energy is unreliabl
 LOW_SUN_OVERSHOOT = 12  # that 3-degree sun's fit over its truth (pmndrs_sunset_piazza at ev -2, the gate passed)
 
 
+def _factor(x: float) -> str:
+    """A 68 % range's end as a factor, to one decimal from 1 up and to two significant digits under it: a range
+    that starts at 0.04x is never printed as 0.0x."""
+    return f"{x:.1f}" if x >= 1.0 else f"{x:.2g}"
+
+
 def key_light_note(doc: dict, light: str = "light",
                    raise_with: str = "--sun-strength (Blender: Sun lamp strength; or its intensity in lighting.json)",
                    as_is: str = "--restore none") -> str:
@@ -79,7 +85,7 @@ def key_light_note(doc: dict, light: str = "light",
                   f"the one real sun that low it was checked on (3 deg up) {LOW_SUN_OVERSHOOT}x too strong" if low_sun
                   else "")
         return (f"the key light ({key['elevation_deg']:.0f} deg up) has {strength} the estimate is sure of; its "
-                f"own evidence ({key['source']}) puts it at {key['low']:.1f}-{key['high']:.1f}x that (68 %"
+                f"own evidence ({key['source']}) puts it at {_factor(key['low'])}-{_factor(key['high'])}x that (68 %"
                 f"{caveat}). If the photo's shadows are harder than a render's, raise {raise_with} toward that (a "
                 f"sun strength of {scaled * key['low']:.1f} reaches its low end)")
     return restoration_note(doc, key, light, raise_with, as_is)
@@ -103,5 +109,5 @@ def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, a
     kind = str(doc["lights"][key["index"]].get("type", "")).strip()
     became = f"{kind} {light}" if kind else light
     return (f"{found}: restored as a {became} {key['elevation_deg']:.0f} deg up, its "
-            f"strength sure within {key['low']:.1f}-{key['high']:.1f}x (68 %). If the scene's own shadows are "
+            f"strength sure within {_factor(key['low'])}-{_factor(key['high'])}x (68 %). If the scene's own shadows are "
             f"harder or softer than a render's, set {raise_with}; {as_is} takes the file as it is")

@@ -212,6 +212,9 @@ def test_the_note_of_a_restored_hdr_says_where_its_plateau_went_how_sure_and_how
     merged = key_light_note(dict(doc, source={"dynamic_range": "hdr-merged-brackets"}))
     assert merged.startswith("the bracket set clips its source in every frame (31 pixel(s) at its ceiling, 16)")
     assert key_light_note(dict(doc, source={"dynamic_range": "raw-linear"})).startswith("the sensor clips its source")
+    # a range that starts under a tenth is printed as it is, never as 0.0x (a bracket set's weak evidence)
+    wide = key_light_note(dict(doc, lights=[dict(sun, energy_68=[0.08, 9.0])]))
+    assert "sure within 0.04-4.5x (68 %)" in wide
     # the file as it is, or a plateau refused: nothing restored, no note
     assert key_light_note({"estimator": {"restoration": dict(restoration, restored=False)}, "lights": [sun]}) == ""
     # a key light kept below its evidence says that first
