@@ -3,6 +3,8 @@ so the CLI, batch and Blender say the same. ``key_light_range`` is the key light
 was given (Blender's panel draws it)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ... import sh
@@ -110,4 +112,22 @@ def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, a
     became = f"{kind} {light}" if kind else light
     return (f"{found}: restored as a {became} {key['elevation_deg']:.0f} deg up, its "
             f"strength sure within {_factor(key['low'])}-{_factor(key['high'])}x (68 %). If the scene's own shadows are "
-            f"harder or softer than a render's, set {raise_with}; {as_is} takes the file as it is")
+            f"harder or softer than a render's, set {raise_with}; {as_is} takes the file as it is"
+            f"{_what_would_hold_it(doc, doc['lights'][key['index']], restoration)}")
+
+
+def _what_would_hold_it(doc: dict, light: dict, restoration: dict) -> str:
+    """For a bracket set whose source clips even its darkest frame: how many more stops (or an ND filter) would
+    hold it, from the restored light's radiance (its intensity x its colour's largest channel over its disk's solid
+    angle) over the set's ceiling; "" for any other capture, or where the light's size is not known."""
+    brackets = (doc.get("source") or {}).get("brackets") or {}
+    ceiling, angle = max(restoration.get("ceiling") or [0.0]), float(light.get("angle") or 0.0)
+    if not brackets.get("stops") or not ceiling > 0 or not 0 < angle < math.pi:
+        return ""
+    solid_angle = 2.0 * math.pi * (1.0 - math.cos(angle / 2.0))
+    radiance = float(light.get("intensity", 0.0)) * max(light.get("color") or [1.0]) / solid_angle
+    stops = math.log2(radiance / ceiling) if radiance > ceiling else 0.0
+    if stops < 1.0:
+        return ""
+    return (f". The source clips even the darkest frame ({min(brackets['stops']):+g} stops): about {stops:.0f} more "
+            f"stops, or an ND filter, would hold it")

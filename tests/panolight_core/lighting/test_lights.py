@@ -211,6 +211,14 @@ def test_the_note_of_a_restored_hdr_says_where_its_plateau_went_how_sure_and_how
     assert no_key.endswith("can come out too bright (--restore none takes the file as it is)")
     merged = key_light_note(dict(doc, source={"dynamic_range": "hdr-merged-brackets"}))
     assert merged.startswith("the bracket set clips its source in every frame (31 pixel(s) at its ceiling, 16)")
+    # what the set could not capture: a 0.53-degree sun of intensity 2 is 2 / 6.7e-5 sr over a ceiling of 16
+    sun_disk = dict(sun, angle=math.radians(0.53), color=[1.0, 0.9, 0.8])
+    held = key_light_note({"estimator": {"restoration": restoration}, "lights": [sun_disk],
+                           "source": {"dynamic_range": "hdr-merged-brackets", "brackets": {"stops": [-2, 0, 2]}}})
+    want = math.log2(2.0 / (2 * math.pi * (1 - math.cos(math.radians(0.53) / 2))) / 16.0)
+    assert held.endswith(f". The source clips even the darkest frame (-2 stops): about {want:.0f} more stops, or an "
+                         f"ND filter, would hold it") and round(want) == 11
+    assert "darkest frame" not in key_light_note(dict(doc, lights=[sun_disk]))  # an HDR file has no frames
     assert key_light_note(dict(doc, source={"dynamic_range": "raw-linear"})).startswith("the sensor clips its source")
     # a range that starts under a tenth is printed as it is, never as 0.0x (a bracket set's weak evidence)
     wide = key_light_note(dict(doc, lights=[dict(sun, energy_68=[0.08, 9.0])]))
