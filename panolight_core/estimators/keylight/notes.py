@@ -99,7 +99,7 @@ def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, a
     and ``as_is``; "" where nothing was restored."""
     restoration = (doc.get("estimator") or {}).get("restoration") or {}
     if not restoration.get("restored"):
-        return ""
+        return "" if restoration else _set_too_bright(doc)  # a ceiling found but not restored: --restore none
     clips = {"hdr-merged-brackets": "the bracket set clips its source in every frame",
              "raw-linear": "the sensor clips its source"}.get((doc.get("source") or {}).get("dynamic_range"),
                                                               "the file clips its own source")
@@ -114,6 +114,24 @@ def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, a
             f"strength sure within {_factor(key['low'])}-{_factor(key['high'])}x (68 %). If the scene's own shadows are "
             f"harder or softer than a render's, set {raise_with}; {as_is} takes the file as it is"
             f"{_what_would_hold_it(doc, doc['lights'][key['index']], restoration)}")
+
+
+SET_CLIPPED_SHARE = 0.001  # a set that clips a thousandth of its pixels in every frame lost a source's energy
+
+
+def _set_too_bright(doc: dict) -> str:
+    """The note of a bracket set that clips in every frame but whose darkest frame is too bright for its ceiling to
+    be weighed as a clipped source (no restoration, no key light: its brightest frame is the ev-0 one, say): what it
+    lost, and what places a light. Restoring such a set made six scenes of 46 far worse than one JPEG (0, +2 pair;
+    docs/studies/captures.md): it is not done by default. "" for anything else."""
+    brackets = (doc.get("source") or {}).get("brackets") or {}
+    share, stops = brackets.get("clipped_in_every_frame"), brackets.get("stops")
+    if not stops or not isinstance(share, (int, float)) or share < SET_CLIPPED_SHARE or doc.get("lights"):
+        return ""
+    return (f"the bracket set clips {100 * share:.2g} % of its pixels in every frame, its darkest ({min(stops):+g} "
+            f"stops) too, and too little above the scene to weigh them as a clipped sun or lamp: no light was made "
+            f"from them. A darker frame (-2 or -4 stops) holds the source; --sun AZ,EL (Blender: Sun is here) "
+            f"places a sun by hand")
 
 
 def _what_would_hold_it(doc: dict, light: dict, restoration: dict) -> str:

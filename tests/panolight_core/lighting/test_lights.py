@@ -223,6 +223,14 @@ def test_the_note_of_a_restored_hdr_says_where_its_plateau_went_how_sure_and_how
     # a range that starts under a tenth is printed as it is, never as 0.0x (a bracket set's weak evidence)
     wide = key_light_note(dict(doc, lights=[dict(sun, energy_68=[0.08, 9.0])]))
     assert "sure within 0.04-4.5x (68 %)" in wide
+    # a set too bright to weigh what it clipped in every frame (a 0, +2 pair): no light, and the note says so
+    pair = {"source": {"dynamic_range": "hdr-merged-brackets", "brackets": {"stops": [0.0, 2.0],
+                                                                           "clipped_in_every_frame": 0.082}},
+            "estimator": {}, "lights": []}
+    assert key_light_note(pair).startswith("the bracket set clips 8.2 % of its pixels in every frame, its darkest "
+                                           "(+0 stops) too, and too little above the scene")
+    assert key_light_note(dict(pair, lights=[sun])) == "" and key_light_note(
+        dict(pair, estimator={"restoration": dict(restoration, restored=False)})) == ""
     # the file as it is, or a plateau refused: nothing restored, no note
     assert key_light_note({"estimator": {"restoration": dict(restoration, restored=False)}, "lights": [sun]}) == ""
     # a key light kept below its evidence says that first
