@@ -150,3 +150,13 @@ def test_ratio_within_is_two_to_the_median_distance_in_stops():
     assert metrics.ratio_within([0.0, 0.0, 1.0]) == pytest.approx(1e12)
     assert metrics.ratio_within(iter([4.0])) == pytest.approx(4.0)
     assert metrics.ratio_within([]) is None
+
+
+def test_harm_is_both_twice_and_a_quarter_over_the_input_as_it_is():
+    """EVALUATION.md "Harm": above both 2x and + 0.25 the as-is projection's m-RMSE (the + 0.25 spares scenes the
+    as-is projection already gets almost exactly)."""
+    from panolight_core.metrics import harmed
+
+    assert harmed(0.9, 0.4) and not harmed(0.6, 0.4)  # 2.25x and +0.5; 1.5x
+    assert not harmed(0.2, 0.05)  # 4x but only +0.15
+    assert not harmed(0.8, 0.4) and harmed(0.81, 0.4)  # at exactly 2x: not harmed

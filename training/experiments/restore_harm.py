@@ -154,7 +154,8 @@ def range_summary(rows: list[dict]) -> dict:
 
 
 def summary(rows: list[dict], stops) -> dict:
-    """Per clip level, for the scenes with and without a dominant source: how many were restored, the median m-RMSE
+    """Per clip level, for the scenes with and without a dominant source: how many were harmed (EVALUATION.md, first),
+    how many were restored, the median m-RMSE
     over the file's own (every scene; 1 where nothing was restored), how many restored files came out worse than
     the file as it is by each of WORSE, the worst (files that lost nothing left out), and the restored files' added energy over the lost ("within" x,
     the median of |log2|)."""
@@ -167,6 +168,7 @@ def summary(rows: list[dict], stops) -> dict:
             ratios = [c["over_own"] for c in sel]
             added = [c["added_over_lost"] for c in done if c["added_over_lost"] and c["added_over_lost"] > 0]
             out[f"{key} {'dominant' if dominant else 'no dominant source'}"] = {
+                "harmed": sum(metrics.harmed(c["over_own"] * c["own"], c["own"]) for c in sel),  # EVALUATION.md
                 "scenes": len(sel), "restored": len(done),
                 "median_over_own": statistics.median(ratios) if ratios else float("nan"),
                 **{f"worse_{w:g}x": sum(c["over_own"] > w for c in done) for w in WORSE},
@@ -177,10 +179,11 @@ def summary(rows: list[dict], stops) -> dict:
 
 
 def table(summ: dict) -> list[str]:
-    lines = ["| clip, scenes | n | restored | m-RMSE / own, median | worse than as it is | over 1.5x | over 3x | worst | "
-             "added / lost, median |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = ["| clip, scenes | harmed | n | restored | m-RMSE / own, median | worse than as it is | over 1.5x | over 3x | "
+             "worst | added / lost, median |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, v in summ.items():
-        lines.append(f"| {name} | {v['scenes']} | {v['restored']} | {v['median_over_own']:.3f} | {v['worse_1x']} | "
+        lines.append(f"| {name} | {v.get('harmed', '?')} | {v['scenes']} | {v['restored']} | {v['median_over_own']:.3f} | "
+                     f"{v['worse_1x']} | "
                      f"{v['worse_1.5x']} | {v['worse_3x']} | {v['worst']:.3g} | {v['added_median']:.3g} |")
     return lines
 

@@ -166,6 +166,9 @@ def scene_rows(path: Path, stops, as_ldr: bool = False, estimator: str = "auto",
     for row in rows:
         row["m_rmse_over_naive"] = row["m_rmse"] / jpeg
         row["m_rmse_over_own"] = row["m_rmse"] / row["own_projection_m_rmse"]
+        # harm against the input as it is: a file its own projection, a set (and a JPEG) the ev-0 JPEG's naive one
+        as_is = jpeg if "brackets" in row["capture"] or row["capture"] == "JPEG" else row["own_projection_m_rmse"]
+        row["harmed"] = metrics.harmed(row["m_rmse"], as_is)
     return rows
 
 
@@ -177,7 +180,8 @@ def summary(rows: list[dict]) -> dict:
         sel = [r for r in rows if r["capture"] == name]
         ratios = [r["ratio"] for r in sel]
         contrasts = [r["contrast"] / r["true_contrast"] for r in sel]
-        out[name] = {"scenes": len(sel), "median_angle_deg": statistics.median(r["angle_deg"] for r in sel),
+        out[name] = {"harmed": sum(bool(r.get("harmed")) for r in sel),
+                     "scenes": len(sel), "median_angle_deg": statistics.median(r["angle_deg"] for r in sel),
                      "energy_within": metrics.ratio_within(ratios),
                      "energy_worst": max(ratios, key=lambda v: abs(math.log2(max(v, 1e-12)))),
                      "contrast_within": metrics.ratio_within(contrasts),
@@ -188,10 +192,11 @@ def summary(rows: list[dict]) -> dict:
 
 
 def table(summ: dict) -> list[str]:
-    lines = ["| capture | scenes | direction median | energy within | worst r | contrast within | worst C / C_true | "
-             "m-RMSE / naive JPEG | m-RMSE / own projection |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = ["| capture | harmed | scenes | direction median | energy within | worst r | contrast within | worst C / "
+             "C_true | m-RMSE / naive JPEG | m-RMSE / own projection |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, s in summ.items():
-        lines.append(f"| {name} | {s['scenes']} | {s['median_angle_deg']:.1f} deg | {s['energy_within']:.2f}x | "
+        lines.append(f"| {name} | {s.get('harmed', '?')} | {s['scenes']} | {s['median_angle_deg']:.1f} deg | "
+                     f"{s['energy_within']:.2f}x | "
                      f"{s['energy_worst']:.3g} | {s['contrast_within']:.2f}x | {s['contrast_worst']:.3g} | "
                      f"{s['m_rmse_over_naive_median']:.3f} | {s['m_rmse_over_own_median']:.3f} |")
     return lines

@@ -233,11 +233,13 @@ def floor_cv(rows: list[dict], labels: list[str]) -> dict:
 
 
 def summary(rows: list[dict], get) -> dict:
-    """m-RMSE and irr-RMSE over naive (median, mean) and the dominant sources' energy (within, worst)."""
+    """The harmed scenes (EVALUATION.md, first), m-RMSE and irr-RMSE over naive (median, mean) and the dominant sources'
+    energy (within, worst)."""
     m = [get(r)[0] / r["naive"][0] for r in rows]
     i = [get(r)[1] / r["naive"][1] for r in rows]
     dom = [get(r)[2] for r in rows if r["dominant"]]
-    return {"scenes": len(rows), "m_rmse_median": statistics.median(m), "m_rmse_mean": statistics.mean(m),
+    return {"harmed": sum(metrics.harmed(get(r)[0], r["naive"][0]) for r in rows),
+            "scenes": len(rows), "m_rmse_median": statistics.median(m), "m_rmse_mean": statistics.mean(m),
             "irr_rmse_mean": statistics.mean(i), "dominant": len(dom),
             "within": metrics.ratio_within(dom),
             "worst_low": min(dom) if dom else None, "worst_high": max(dom) if dom else None}
@@ -257,9 +259,9 @@ def blueness(rows: list[dict]) -> dict:
 
 def table(result: dict) -> list[str]:
     return nested_table(
-        ["| ev | rule | scenes | m-RMSE / naive, median | mean | irr-RMSE / naive, mean | dominant energy within | worst r |",
-         "|---|---|---:|---:|---:|---:|---:|---|"], result["summary"], lambda ev, rule, s: (
-            f"{ev} | `{rule}` | {s['scenes']} | {s['m_rmse_median']:.3f} | {s['m_rmse_mean']:.3f} | "
+        ["| ev | rule | harmed | scenes | m-RMSE / naive, median | mean | irr-RMSE / naive, mean | dominant energy "
+         "within | worst r |", "|---|---|---:|---:|---:|---:|---:|---:|---|"], result["summary"], lambda ev, rule, s: (
+            f"{ev} | `{rule}` | {s.get('harmed', '?')} | {s['scenes']} | {s['m_rmse_median']:.3f} | {s['m_rmse_mean']:.3f} | "
             f"{s['irr_rmse_mean']:.3f} | {s['within']:.2f}x | {s['worst_low']:.3g} / {s['worst_high']:.3g}"))
 
 

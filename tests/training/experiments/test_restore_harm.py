@@ -42,7 +42,9 @@ def test_the_summary_counts_the_restored_files_made_worse_and_splits_by_dominanc
     assert rest["scenes"] == 3 and rest["restored"] == 2 and rest["median_over_own"] == pytest.approx(1.2)
     assert (rest["worse_1x"], rest["worse_1.5x"], rest["worse_3x"], rest["worst"]) == (2, 1, 1, 4.0)
     assert rest["added_median"] == pytest.approx(4.5) and rest["added_within"] == pytest.approx(2.0 ** 1.5)
-    assert restore_harm.table(summ)[3].startswith("| +4 no dominant source | 3 | 2 | 1.200 | 2 | 1 | 1 | 4 |")
+    # harm first (EVALUATION.md): b's 0.4 is over both 2x and + 0.25 its file's own 0.1; c's 0.12 is not
+    assert (dom["harmed"], rest["harmed"]) == (0, 1)
+    assert restore_harm.table(summ)[3].startswith("| +4 no dominant source | 1 | 3 | 2 | 1.200 | 2 | 1 | 1 | 4 |")
 
 
 def test_the_decided_rule_weighs_a_plateau_s_key_light_otherwise_and_puts_the_shipped_rule_back(tmp_path):

@@ -27,7 +27,7 @@ def test_a_clipped_hdr_is_scored_as_it_is_and_restored(tmp_path):
         assert restored["m_rmse_over_own"] < 1.0
     summ = captures.summary(rows)
     assert set(summ) == {r["capture"] for r in rows} and all(s["scenes"] == 1 for s in summ.values())
-    assert captures.table(summ)[2].startswith("| JPEG | 1 |")
+    assert captures.table(summ)[2].startswith("| JPEG | 0 | 1 |")  # harmed first (EVALUATION.md), then scenes
     assert captures.plot(summ, tmp_path / "c.png").stat().st_size > 1000
 
 

@@ -52,4 +52,4 @@ def test_each_scene_row_has_the_shadow_contrast_and_the_summary_how_far_it_is(tm
     ratio = row["contrast"] / row["true_contrast"]
     assert summary["contrast_within"] == pytest.approx(2 ** abs(np.log2(ratio))) and summary["contrast_worst"] == ratio
     assert 0 < row["m_rmse"] < row["naive_m_rmse"]  # a clipped sun: the key light beats sRGB -> linear
-    assert summary["m_rmse_over_naive_median"] == row["m_rmse"] / row["naive_m_rmse"] and summary["blinding"] == []
+    assert summary["m_rmse_over_naive_median"] == row["m_rmse"] / row["naive_m_rmse"] and summary["blinding"] == [] and summary["harmed"] == 0
