@@ -214,3 +214,20 @@ def score_lighting(hdr: np.ndarray, coeffs: np.ndarray, lights, ldr_linear: np.n
     ours = LightingModel(lights, coeffs).irradiance_map(*grid)
     naive = sh.irradiance_map(sh.project(ldr_linear, 2), *grid)
     return {"irr_rmse": irr_rmse_maps(truth, ours), "naive_irr_rmse": irr_rmse_maps(truth, naive)}
+
+
+def sphere_scores(truth: dict, estimate: dict) -> dict:
+    """The three-sphere protocol's scores (``lighting.spheres.render_spheres`` of the truth and of an estimate): per
+    sphere, the RMSE and the scale-invariant RMSE (the estimate scaled by its least-squares factor first), both over
+    the truth sphere's RMS (unitless, so scenes of any units compare), and the mean RGB angular error (degrees)."""
+    out = {}
+    for name, g in truth.items():
+        g, e = np.asarray(g, dtype=np.float64), np.asarray(estimate[name], dtype=np.float64)
+        norm = math.sqrt(float((g * g).mean())) or 1.0
+        ee = float((e * e).sum())
+        alpha = float((e * g).sum()) / ee if ee > 0 else 0.0
+        cos = (e * g).sum(axis=-1) / np.maximum(np.linalg.norm(e, axis=-1) * np.linalg.norm(g, axis=-1), 1e-300)
+        out[name] = {"rmse": math.sqrt(float(((e - g) ** 2).mean())) / norm,
+                     "si_rmse": math.sqrt(float(((alpha * e - g) ** 2).mean())) / norm,
+                     "angular_deg": float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).mean())}
+    return out

@@ -62,7 +62,7 @@ def markdown(result: dict) -> str:
         out.append(f"| {m['estimator']} | {m['ev']:+g} | {m['mean_m_rmse']:.3f} | {m['median_m_rmse']:.3f} | "
                    f"{_fmt(m.get('median_hdri_m_rmse'))} | {m['mean_irr_rmse']:.3f} | {m['median_irr_rmse']:.3f} | {wins} | "
                    f"{_fmt(m['mean_sun_angle_deg'], 1)} | {m['median_ms']:.1f} |")
-    out += _markdown_dominant(result)
+    out += _markdown_dominant(result) + _markdown_spheres(result)
     shares = [r for r in result["rows"] if r.get("true_sun_share") is not None and r.get("sun_share") is not None]
     if shares:
         out += ["", "## The sun's share of the irradiance facing it (sun scenes; true / estimated)", "",
@@ -76,6 +76,24 @@ def markdown(result: dict) -> str:
                 if any(c != "n/a" for c in cells):
                     out.append(f"| {scene} | {ev:+g} | " + " | ".join(cells) + " |")
     return "\n".join(out) + "\n"
+
+
+def _markdown_spheres(result: dict) -> list[str]:
+    """The three-sphere protocol's medians per estimator and ev (``lighting.spheres``)."""
+    rows = [m for m in result["summary"].values() if m.get("spheres")]
+    if not rows:
+        return []
+    out = ["", "## Three spheres (the published tables' protocol)", "",
+           "Diffuse, matte-silver and mirror spheres rendered under the estimate (in the HDR's units) and under the "
+           "truth; medians over the scenes of the scale-invariant RMSE (over the truth sphere's RMS) and the RGB angular "
+           "error in degrees. A different data set from the published ones: the naive rows give the scale.", "",
+           "| estimator | ev | diffuse si-RMSE | angular | matte si-RMSE | angular | mirror si-RMSE | angular |",
+           "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for m in rows:
+        cells = [f"{m['spheres'][n]['si_rmse']:.3f} | {m['spheres'][n]['angular_deg']:.1f}"
+                 for n in ("diffuse", "matte", "mirror")]
+        out.append(f"| {m['estimator']} | {m['ev']:+g} | " + " | ".join(cells) + " |")
+    return out
 
 
 def _markdown_dominant(result: dict) -> list[str]:

@@ -23,9 +23,10 @@ import time
 import numpy as np
 
 from .. import metrics, sh
-from ..camera import hdr_to_ldr
+from ..camera import auto_exposure, hdr_to_ldr
 from ..data import STUDIO_HDRIS, load_studio_hdri
 from ..estimators import available, estimate
+from ..lighting import spheres
 from ..pipeline import fit_estimate
 
 logger = logging.getLogger(__name__)  # one line per scene and ev (INFO)
@@ -45,8 +46,10 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
         true_share = metrics.true_sun_share(hdr, true_dir)
         dominant = metrics.dominant_source(hdr)["dominant"]  # EVALUATION.md: >= 15 % within 5 degrees
         true_contrast = metrics.true_shadow_contrast(hdr, true_dir) if dominant else None
+        true_spheres = spheres.render_spheres(spheres.environment_from_panorama(hdr))
         for ev in evs:
             ldr = hdr_to_ldr(hdr, ev, jpeg_quality)
+            unit = 1.0 / auto_exposure(hdr, ev)  # the camera's clip units in the HDR's
             for name in estimators:
                 times = []
                 for _ in range(max(1, repeats)):
@@ -57,12 +60,13 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                     times.append(time.perf_counter() - t)
                 if name in BASELINES:  # a projection: no light, no shadow (C = 1)
                     coeffs, share, d = est.coeffs, None, metrics.estimated_direction(est.coeffs)
-                    contrast = 1.0
+                    contrast, lights = 1.0, []
                 else:
                     coeffs = model.project(lmax)
                     share = metrics.model_sun_share(model, true_dir) if scene in SUN_SCENES else None
                     contrast = metrics.model_shadow_contrast(model, true_dir)
                     d = np.asarray(model.lights[0]["peak_direction"]) if model.lights else metrics.estimated_direction(coeffs)
+                    coeffs_all, lights = model.coeffs, model.lights
                 hdri_m = ratio = None
                 if getattr(est, "recovery", None) is not None:  # hdr.exr, scored by its own exact projection
                     from ..pipeline.hdri import hdr_panorama
@@ -77,6 +81,7 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                              "sun_share": share, "true_sun_share": true_share if scene in SUN_SCENES else None,
                              "dominant": bool(dominant), "energy_ratio": ratio,
                              "contrast": contrast if dominant else None, "true_contrast": true_contrast,
+                             "spheres": _sphere_scores(true_spheres, coeffs_all if lights else coeffs, lights, unit),
                              "ms": 1e3 * statistics.median(times)})
             logger.info(f"{scene} ev {ev:+g}: " + ", ".join(
                 f"{r['estimator']} {r['m_rmse']:.3f}" for r in rows if r["scene"] == scene and r["ev"] == ev))
@@ -97,11 +102,26 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                 "wins_vs_naive": (sum(r["m_rmse"] < naive[r["scene"]]["m_rmse"] for r in sel if r["scene"] in naive)
                                   if naive else None),
                 "mean_sun_angle_deg": float(np.mean(angles)) if angles else None,
-                **_dominant_summary(sel),
+                **_dominant_summary(sel), "spheres": _sphere_summary(sel),
                 "median_ms": float(statistics.median([r["ms"] for r in sel]))}
     return {"rows": rows, "summary": summary,
             "settings": {"scenes": list(scenes), "evs": list(evs), "estimators": estimators, "lmax": lmax,
                          "jpeg_quality": jpeg_quality, "repeats": repeats}}
+
+
+def _sphere_scores(truth: dict, coeffs, lights, unit: float) -> dict:
+    """The three-sphere protocol (``lighting.spheres``) of an estimate (SH ``coeffs`` and ``lights`` in the camera's
+    clip units, ``unit`` of them in the truth's) against the truth's spheres."""
+    scaled = [dict(light, intensity=float(light["intensity"]) * unit) for light in lights]
+    return metrics.sphere_scores(truth, spheres.render_spheres(spheres.environment_from_model(
+        np.asarray(coeffs, dtype=np.float64) * unit, scaled)))
+
+
+def _sphere_summary(rows: list[dict]) -> dict:
+    """Per sphere, the medians of each score over ``rows``."""
+    return {name: {k: float(np.median([r["spheres"][name][k] for r in rows])) for k in ("rmse", "si_rmse",
+                                                                                         "angular_deg")}
+            for name in spheres.SPHERES} if rows else {}
 
 
 def _dominant_summary(rows: list[dict]) -> dict:

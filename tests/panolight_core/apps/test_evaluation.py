@@ -37,7 +37,8 @@ def test_eval_scores_trained_variants_by_label_and_names_bad_ones(tmp_path, caps
     assert main(["eval", "-o", str(tmp_path), "--evs", "0", "--estimators", "naive", "--repeats", "1", "-q",
                  "--no-adaptive", "--weights", f"mine={DEFAULT_WEIGHTS}"]) == 0
     out = capsys.readouterr().out
-    assert out.count("| mine | +0 |") == 1 and "| naive | +0 | 1.123 |" in out
+    assert out.count("| mine | +0 |") == 2 and "| naive | +0 | 1.123 |" in out  # the summary and the three spheres
+    assert "## Three spheres (the published tables' protocol)" in out
     assert main(["eval", "-o", str(tmp_path), "--weights", f"naive={DEFAULT_WEIGHTS}"]) == 1
     assert "built-in" in capsys.readouterr().err
     assert main(["eval", "-o", str(tmp_path), "--weights", "nolabel"]) == 1
