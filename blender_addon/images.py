@@ -9,7 +9,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from .core import core
+from .core import brackets, core_images, errors, resample
 from .store import BRACKETS_KEY, SOURCE_KEY, TAG
 
 SH_IMAGE_NAME = "PanoLight SH Radiance"
@@ -22,13 +22,13 @@ def image_pixels(image) -> np.ndarray:
     One pixel read; the conversion runs by row blocks, so the only full-size temporary is that read."""
     w, h = image.size
     if w == 0 or h == 0:
-        raise core.errors.PanoLightError(f"image {image.name!r} has no pixels (is the file missing?)")
+        raise errors.PanoLightError(f"image {image.name!r} has no pixels (is the file missing?)")
     c = image.channels
     buf = np.empty(w * h * c, dtype=np.float32)
     image.pixels.foreach_get(buf)
     px = buf.reshape(h, w, c)
     out = np.empty((h, w, 3), np.float32 if image.is_float else np.uint8)
-    for r0, r1 in core.camera.resample.row_blocks(h, w):  # output rows r0..r1 are input rows h-r1..h-r0
+    for r0, r1 in resample.row_blocks(h, w):  # output rows r0..r1 are input rows h-r1..h-r0
         block = px[h - r1:h - r0, :, :3][::-1]
         if image.is_float:
             out[r0:r1] = block
@@ -42,12 +42,12 @@ def file_pixels(image):
     OpenImageIO module Blender ships): the CLI's pixels exactly, with its decode budget, by row blocks
     (a 16K JPEG costs its 0.4 GB of uint8 pixels, not a 2.1 GB RGBA float read). None for a packed,
     generated or edited image, or a missing file: Blender's own pixels are then read."""
-    brackets = image.get(BRACKETS_KEY)  # a merged bracket set: merged again from its files, if they are all there
-    if brackets is not None:
-        saved = core.pipeline.brackets.BracketSet.from_record(brackets)  # validated: an edited one is refused
+    record = image.get(BRACKETS_KEY)  # a merged bracket set: merged again from its files, if they are all there
+    if record is not None:
+        saved = brackets.BracketSet.from_record(record)  # validated: an edited one is refused
         if not all(p.is_file() for p in saved.paths):
             return None
-        return core.pipeline.brackets.read_brackets(saved.paths, saved.evs, saved.align)[0]
+        return brackets.read_brackets(saved.paths, saved.evs, saved.align)[0]
     source = image.get(SOURCE_KEY)  # PanoLight's upright copy of a turned file: read the file itself
     if source is None:
         if image.source != "FILE" or image.packed_file is not None or image.is_dirty:
@@ -56,7 +56,7 @@ def file_pixels(image):
     path = Path(source)
     if not path.is_file():
         return None
-    return core.io.images.read_image(path, ldr_as_uint8=True)
+    return core_images.read_image(path, ldr_as_uint8=True)
 
 
 def upright_panorama(filepath: str, pixels: np.ndarray, name: str | None = None):
@@ -80,10 +80,10 @@ def bracket_panorama(paths, evs=None, align: bool = True):
     exposures from the files' EXIF, or ``evs`` in stops; ``align`` False: a tripod set, frames as they are), named
     after its reference frame; the set is kept (``file_pixels`` merges it again, to the CLI's numbers). Returns
     (image, the merge's record)."""
-    merged, info = core.pipeline.brackets.read_brackets(paths, evs, align)
+    merged, info = brackets.read_brackets(paths, evs, align)
     reference = Path(info["files"][info["reference"]])
     image = upright_panorama(str(reference), merged, f"{reference.stem} ({len(paths)} brackets)")
-    image[BRACKETS_KEY] = core.pipeline.brackets.BracketSet(paths, tuple(evs) if evs else None, align).record()
+    image[BRACKETS_KEY] = brackets.BracketSet(paths, tuple(evs) if evs else None, align).record()
     return image, info
 
 
@@ -97,7 +97,7 @@ def load_panorama(filepath: str):
     (``image.file_format`` decodes them, and a colour space change drops them again: an 8K JPEG was
     decoded twice)."""
     target = bpy.path.abspath(filepath)
-    space = "Linear Rec.709" if core.io.images.sniff_format(target) in ("exr", "hdr") else "sRGB"
+    space = "Linear Rec.709" if core_images.sniff_format(target) in ("exr", "hdr") else "sRGB"
     for image in bpy.data.images:
         if image.get(TAG) == "panorama" and bpy.path.abspath(image.filepath) == target:
             image.reload()

@@ -7,7 +7,7 @@ from __future__ import annotations
 import bpy
 from mathutils import Vector
 
-from .core import core
+from .core import core_lights, errors
 from .store import TAG, ours
 
 LIGHTS_COLLECTION = "PanoLight Lights"
@@ -17,10 +17,10 @@ FLOAT32_MAX = 3.4028234663852886e38
 def set_lights(lights, scene, lighting_strength=1.0, lighting_rotation=0.0):
     """Sun lamps for explicit lights (direction = where light comes from, Blender world frame), rotated
     about Z by ``lighting_rotation`` with the lighting; replaces PanoLight's previous lamps only."""
-    lamps = [core.lighting.lights.sun_lamp(light, lighting_strength, lighting_rotation) for light in lights]
+    lamps = [core_lights.sun_lamp(light, lighting_strength, lighting_rotation) for light in lights]
     for lamp in lamps:  # checked before anything changes: Blender keeps a lamp's energy in a float32
         if not 0.0 <= lamp["energy"] <= FLOAT32_MAX:
-            raise core.errors.PanoLightError(f"a sun lamp's strength would be {lamp['energy']:.3g}, beyond what "
+            raise errors.PanoLightError(f"a sun lamp's strength would be {lamp['energy']:.3g}, beyond what "
                                              f"Blender holds: lower Lighting strength or Sun lamp strength")
     coll = ours(bpy.data.collections, LIGHTS_COLLECTION)
     if coll is None:  # a user's collection of that name is not ours

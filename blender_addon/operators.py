@@ -22,11 +22,23 @@ from bpy.props import BoolProperty, CollectionProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
 from . import images, store
-from .core import core
+from .core import (
+    brackets,
+    capture,
+    checks,
+    core_images,
+    errors,
+    keylight,
+    lighting_file,
+    ownership,
+    pipeline,
+    sh,
+    threads,
+)
 from .lights import LIGHTS_COLLECTION, set_lights
 from .world import build_world
 
-Error = core.errors.PanoLightError
+Error = errors.PanoLightError
 REPORTED = (Error, OSError, MemoryError)  # what an operator reports; anything else is a bug and raises
 
 
@@ -74,9 +86,9 @@ def _checked(context):
     return s
 
 
-def _fit(pixels, settings, capture=None):
+def _fit(pixels, settings, found=None):
     """Runs in a worker thread: numpy only, never bpy. Returns the core's pipeline.Result."""
-    return core.pipeline.estimate_lighting(pixels, settings, capture)
+    return pipeline.estimate_lighting(pixels, settings, found)
 
 
 def _capture(image, settings):
@@ -85,7 +97,7 @@ def _capture(image, settings):
     if settings.sun_direction is not None or not settings.sun_metadata or not image.filepath:
         return None
     path = Path(bpy.path.abspath(image.filepath))
-    return core.io.capture.read_capture(path) if path.is_file() else None
+    return capture.read_capture(path) if path.is_file() else None
 
 
 def _read_panorama(image):
@@ -95,7 +107,7 @@ def _read_panorama(image):
     if pixels is None:
         pixels = images.image_pixels(image)
     if pixels.dtype != np.uint8:
-        pixels = core.io.images.sanitise_pixels(image.name, pixels)
+        pixels = core_images.sanitise_pixels(image.name, pixels)
     return pixels
 
 
@@ -118,7 +130,7 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
 
     filepath: StringProperty(subtype="FILE_PATH")
     filter_glob: StringProperty(default="*.jpg;*.jpeg;*.png;*.exr;*.hdr;" + ";".join(
-        f"*{e}" for e in core.io.checks.RAW_EXTENSIONS), options={"HIDDEN"})
+        f"*{e}" for e in checks.RAW_EXTENSIONS), options={"HIDDEN"})
     files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
     directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
     evs: StringProperty(name="Bracket EVs", default="",
@@ -137,20 +149,20 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
     def execute(self, context):
         chosen = sorted(Path(bpy.path.abspath(self.directory)) / f.name for f in self.files if f.name)
         if len(chosen) > 1:  # a bracket set, merged by the core as the CLI merges it
-            evs = core.pipeline.brackets.parse_evs(self.evs) if self.evs.strip() else None
+            evs = brackets.parse_evs(self.evs) if self.evs.strip() else None
             image, info = images.bracket_panorama(chosen, evs, self.align)
             return self._show(context, image, f" merged from {len(chosen)} frames ({', '.join(f'{v:+g}' for v in info['stops'])} stops)")
         path = Path(bpy.path.abspath(self.filepath))
         if not path.is_file():
             raise Error(f"{path}: file not found")
-        if core.io.images.sniff_format(path) == core.io.checks.RAW_FORMAT:  # Blender reads no camera RAW: the core
+        if core_images.sniff_format(path) == checks.RAW_FORMAT:  # Blender reads no camera RAW: the core
             # decodes it (rawpy, where it is installed into Blender's Python; else refused in one line)
-            return self._show(context, images.upright_panorama(str(path), core.io.images.read_image(path)),
+            return self._show(context, images.upright_panorama(str(path), core_images.read_image(path)),
                               label=path)
         # what Blender would read wrong, crash on, or decode past the budget (it has none of its own)
-        upright = core.io.images.preflight(path)
+        upright = core_images.preflight(path)
         if upright is not None and upright[2] != 1:  # Blender ignores EXIF orientation and +Y .hdr files
-            image = images.upright_panorama(str(path), core.io.images.read_image(path))
+            image = images.upright_panorama(str(path), core_images.read_image(path))
         else:
             try:
                 image = images.load_panorama(str(path))
@@ -212,22 +224,22 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
             self.report({"WARNING"}, f"PanoLight: {store.stored_panorama(world).filepath or 'the panorama'}: {problem}")
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
-        note = core.estimators.keylight.key_light_note(doc, light="lamp", raise_with="Sun lamp strength",
+        note = keylight.key_light_note(doc, light="lamp", raise_with="Sun lamp strength",
                                                    as_is="Restore a clipped sun unticked")
         if note:
             self.report({"INFO"}, f"PanoLight: {note}")
 
     @reports_errors
     def execute(self, context):
-        world, pixels, settings, capture = self._inputs(context)
-        self._store(context, world, _fit(pixels, settings, capture))
+        world, pixels, settings, found = self._inputs(context)
+        self._store(context, world, _fit(pixels, settings, found))
         return {"FINISHED"}
 
     @reports_errors
     def invoke(self, context, event):
         if bpy.app.background:
             return self.execute(context)
-        world, pixels, settings, capture = self._inputs(context)
+        world, pixels, settings, found = self._inputs(context)
         # the world's name, looked up again at the end: an undo while the estimate runs frees the datablock
         self._world_name = world.name
         self._stop = threading.Event()
@@ -235,8 +247,8 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
 
         def work():
             try:
-                with core.threads.cancellable(stop):  # Esc stops it at its next block, not only the modal
-                    self._result = _fit(pixels, settings, capture)
+                with threads.cancellable(stop):  # Esc stops it at its next block, not only the modal
+                    self._result = _fit(pixels, settings, found)
             except Exception as exc:  # handed to modal, which reports it (or raises it, if it is a bug)
                 self._error = exc
 
@@ -313,7 +325,7 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
             coeffs = np.asarray(doc["coefficients"], dtype=np.float64)
             h = max(64, min(1024, s.radiance_height))
             # no negative light, nothing clipped: the nearest non-negative map with the same bands 0-2
-            radiance = core.sh.emitter_map(coeffs, h, 2 * h)[0].astype(np.float32)
+            radiance = sh.emitter_map(coeffs, h, 2 * h)[0].astype(np.float32)
             image = images.radiance_image(radiance)
             lights = doc.get("lights", []) if s.create_lights else []
         build_world(panorama, image, **_world_kwargs(context))
@@ -383,13 +395,13 @@ class PANOLIGHT_OT_export_lighting(bpy.types.Operator, ExportHelper):
         path = _export_path(self.filepath, self.filename_ext)
         exr = path.with_name(path.stem + "_radiance.exr")
         image = images.own_image(images.SH_IMAGE_NAME)
-        owners = core.io.ownership
+        owners = ownership
         # the browser warned about the .json only: a radiance map beside it that PanoLight did not write
         # there (its folder's manifest) is the user's, and is never replaced
         if image is not None and owners.foreign(path.parent, [exr.name]):
             raise Error(f"{exr}: exists and was not written by PanoLight; choose another name (the radiance map "
                         f"is written beside the .json as NAME_radiance.exr) or move that file")
-        core.io.lighting.write_lighting(path, doc)
+        lighting_file.write_lighting(path, doc)
         if image is not None:
             _save_exr(context.scene, image, exr)
         written = [path] + ([exr] if image is not None else [])

@@ -9,15 +9,15 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from . import store
-from .core import core
+from .core import estimators, order, pipeline_settings
 
-_settings = core.pipeline.settings
-ESTIMATORS = [("auto", "Auto", f"The best estimator measured ({core.estimators.AUTO})")] + \
-    [(name, label, text) for name, (label, text) in core.estimators.DESCRIPTIONS.items()]
+_settings = pipeline_settings
+ESTIMATORS = [("auto", "Auto", f"The best estimator measured ({estimators.AUTO})")] + \
+    [(name, label, text) for name, (label, text) in estimators.DESCRIPTIONS.items()]
 MODELS = [(name, label, text) for name, (label, text) in _settings.MODELS.items()]
 ORDERS = [("auto", "Auto", "The smallest SH order the scene needs")] + \
     [(str(i), str(i), f"SH order {i}: {(i + 1) ** 2} coefficients")
-     for i in range(core.lighting.order.DEFAULT_MAX_ORDER + 1)]
+     for i in range(order.DEFAULT_MAX_ORDER + 1)]
 WINDOWS = [(name, label, text) for name, (label, text) in _settings.WINDOWS.items()]
 _EV = _settings.MAX_EXPOSURE_EV
 
@@ -27,7 +27,7 @@ class PanoLightSettings(bpy.types.PropertyGroup):
     estimator: EnumProperty(name="Estimator", items=ESTIMATORS, default="auto")
     model: EnumProperty(name="Model", items=MODELS, default="auto")
     lmax: EnumProperty(name="SH order", items=ORDERS, default="auto")
-    tolerance: FloatProperty(name="Tolerance", default=core.lighting.order.DEFAULT_TOLERANCE, min=0.0, max=1.0,
+    tolerance: FloatProperty(name="Tolerance", default=order.DEFAULT_TOLERANCE, min=0.0, max=1.0,
                              precision=3, description="Auto order: allowed diffuse relighting error, relative to "
                                                       "order 8")
     window: EnumProperty(name="Deringing", items=WINDOWS, default="none")

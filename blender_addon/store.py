@@ -10,7 +10,7 @@ import json
 
 import bpy
 
-from .core import core
+from .core import errors, keylight, lighting_file, metadata
 
 TAG = "panolight"
 PANORAMA_KEY = "panolight_panorama"  # world ID property: the panorama image itself (an ID pointer: renames follow)
@@ -37,7 +37,7 @@ def stored_panorama(world):
     if not isinstance(image, bpy.types.Image):  # removed, or a name stored by an earlier version
         image = None
     if image is None:
-        raise core.errors.PanoLightError("no panorama loaded: use Load panorama first")
+        raise errors.PanoLightError("no panorama loaded: use Load panorama first")
     return image
 
 
@@ -45,12 +45,12 @@ def stored_lighting(world) -> dict:
     """The estimate stored on ``world``: a validated lighting document (io.lighting), or PanoLightError."""
     raw = world.get(LIGHTING_KEY) if world else None
     if not raw:
-        raise core.errors.PanoLightError("no lighting estimated yet: use Estimate lighting first")
-    doc = core.io.metadata.json_object(raw, LIGHTING_MAX_BYTES)  # validated: an edited one is refused
+        raise errors.PanoLightError("no lighting estimated yet: use Estimate lighting first")
+    doc = metadata.json_object(raw, LIGHTING_MAX_BYTES)  # validated: an edited one is refused
     if doc is None:
-        raise core.errors.PanoLightError("the stored estimate is not a lighting document (edited?): use Estimate "
+        raise errors.PanoLightError("the stored estimate is not a lighting document (edited?): use Estimate "
                                          "lighting again")
-    return core.io.lighting.validate(doc, "the estimated lighting")
+    return lighting_file.validate(doc, "the estimated lighting")
 
 
 def store_lighting(world, doc: dict | None, settings=None) -> None:
@@ -80,7 +80,7 @@ def _settings_record(settings) -> dict:
 def same_settings_but_strength(world, settings) -> bool:
     """Whether the stored estimate was made with ``settings`` but for their sun strength (validated: an edited or
     missing record is not): then a new strength is that estimate's key lights scaled, nothing else."""
-    stored = core.io.metadata.json_object(world.get(SETTINGS_KEY)) if world is not None else None
+    stored = metadata.json_object(world.get(SETTINGS_KEY)) if world is not None else None
     if stored is None:
         return False
     now = _settings_record(settings)
@@ -97,8 +97,8 @@ def key_light_range(world) -> dict | None:
     (``keylight.key_light_range``), for the panel; None without an estimate or a key light. Never raises:
     the panel draws it on every redraw."""
     raw = world.get(LIGHTING_KEY) if world is not None else None
-    doc = core.io.metadata.json_object(raw, LIGHTING_MAX_BYTES) if raw else None
+    doc = metadata.json_object(raw, LIGHTING_MAX_BYTES) if raw else None
     try:
-        return core.estimators.keylight.key_light_range(doc) if doc is not None else None
+        return keylight.key_light_range(doc) if doc is not None else None
     except (TypeError, ValueError, KeyError, IndexError, AttributeError):
         return None

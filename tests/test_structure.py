@@ -231,3 +231,27 @@ def test_the_test_command_runs_the_linter_first():
 
     lint = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["ruff"]["lint"]
     assert {"F", "I", "B"} <= set(lint["select"])
+
+
+def test_the_add_on_imports_the_core_by_name_and_bundles_what_it_imports():
+    """blender_addon/core.py imports each core module the add-on uses with a plain import an IDE follows (the same in
+    its bundled and checkout branches), and CORE_MODULES, which the extension build reads, names exactly those."""
+    tree = ast.parse((ROOT / "blender_addon" / "core.py").read_text())
+    branch = next(node for node in ast.walk(tree) if isinstance(node, ast.If))
+    found = []
+    for body, prefix in ((branch.body, ".panolight_core"), (branch.orelse, "panolight_core")):
+        mods = set()
+        for node in body:
+            if isinstance(node, ast.ImportFrom) and node.module:  # not "from . import panolight_core as core"
+                base = ("." * node.level + node.module)
+                assert base.startswith(prefix), base
+                sub = base[len(prefix):].lstrip(".")
+                mods |= {f"{sub}.{a.name}".lstrip(".") for a in node.names}
+        found.append(mods)
+    assert found[0] == found[1]
+    declared = next(ast.literal_eval(node.value) for node in tree.body if isinstance(node, ast.Assign)
+                    and any(getattr(t, "id", None) == "CORE_MODULES" for t in node.targets))
+    assert set(declared) == found[1]
+    addon = {p.name: p.read_text() for p in (ROOT / "blender_addon").glob("*.py") if p.name not in ("core.py", "batch.py")}
+    assert not [name for name, text in addon.items() if "core.io." in text or "core.pipeline." in text], \
+        "the add-on's modules use the names core.py imports, not attribute chains"
