@@ -82,13 +82,13 @@ SOURCE_CONE_DEG = 5.0  # EVALUATION.md: the dominant source's energy is measured
 DOMINANT_SHARE = 0.15  # ... and a scene has one when at least 15 % of its luminance energy lies there
 
 
-def cone_energy(hdr: np.ndarray, direction, cone_deg: float = SOURCE_CONE_DEG) -> float:
+def cone_energy(hdr: np.ndarray, direction) -> float:
     """Luminance energy (luminance x pixel solid angle, sr) of an equirect (H, W, 3) map within
-    ``cone_deg`` of the unit ``direction`` (Blender world frame)."""
+    SOURCE_CONE_DEG of the unit ``direction`` (Blender world frame)."""
     lum = luminance(np.asarray(hdr, dtype=np.float64))
     h, w = lum.shape
     cos = sh.pixel_directions(h, w) @ np.asarray(direction, dtype=np.float64)
-    inside = cos >= math.cos(math.radians(cone_deg))
+    inside = cos >= math.cos(math.radians(SOURCE_CONE_DEG))
     return float((lum * sh.pixel_solid_angles(h, w))[inside].sum())
 
 

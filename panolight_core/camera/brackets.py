@@ -172,14 +172,13 @@ class AlignmentReference:
         return self.scale * dy, (self.scale * dx) % frame.shape[1]
 
 
-def align_shift(reference: np.ndarray, frame: np.ndarray, ratio: float = 1.0, levels: int = ALIGN_LEVELS
-                ) -> tuple[int, int]:
+def align_shift(reference: np.ndarray, frame: np.ndarray, ratio: float = 1.0) -> tuple[int, int]:
     """(dy, dx) pixels that move ``frame`` onto ``reference`` (both (H, W, 3) uint8 sRGB, exposures of one scene):
     Ward's median threshold bitmaps compared over an image pyramid, one pixel each way per level, the columns round
     the panorama (a 360 camera turned in the hand), the rows within ALIGN_MAX_ROWS of where they were; on a grid at
     most ALIGN_MAX_WIDTH wide. (0, 0) for a frame mostly clipped white or black, and where no shift matches the
     frames better than none by ALIGN_MIN_GAIN. A set's frames share one ``AlignmentReference``."""
-    return AlignmentReference(reference, levels).shift_of(frame, ratio)
+    return AlignmentReference(reference).shift_of(frame, ratio)
 
 
 def clipped_or_ringing(top: np.ndarray) -> np.ndarray:

@@ -168,7 +168,7 @@ def work_maps(ldr: np.ndarray, height: int = WORK_HEIGHT):
     return area_mean_lut(a, h, SRGB8_TO_LINEAR), fr[..., 0], fr[..., 1]
 
 
-def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: float = CORE_RADIUS):
+def recover_highlights(linear: np.ndarray, work_height: int = 128):
     """Re-inflate clipped regions of an LDR panorama.
 
     linear: (H, W, 3) uint8 sRGB pixels (preferred: clipping is then exact and the path is fused), or
@@ -184,10 +184,10 @@ def recover_highlights(linear: np.ndarray, work_height: int = 128, core_radius: 
         sat = np.maximum(np.maximum(img[..., 0], img[..., 1]), img[..., 2]) >= CLIP_LEVEL
         rad = area_downsample(img, work_height)
         frac = area_downsample(sat[..., None].astype(np.float32), work_height)[..., 0]
-    return recover_work_maps(rad, frac, core_radius)
+    return recover_work_maps(rad, frac)
 
 
-def recover_work_maps(rad: np.ndarray, frac: np.ndarray, core_radius: float = CORE_RADIUS):
+def recover_work_maps(rad: np.ndarray, frac: np.ndarray):
     """``recover_highlights`` on work maps already made (``work_maps``): rad (h, 2h, 3) linear
     radiance, updated in place and returned, frac (h, 2h) clipped fraction. Returns (map, blobs)."""
     labels, feats = blob_features(rad, frac)
@@ -198,7 +198,7 @@ def recover_work_maps(rad: np.ndarray, frac: np.ndarray, core_radius: float = CO
     for i, f in enumerate(feats):
         if f is None:
             continue
-        g = power_law_gain(f["solid_angle"], f["exponent"], core_radius)
+        g = power_law_gain(f["solid_angle"], f["exponent"])
         gain_color[i] = g * f["color"]
         blobs.append({"direction": f["direction"].tolist(), "solid_angle": f["solid_angle"],
                       "exponent": f["exponent"], "color": f["color"].tolist(), "mean_radiance": g})

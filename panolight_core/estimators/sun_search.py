@@ -181,14 +181,13 @@ def _position_scores(rad, usable, clipped, suns, table: SkyTable, turbidities: s
     return score.min(axis=1), score.argmin(axis=1) + (turbidities.start or 0)
 
 
-def position_scores(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, suns: np.ndarray, rows: int = SEARCH_ROWS,
-                    table: SkyTable | None = None) -> np.ndarray:
+def position_scores(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, suns: np.ndarray) -> np.ndarray:
     """(P,) the score of a clear sky with the sun at each of ``suns`` (P, 3) against the work maps averaged to
-    ``rows`` (lower fits better, inf where no sky is seen): the landscape ``search_sun`` walks, for pictures."""
-    return _position_scores(*_coarse(rad, usable, clipped, rows), suns, table or load_sky_table())[0]
+    SEARCH_ROWS (lower fits better, inf where no sky is seen): the landscape ``search_sun`` walks, for pictures."""
+    return _position_scores(*_coarse(rad, usable, clipped, SEARCH_ROWS), suns, load_sky_table())[0]
 
 
-def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: SkyTable | None = None,
+def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray,
                max_contrast: float | None = HIDDEN_MAX_CONTRAST) -> SunSearch | NoSun:
     """Locate a sun from the sky alone: the position whose clear sky best fits the visible sky (a coarse grid
     over the whole sky at SEARCH_ROWS, refined at REFINE_ROWS within 1.5 coarse steps of the best, over the
@@ -197,7 +196,7 @@ def search_sun(rad: np.ndarray, usable: np.ndarray, clipped: np.ndarray, table: 
     whether to trust it. ``NoSun``, saying why, when less than HIDDEN_MIN_SKY_SR of sky is seen, when no sky is
     seen at all, or (``max_contrast``; a study passes None to see every fit) when no position is singled out: the
     answer ``found`` would give, sooner."""
-    table = table or load_sky_table()
+    table = load_sky_table()
     if max_contrast is not None:
         visible = _visible_sky_sr(rad, usable)
         if visible < HIDDEN_MIN_SKY_SR:

@@ -19,7 +19,7 @@ contrast) to the irradiance of a surface facing it, relative to the map's mean i
 energy / 4); weaker ones stay in the SH part.
 The region is then filled with the local background (the median of a ring around it), so the lights
 plus the remaining map hold exactly the original energy. Everything runs on an area-averaged copy of
-``work_height`` rows, so a 16k panorama costs its averaging and no more.
+WORK_HEIGHT rows, so a 16k panorama costs its averaging and no more.
 """
 from __future__ import annotations
 
@@ -38,6 +38,7 @@ MAX_RADIUS_DEG = 10.0
 MIN_IRRADIANCE_SHARE = 0.05
 SUN_MAX_DIAMETER_DEG = 5.0
 MAX_LIGHTS = 4
+WORK_HEIGHT = 256  # rows of the map lights are found on (0.7-degree cells)
 
 
 def light_irradiance(lights, normals: np.ndarray) -> np.ndarray:
@@ -81,26 +82,23 @@ def _energy_bound(energy: np.ndarray | None, cells: np.ndarray) -> float:
     return math.inf if energy is None else float(energy[cells].sum())
 
 
-def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int = MAX_LIGHTS,
-                   peak_ratio: float = PEAK_RATIO, max_radius_deg: float = MAX_RADIUS_DEG,
-                   min_irradiance_share: float = MIN_IRRADIANCE_SHARE, threshold: float | None = None,
-                   exclude=()):
+def extract_lights(radiance: np.ndarray, max_lights: int = MAX_LIGHTS, threshold: float | None = None, exclude=()):
     """Split a linear (H, W, 3) equirect map into lights and a residual map.
 
-    Sources are found brightest first: from the brightest unused pixel above ``peak_ratio`` x the median
+    Sources are found brightest first: from the brightest unused pixel above PEAK_RATIO x the median
     luminance, the connected region around it is taken at a threshold that starts there and rises by
-    sqrt(10) until the region holding the peak is at most ``max_radius_deg`` wide (a sun inside bright
+    sqrt(10) until the region holding the peak is at most MAX_RADIUS_DEG wide (a sun inside bright
     sky keeps its core; the sky stays in the map). Returns (lights, residual, info): lights as
-    lighting-file dicts (brightest first), residual the (work_height, 2 work_height, 3) float64 map
+    lighting-file dicts (brightest first), residual the (WORK_HEIGHT, 2 WORK_HEIGHT, 3) float64 map
     without them, info with the map's luminance energy (radiance x sr), the fraction of it in lights and,
     when none was taken, the reason.
-    threshold: the luminance a candidate must exceed, instead of peak_ratio x the median (for an LDR's
+    threshold: the luminance a candidate must exceed, instead of PEAK_RATIO x the median (for an LDR's
     recovered map: the clip level, since clipped regions are exactly where its sources are).
     exclude: (unit direction, angular radius in radians) pairs where no light is taken (a source an
     estimator already made a light of: one light per physical source).
     """
     full = radiance if isinstance(radiance, PackedImage) else np.asarray(radiance)
-    rad = area_downsample(full, work_height)
+    rad = area_downsample(full, WORK_HEIGHT)
     if not np.all(np.isfinite(rad)):
         raise ValueError("the radiance map contains NaN or Inf")
     h, w = rad.shape[:2]
@@ -113,12 +111,12 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
         info["reason"] = "the map is black: there is no light to extract"
         return [], rad, info
     median = float(np.median(lum))
-    base = threshold if threshold is not None else (peak_ratio * median if median > 0 else 0.0)
-    max_radius = math.radians(max_radius_deg)
+    base = threshold if threshold is not None else (PEAK_RATIO * median if median > 0 else 0.0)
+    max_radius = math.radians(MAX_RADIUS_DEG)
     used = np.zeros((h, w), dtype=bool)
     for d, radius in exclude:
         used |= dirs @ np.asarray(d, dtype=np.float64) >= math.cos(radius)
-    need = min_irradiance_share * total / 4.0  # the energy a light must carry (share x mean irradiance)
+    need = MIN_IRRADIANCE_SHARE * total / 4.0  # the energy a light must carry (share x mean irradiance)
     # a region that cannot carry it, or all that is left, is passed over unweighed: the same lights and
     # residual as weighing it, without its threshold search
     energy = lum * omega if float(rad.min()) >= 0.0 else None
@@ -155,13 +153,13 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
         e_rgb = (excess * omega[core][:, None]).sum(axis=0)
         intensity = float(e_rgb @ LUMINANCE_WEIGHTS)
         share = intensity / (total / 4.0)  # its irradiance over the mean irradiance
-        if share < min_irradiance_share:
+        if share < MIN_IRRADIANCE_SHARE:
             if tau >= peak:
                 r0 = math.degrees(math.sqrt(float((omega * region).sum()) / math.pi))
                 reasons.append(f"a bright region of {r0:.0f} degrees radius is flat: it has no compact peak")
             else:
                 reasons.append(f"a bright source adds only {share:.1%} to the irradiance facing it "
-                               f"(a light needs {min_irradiance_share:.0%})")
+                               f"(a light needs {MIN_IRRADIANCE_SHARE:.0%})")
             used |= region  # a plateau or a weak source: look elsewhere
             continue
         used |= core  # the rest of its region may hold another source
@@ -174,10 +172,10 @@ def extract_lights(radiance: np.ndarray, work_height: int = 256, max_lights: int
                        "peak_direction": peak_dir.tolist(), "color": (e_rgb / intensity).tolist(),
                        "intensity": intensity, "angle": diameter})
     info["energy_fraction_in_lights"] = sum(l["intensity"] for l in lights) / total
-    _add_weak_reasons(reasons, weak, rest, min_irradiance_share)
+    _add_weak_reasons(reasons, weak, rest, MIN_IRRADIANCE_SHARE)
     if not lights:
         info["reason"] = "; ".join(reasons) or (f"no region is brighter than {base:g}" if threshold is not None
-                                                else f"no region is brighter than {peak_ratio:g} x the median luminance")
+                                                else f"no region is brighter than {PEAK_RATIO:g} x the median luminance")
     return lights, residual, info
 
 

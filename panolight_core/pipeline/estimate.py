@@ -24,18 +24,15 @@ UNITS_HDR = "input radiance units"
 UNITS_LDR = "relative: 1 = the LDR camera's clip level (white)"
 
 
-def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model: str = "auto",
-               tolerance: float = DEFAULT_TOLERANCE, deringing: str | None = None, sun_strength: float = 1.0,
-               pointed_sun=None):
-    """Panorama pixels (uint8 sRGB LDR or float linear HDR) -> (LightingModel, Estimate), unscaled and with
-    the model's own deringing. lmax: None (auto for model "auto", 2 for "sh"), "auto" or an int.
-    deringing: None = the model's default ("auto" with lights, "none" for SH only). pointed_sun, sun_strength:
-    ``estimate_pixels``'."""
+def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model: str = "auto"):
+    """Panorama pixels (uint8 sRGB LDR or float linear HDR) -> (LightingModel, Estimate), unscaled, with the
+    model's own deringing and the default tolerance. lmax: None (auto for model "auto", 2 for "sh"), "auto" or an
+    int. (``estimate_lighting`` takes every setting.)"""
     check_choice("model", model, MODELS)
     lmax = ("auto" if model == "auto" else "2") if lmax is None else str(lmax)
-    est = estimate_pixels(pixels, lmax, estimator, pointed_sun=pointed_sun, sun_strength=sun_strength)
+    est = estimate_pixels(pixels, lmax, estimator)
     return fit_estimate(est, hdr_input=pixels.dtype != np.uint8, lmax=lmax, model=model,
-                        tolerance=tolerance, deringing=deringing), est
+                        tolerance=DEFAULT_TOLERANCE, deringing=None), est
 
 
 def estimate_pixels(pixels: np.ndarray, lmax="auto", estimator: str = "auto", *, pointed_sun=None,

@@ -76,7 +76,10 @@ def mark_lights(tile, lights: list) -> None:
         draw.text((x0 + 2, y0 + 1), str(n), fill=(255, 255, 255))
 
 
-def label_boxes(centres, r: float, width: int, height: int, char_w: int = 7, box_h: int = 12) -> list[tuple]:
+LABEL_CHAR_W, LABEL_BOX_H = 7, 12  # a light's index label: pixels per digit, and its height
+
+
+def label_boxes(centres, r: float, width: int, height: int) -> list[tuple]:
     """(x0, y0, x1, y1) of each light's index label (its position in ``centres``: ``lights[]`` order), inside
     the tile: the first of the places right, left, above and below its ring (then further out) that overlaps
     no ring and no label placed before it; the nearest place right of its ring when none is free."""
@@ -87,15 +90,15 @@ def label_boxes(centres, r: float, width: int, height: int, char_w: int = 7, box
         return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
     for n, (cx, cy) in enumerate(centres):
-        bw = char_w * len(str(n)) + 4
+        bw = LABEL_CHAR_W * len(str(n)) + 4
         choice = None
         for step in (0, 1, 2, 3, 4):
-            gap = r + 3 + step * (box_h + 2)
-            for x0, y0 in ((cx + gap, cy - box_h / 2), (cx - gap - bw, cy - box_h / 2),
-                           (cx - bw / 2, cy - gap - box_h), (cx - bw / 2, cy + gap)):
+            gap = r + 3 + step * (LABEL_BOX_H + 2)
+            for x0, y0 in ((cx + gap, cy - LABEL_BOX_H / 2), (cx - gap - bw, cy - LABEL_BOX_H / 2),
+                           (cx - bw / 2, cy - gap - LABEL_BOX_H), (cx - bw / 2, cy + gap)):
                 x0 = min(max(x0, 0), width - bw - 1)
-                y0 = min(max(y0, 0), height - box_h - 1)
-                box = (x0, y0, x0 + bw, y0 + box_h)
+                y0 = min(max(y0, 0), height - LABEL_BOX_H - 1)
+                box = (x0, y0, x0 + bw, y0 + LABEL_BOX_H)
                 if choice is None:
                     choice = box  # the fallback: right of the ring
                 if not any(hits(box, o) for o in rings + boxes):

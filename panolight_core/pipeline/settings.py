@@ -103,7 +103,7 @@ class Settings:
 MAX_MAP_COST = 4_000_000  # (lmax + 1)^2 x map height: the SH maps' reconstruction stays within ~1.5 GB
 
 
-def check_map_cost(order, height: int, option: str = "--resolution") -> None:
+def check_map_cost(order, height: int) -> None:
     """PanoLightError, before anything is read, when an SH order and an output map height together would
     cost more than MAX_MAP_COST (memory grows with both: --lmax 100 at 4096 x 2048 took 6.7 GB and 50 s).
     ``order``: Settings.order ("auto" stays within the adaptive range and always fits)."""
@@ -114,8 +114,8 @@ def check_map_cost(order, height: int, option: str = "--resolution") -> None:
         return
     fit_height = max(h for h in (2 ** k for k in range(12)) if h * (lmax + 1) ** 2 <= MAX_MAP_COST or h == 1)
     fit_lmax = int(math.isqrt(MAX_MAP_COST // height)) - 1
-    raise PanoLightError(f"SH order {lmax} with {option} {2 * height}x{height} would take several GB of memory to "
-                         f"reconstruct; lower {option} to {2 * fit_height}x{fit_height} or below, or the order to "
+    raise PanoLightError(f"SH order {lmax} with --resolution {2 * height}x{height} would take several GB of memory to "
+                         f"reconstruct; lower --resolution to {2 * fit_height}x{fit_height} or below, or the order to "
                          f"{max(0, fit_lmax)} or below")
 
 

@@ -20,9 +20,13 @@ from .basis import basis
 from .grid import directions_at, pixel_directions, pixel_solid_angles, row_solid_angles
 from .transform import reconstruct
 
+KEEP_LMAX = 2  # the emitter keeps bands 0..2 exactly: every diffuse surface's irradiance
+MAX_ITERATIONS = 50  # Newton steps of one solve (it converges in a few)
+SWEEPS = 8  # full-grid Newton sweeps after the coarse solve
+
 
 def nonnegative(radiance: np.ndarray, directions: np.ndarray, weights: np.ndarray, keep_lmax: int = 2,
-                max_iterations: int = 50, tolerance: float = 1e-9, start=None) -> tuple[np.ndarray, dict]:
+                tolerance: float = 1e-9, start=None) -> tuple[np.ndarray, dict]:
     """radiance (..., C) at unit ``directions`` (..., 3) with quadrature ``weights`` (...) (solid angles,
     sr) -> (f, info): f (..., C) >= 0, the weighted-L2-nearest to ``radiance`` with the same weighted
     moments against the real SH of bands 0..keep_lmax. A radiance already >= 0 is returned unchanged. info:
@@ -45,7 +49,7 @@ def nonnegative(radiance: np.ndarray, directions: np.ndarray, weights: np.ndarra
     out = np.empty_like(r)
     for ch in range(r.shape[1]):
         lam0 = np.zeros(k) if start is None else np.asarray(start, dtype=np.float64)[:, ch]
-        out[:, ch], its, err, info["lam"][:, ch] = _solve(r[:, ch], y, wy, lam0, max_iterations, tolerance)
+        out[:, ch], its, err, info["lam"][:, ch] = _solve(r[:, ch], y, wy, lam0, MAX_ITERATIONS, tolerance)
         info["iterations"] = max(info["iterations"], its)
         info["moment_error"] = max(info["moment_error"], err)
     return out.reshape(shape), info
@@ -78,13 +82,14 @@ def _solve(r, y, wy, lam, max_iterations, tolerance):
     return np.maximum(f, 0), its, float(np.abs(residual).max() / scale), lam
 
 
-def emitter_map(coeffs: np.ndarray, height: int, width: int, keep_lmax: int = 2) -> tuple[np.ndarray, dict]:
+def emitter_map(coeffs: np.ndarray, height: int, width: int) -> tuple[np.ndarray, dict]:
     """The emitter of SH radiance ``coeffs`` (K, C) on an equirect (height, width) grid (Blender world
     frame, pixel centres): ``nonnegative`` of its reconstruction with the pixels' solid angles, as float64
     (H, W, C). Solved on a coarse grid first, then refined and applied by row blocks on the full grid, so
     the memory is the map plus a block whatever the size."""
     c = np.asarray(coeffs, dtype=np.float64)
     rad = reconstruct(c, height, width)
+    keep_lmax = KEEP_LMAX
     k = (keep_lmax + 1) ** 2
     negative = sum(int((rad[r0:r1].min(axis=-1) < 0).sum()) for r0, r1 in _blocks(height, width))
     info = {"negative_fraction": negative / (height * width), "iterations": 0, "moment_error": 0.0,
@@ -134,7 +139,7 @@ def _block_terms(r0: int, r1: int, height: int, width: int, keep_lmax: int):
     return y, wy, gram
 
 
-def _refine(rad, height, width, keep_lmax, lam, sweeps: int = 8, tolerance: float = 1e-9):
+def _refine(rad, height, width, keep_lmax, lam, tolerance: float = 1e-9):
     """Newton sweeps of ``_solve`` on the full grid, accumulated by row blocks (the first also takes the
     target moments); the Jacobian of the first pass is kept while each step shrinks the error at least
     tenfold (the active set barely moves after the coarse solve). Returns (lam, sweeps, moment error relative to band 0, the channels whose mean is
@@ -145,7 +150,7 @@ def _refine(rad, height, width, keep_lmax, lam, sweeps: int = 8, tolerance: floa
     last = np.inf
     jac = np.zeros((n_c, k, k))
     fresh = True  # the Jacobian is made on the first pass and again only when a step did not pay
-    for done in range(sweeps + 1):
+    for done in range(SWEEPS + 1):
         first = target is None
         moments = np.zeros_like(lam) if first else None
         g = np.zeros_like(lam)
@@ -173,7 +178,7 @@ def _refine(rad, height, width, keep_lmax, lam, sweeps: int = 8, tolerance: floa
                 continue
         g -= target
         err = float(np.max(np.abs(g[:, live]) / scale[live])) if live.any() else 0.0
-        if err <= tolerance or done == sweeps:
+        if err <= tolerance or done == SWEEPS:
             break
         fresh = err > 0.1 * last  # a chord step that shrank the error tenfold keeps its Jacobian
         last = err

@@ -41,12 +41,12 @@ def window_weights(lmax: int, kind: str = "sinc4", width: float | None = None) -
     return np.where(t < 1.0, w, 0.0)
 
 
-def window(coeffs, kind: str = "sinc4", width: float | None = None, *, family: str = "sinc4",
-           target: str = "radiance", tolerance: float = 1e-6):
+def window(coeffs, kind: str = "sinc4", width: float | None = None, *, target: str = "radiance",
+           tolerance: float = 1e-6):
     """Apply a deringing window to (..., K, C) coefficients (numpy or torch; differentiable).
 
     kind: "sinc4" | "lanczos" | "hanning" with ``width`` (default 2 (lmax+1)), or "auto": the weakest
-    ``family`` window keeping the reconstructed ``target`` ("radiance" or "irradiance") >= -tolerance x
+    sinc4 window keeping the reconstructed ``target`` ("radiance" or "irradiance") >= -tolerance x
     its mean on a dense grid, chosen per batch item (see ``auto_window_width``).
     """
     xp, c = float_array(coeffs, "coeffs")
@@ -54,15 +54,15 @@ def window(coeffs, kind: str = "sinc4", width: float | None = None, *, family: s
     l_idx, _ = degrees_orders(lmax)
     if kind == "auto":
         flat = xp.to_numpy(c).reshape((-1,) + tuple(c.shape[-2:]))
-        widths = [auto_window_width(item, family, target, tolerance) for item in flat]
-        w = np.stack([window_weights(lmax, family, wd)[l_idx] for wd in widths])
+        widths = [auto_window_width(item, "sinc4", target, tolerance) for item in flat]
+        w = np.stack([window_weights(lmax, "sinc4", wd)[l_idx] for wd in widths])
         w = w.reshape(tuple(c.shape[:-2]) + (l_idx.size, 1))
     else:
         w = window_weights(lmax, kind, width)[l_idx][:, None]
     return c * xp.const(np.ascontiguousarray(w), c)
 
 
-def min_over_grid(coeffs: np.ndarray, target: str = "radiance", grid_height: int | None = None) -> np.ndarray:
+def min_over_grid(coeffs: np.ndarray, target: str = "radiance") -> np.ndarray:
     """(C,) minimum of the reconstructed radiance or irradiance over a dense equirect grid.
 
     coeffs: (K, C). The grid has max(64, 8 (lmax+1)) rows, enough to resolve lobes of band lmax.
@@ -76,7 +76,7 @@ def min_over_grid(coeffs: np.ndarray, target: str = "radiance", grid_height: int
         raise ValueError(f"target must be 'radiance' or 'irradiance', got {target!r}")
     if target == "irradiance":
         c = convolve_lambert(c)
-    h = grid_height or max(64, 8 * (lmax + 1))
+    h = max(64, 8 * (lmax + 1))
     check_grid(h, 2 * h)
     return reconstruct(c, h, 2 * h).reshape(-1, c.shape[-1]).min(axis=0)
 

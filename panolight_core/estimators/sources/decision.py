@@ -65,7 +65,7 @@ def _weighted_errors(qc: np.ndarray, gc: np.ndarray, y: np.ndarray, w: np.ndarra
 
 
 def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.ndarray, seed: int = 0,
-                  tolerance: float | None = None, min_median_ratio: float | None = None):
+                  tolerance: float | None = None):
     """Pick c in SHRINK_CANDIDATES so that log r_i = max(mu_i - c sigma_i^2, 0) minimises the expected
     m-RMSE + irr-RMSE at lmax 2 when the truth is drawn from the model's own predictive distribution
     (log r_i = mu_i + sigma_i z_i, z correlated DECISION_CORRELATION across the scene's regions).
@@ -74,11 +74,10 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     (a bright enough source drags the median of an lmax-2 map to zero): deciding under the metric
     itself weighs that too. Of the candidates within ``tolerance`` (default DECISION_TOLERANCE, relative)
     of the lowest expected error the most conservative is taken, skipping candidates whose lmax-2 map
-    has a median below ``min_median_ratio`` of its mean (MIN_MEDIAN_RATIO). base: the plain linearised
+    has a median below MIN_MEDIAN_RATIO of its mean. base: the plain linearised
     work map.
     Returns (c, expected errors per c)."""
     tolerance = DECISION_TOLERANCE if tolerance is None else tolerance
-    min_median_ratio = MIN_MEDIAN_RATIO if min_median_ratio is None else min_median_ratio
     n = regions.count
     if n == 0:
         return 0.0, {}
@@ -116,7 +115,7 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     # one while a healthier candidate exists (the last candidate, no recovery, is the plain map)
     med = _map_medians(qc, grid_y)
     mean = np.einsum("i,cik->c", wgrid @ grid_y, qc) / 3.0
-    healthy = med >= min_median_ratio * np.maximum(mean, 1e-300)
+    healthy = med >= MIN_MEDIAN_RATIO * np.maximum(mean, 1e-300)
     healthy[-1] = True
     pool = np.where(healthy, expected, np.inf)
     # the least energy whose expected error is within ``tolerance`` of the best: near-ties go to the
