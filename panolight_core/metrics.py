@@ -57,13 +57,16 @@ def harmed(m_rmse: float, as_is: float) -> bool:
     return m_rmse > HARM_RATIO * as_is and m_rmse > as_is + HARM_MARGIN
 
 
-def dominant_light_direction(hdr: np.ndarray, threshold: float = 0.5) -> np.ndarray:
-    """Unit vector: luminance-weighted centroid of the pixels above ``threshold`` x peak luminance."""
+DOMINANT_THRESHOLD = 0.5  # the dominant light: the pixels above this share of the peak luminance
+
+
+def dominant_light_direction(hdr: np.ndarray) -> np.ndarray:
+    """Unit vector: luminance-weighted centroid of the pixels above DOMINANT_THRESHOLD x peak luminance."""
     lum = luminance(np.asarray(hdr, dtype=np.float64))
     peak = lum.max()
     if not peak > 0:
         raise ValueError("the image has no positive luminance; there is no dominant light")
-    wts = np.where(lum >= threshold * peak, lum, 0.0)
+    wts = np.where(lum >= DOMINANT_THRESHOLD * peak, lum, 0.0)
     d = (sh.pixel_directions(*lum.shape) * wts[..., None]).sum(axis=(0, 1))
     n = np.linalg.norm(d)
     if n < 1e-12 * wts.sum():

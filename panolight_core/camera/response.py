@@ -183,7 +183,7 @@ def _white(table: np.ndarray, samples: np.ndarray, rel_exposures: np.ndarray, re
     return float(np.percentile(values, WHITE_PERCENTILE))
 
 
-def recover_response(frames, rel_exposures, reference: int, seed: int = 0) -> Response:
+def recover_response(frames, rel_exposures, reference: int) -> Response:
     """The ``Response`` of 8-bit frames (each (H, W, 3) uint8, aligned) at relative exposures ``rel_exposures``:
     the recovered curve (``solve_curve``) where it leaves at most RESPONSE_GAIN of the frames' disagreement under
     sRGB (``disagreement``, on other pixels than the solve's), else sRGB, with the reason."""
@@ -195,7 +195,7 @@ def recover_response(frames, rel_exposures, reference: int, seed: int = 0) -> Re
     step = max(1, int(np.sqrt(h * w / 65536)))  # a grid of about 64 K pixels
     gray = gray8(frames[reference][::step, ::step])
     points = _smooth_pixels(gray)
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(0)  # the solve's pixels: the same draw every run
     picked = _pick(points, gray, RESPONSE_SAMPLES, rng)
     rest = np.setdiff1d(np.arange(len(points)), picked)  # the disagreement is measured on other pixels
     solve_at = points[picked] * step

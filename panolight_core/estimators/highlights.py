@@ -136,16 +136,16 @@ def blob_features(small: np.ndarray, frac: np.ndarray):
     return labels, blobs
 
 
-def power_law_gain(solid_angle: float, exponent: float, core_radius: float = CORE_RADIUS) -> float:
+def power_law_gain(solid_angle: float, exponent: float) -> float:
     """Mean radiance G (clip level = 1) inside a clipped blob under the power-law model.
 
-    L(t) = (t_c / t)^p for core_radius < t < t_c (t_c = sqrt(solid_angle / pi), L(t_c) = 1), flat at its
-    core value inside core_radius; G = energy / solid_angle, at least 1.
+    L(t) = (t_c / t)^p for CORE_RADIUS < t < t_c (t_c = sqrt(solid_angle / pi), L(t_c) = 1), flat at its
+    core value inside CORE_RADIUS; G = energy / solid_angle, at least 1.
     """
     t_c = min(math.sqrt(max(solid_angle, 0.0) / math.pi), math.pi / 2)
     if t_c <= 0:
         return 1.0
-    t0 = min(core_radius, t_c)
+    t0 = min(CORE_RADIUS, t_c)
     p = exponent
     if abs(p - 2.0) < 1e-9:
         integral = math.log(t_c / t0)

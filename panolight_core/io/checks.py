@@ -134,12 +134,12 @@ def check_jpeg_data(path, h: int, w: int) -> None:
                                f"picture (corrupt or truncated file)")
 
 
-def sanitise_pixels(path, img: np.ndarray, nonfinite: str = "error", negative: str = "clamp") -> np.ndarray:
-    """The float-pixel validation every input goes through (files here, Blender's images in the add-on):
-    NaN/Inf refused ("error") or repaired ("repair"), negative radiance clamped ("clamp", a warning) or
-    refused ("error"); ``path`` names the source in messages. Returns float32 (H, W, 3), repaired in a
-    copy (the caller's array is not changed)."""
-    return _sanitise(path, np.array(img, dtype=np.float32, copy=True), nonfinite, negative)
+def sanitise_pixels(path, img: np.ndarray) -> np.ndarray:
+    """The float-pixel validation of an image not read from a file (Blender's own pixels, in the add-on), as
+    ``read_image`` validates files by default: NaN/Inf refused, negative radiance clamped (a warning); ``path``
+    names the source in messages. Returns float32 (H, W, 3), repaired in a copy (the caller's array is not
+    changed)."""
+    return _sanitise(path, np.array(img, dtype=np.float32, copy=True), "error", "clamp")
 
 
 def _sanitise(path, img, nonfinite: str, negative: str):

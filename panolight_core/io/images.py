@@ -88,7 +88,7 @@ def read_image(path, *, equirect: bool = True, nonfinite: str = "error", negativ
     return _sanitise(p, np.ascontiguousarray(img, dtype=np.float32), nonfinite, negative)
 
 
-def preflight(path, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS) -> tuple[int, int, int] | None:
+def preflight(path) -> tuple[int, int, int] | None:
     """Checks before Blender opens a file (Blender decodes it whole, with no budget of its own): the
     header's size against the decode budget, a JPEG's data against its claimed size, a JPEG without its
     end marker (truncated: Blender would show grey) and a multi-part EXR (Blender can crash on some; the
@@ -115,7 +115,7 @@ def preflight(path, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS) -> tuple[int
         (h, w), orientation = opened.size, opened.orientation
         if opened.luminance_chroma and not read_exr.available():  # Blender: its chroma would be misread
             opened.pixels()  # raises ImageError, naming the file and the remedy
-    check_size(p, h, w, True, max_megapixels)
+    check_size(p, h, w, True, DEFAULT_MAX_MEGAPIXELS)  # the decode budget's default: Blender has no option
     if fmt == "jpeg":
         check_jpeg_data(p, h, w)
     return h, w, orientation
@@ -213,7 +213,7 @@ HALF_MAX = 65504.0  # the largest finite half float
 HALF_MIN_NORMAL = 2.0 ** -14  # below it half floats lose precision (subnormals)
 
 
-def write_exr_rows(path, height: int, width: int, blocks, *, compression: str = "piz", half: bool = False,
+def write_exr_rows(path, height: int, width: int, blocks, *, half: bool = False,
                    check=None) -> Path:
     """Write an RGB EXR of (height, width) from ``blocks``, an iterable of (first row, (n, width, 3))
     in order, scanline by scanline: the image never exists whole in memory. Channels are float32, or half
@@ -228,7 +228,7 @@ def write_exr_rows(path, height: int, width: int, blocks, *, compression: str = 
     p = Path(path)
     if not p.parent.is_dir():
         raise ImageError(p, f"output folder {p.parent} does not exist")
-    codec = getattr(Imath.Compression, _exr_codec(compression))
+    codec = getattr(Imath.Compression, _exr_codec("piz"))  # the fast lossless codec for photographs
     header = OpenEXR.Header(int(width), int(height))
     header["compression"] = Imath.Compression(codec)
     dtype = np.float16 if half else np.float32

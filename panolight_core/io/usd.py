@@ -72,9 +72,9 @@ def _transform(Gf, rotation: np.ndarray):
     return m
 
 
-def write_usd(path, doc: dict, *, radiance: str = "radiance.exr", hdri: str | None = "hdr.exr") -> Path:
+def write_usd(path, doc: dict, *, hdri: str | None = "hdr.exr") -> Path:
     """Write the lighting document ``doc`` (io.lighting) as a USD stage at ``path`` (.usda or .usd).
-    radiance / hdri: the dome textures, relative to the stage's folder (hdri None: no "hdri" variant).
+    The dome textures, relative to the stage's folder: radiance.exr, and ``hdri`` (None: no "hdri" variant).
     Written atomically. Returns the path."""
     Gf, Sdf, Usd, UsdGeom, UsdLux = _pxr()
     p = Path(path)
@@ -92,7 +92,7 @@ def write_usd(path, doc: dict, *, radiance: str = "radiance.exr", hdri: str | No
         rigs.SetVariantSelection(name)
         with rigs.GetVariantEditContext():
             dome = UsdLux.DomeLight.Define(stage, "/PanoLight/Environment")
-            dome.CreateTextureFileAttr(Sdf.AssetPath(f"./{radiance if name == 'lights' else hdri}"))
+            dome.CreateTextureFileAttr(Sdf.AssetPath(f"./{'radiance.exr' if name == 'lights' else hdri}"))
             dome.CreateTextureFormatAttr(UsdLux.Tokens.latlong)
             dome.CreateIntensityAttr(1.0)
             UsdGeom.Xformable(dome).AddTransformOp().Set(_transform(Gf, DOME_TO_WORLD))

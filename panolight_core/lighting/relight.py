@@ -52,9 +52,9 @@ def training_lighting(coeffs_a, coeffs_b, lam: float, scale: float = LDR_SCALE, 
     return target, sh.window(target * scale, "sinc4", window_width)
 
 
-def simulate_ldr(relit: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None) -> np.ndarray:
-    """The relit HDR panorama as the camera would store it (uint8, EVALUATION.md exposure model; the mean
+def simulate_ldr(relit: np.ndarray) -> np.ndarray:
+    """The relit HDR panorama as the camera would store it at ev 0 (uint8, EVALUATION.md exposure model; the mean
     stands in for the median when most pixels are black, as when a sky is masked)."""
     from ..camera import hdr_to_ldr
 
-    return hdr_to_ldr(np.asarray(relit, dtype=np.float64), ev, jpeg_quality, robust=True)
+    return hdr_to_ldr(np.asarray(relit, dtype=np.float64), 0.0, None, robust=True)

@@ -38,18 +38,18 @@ def sphere_geometry(size: int = SPHERE_SIZE) -> tuple[np.ndarray, np.ndarray]:
     return n, r / np.linalg.norm(r, axis=-1, keepdims=True)
 
 
-def environment_from_panorama(hdr: np.ndarray, height: int = ENV_HEIGHT) -> np.ndarray:
-    """(height, 2 height, 3) float64: the panorama area-averaged onto the protocol's environment grid."""
-    return area_downsample(np.asarray(hdr), height).astype(np.float64)
+def environment_from_panorama(hdr: np.ndarray) -> np.ndarray:
+    """(ENV_HEIGHT, 2 ENV_HEIGHT, 3) float64: the panorama area-averaged onto the protocol's environment grid."""
+    return area_downsample(np.asarray(hdr), ENV_HEIGHT).astype(np.float64)
 
 
-def environment_from_model(coeffs: np.ndarray, lights, height: int = ENV_HEIGHT) -> np.ndarray:
-    """(height, 2 height, 3) float64: an estimate's radiance on the protocol's grid: its SH (K, 3) reconstructed,
+def environment_from_model(coeffs: np.ndarray, lights) -> np.ndarray:
+    """(ENV_HEIGHT, 2 ENV_HEIGHT, 3) float64: an estimate's radiance on the protocol's grid: its SH (K, 3) reconstructed,
     and each explicit light's energy (intensity x colour: irradiance at normal incidence) spread evenly over the
     cells within its angular radius (at least the cell holding its direction)."""
-    env = sh.reconstruct(np.asarray(coeffs, dtype=np.float64), height, 2 * height).astype(np.float64)
-    dirs = sh.pixel_directions(height, 2 * height)
-    omega = sh.pixel_solid_angles(height, 2 * height)
+    env = sh.reconstruct(np.asarray(coeffs, dtype=np.float64), ENV_HEIGHT, 2 * ENV_HEIGHT).astype(np.float64)
+    dirs = sh.pixel_directions(ENV_HEIGHT, 2 * ENV_HEIGHT)
+    omega = sh.pixel_solid_angles(ENV_HEIGHT, 2 * ENV_HEIGHT)
     for light in lights:
         d = np.asarray(light["direction"], dtype=np.float64)
         d = d / np.linalg.norm(d)

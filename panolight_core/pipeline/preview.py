@@ -111,7 +111,10 @@ def label_boxes(centres, r: float, width: int, height: int) -> list[tuple]:
     return boxes
 
 
-def diffuse_sphere(model, size: int = 256, albedo: float = 0.8, irradiance_map=None) -> np.ndarray:
+SPHERE_ALBEDO = 0.8  # the preview sphere's white: a real white paint, not a perfect reflector
+
+
+def diffuse_sphere(model, size: int = 256, irradiance_map=None) -> np.ndarray:
     """(size, size, 3) linear image of a white Lambertian sphere lit by ``model``: SH radiance
     coefficients (K, 3), or anything with an ``irradiance(normals)`` method (adaptive.LightingModel).
     irradiance_map: the model's (H, W, 3) equirect irradiance, if already made (irradiance.exr): the
@@ -131,11 +134,11 @@ def diffuse_sphere(model, size: int = 256, albedo: float = 0.8, irradiance_map=N
     normals = np.stack([-c, -a, b], axis=-1)[inside]
     out = np.zeros((size, size, 3))
     if irradiance_map is not None:
-        shade = albedo / np.pi * sample_equirect(irradiance_map, normals)
+        shade = SPHERE_ALBEDO / np.pi * sample_equirect(irradiance_map, normals)
     elif hasattr(model, "irradiance"):
-        shade = albedo / np.pi * model.irradiance(normals)
+        shade = SPHERE_ALBEDO / np.pi * model.irradiance(normals)
     else:
-        shade = albedo / np.pi * sh.irradiance(np.asarray(model, dtype=np.float64), normals)
+        shade = SPHERE_ALBEDO / np.pi * sh.irradiance(np.asarray(model, dtype=np.float64), normals)
     out[inside] = shade
     bg = np.median(shade, axis=0) if shade.size else np.zeros(3)
     out[~inside] = np.clip(bg.mean(), 0.0, None) * 0.5

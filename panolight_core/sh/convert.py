@@ -76,14 +76,14 @@ def to_threejs(coeffs) -> list[list[float]]:
     return c.tolist()
 
 
-def to_unity(coeffs, frame: np.ndarray = UNITY_FROM_BLENDER) -> list[list[float]]:
+def to_unity(coeffs) -> list[list[float]]:
     """Unity ``SphericalHarmonicsL2`` as 3 rows (R, G, B) of 9 coefficients, sh[channel, k].
 
     Definition (Unity manual, Light Probes technical information): Sloan's basis, i.e. ours with the
     CS phase (odd m negated), same order L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22, radiance
-    coefficients, Unity frame d_u = frame @ d_blender (default: swap Y and Z; left-handed, Y up).
+    coefficients, Unity frame d_u = UNITY_FROM_BLENDER @ d_blender (Y and Z swapped; left-handed, Y up).
     """
-    c = rotate(_to_lmax(_as_coeffs(coeffs), 2), frame) * cs_phase(2)[:, None]
+    c = rotate(_to_lmax(_as_coeffs(coeffs), 2), UNITY_FROM_BLENDER) * cs_phase(2)[:, None]
     return c.T.tolist()
 
 

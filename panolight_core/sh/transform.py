@@ -18,12 +18,12 @@ _BLOCK_ELEMS = 1 << 22  # ~4M input values (16 MB float32) per row block
 ROWS_FIRST_MAX_LMAX = 8  # measured crossover on a 2-core x86 machine (training/benchmarks/bench_sh.py)
 
 
-def _check_image(img, name="image"):
+def _check_image(img):
     if img.ndim < 3:
-        raise ValueError(f"{name} must have shape (H, W, C) or (..., H, W, C), got {tuple(img.shape)}")
+        raise ValueError(f"image must have shape (H, W, C) or (..., H, W, C), got {tuple(img.shape)}")
     h, w, c = img.shape[-3:]
     if h < 1 or w < 1 or c < 1:
-        raise ValueError(f"{name} is empty: shape {tuple(img.shape)}")
+        raise ValueError(f"image is empty: shape {tuple(img.shape)}")
     return h, w, c
 
 

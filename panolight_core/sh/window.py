@@ -81,8 +81,10 @@ def min_over_grid(coeffs: np.ndarray, target: str = "radiance") -> np.ndarray:
     return reconstruct(c, h, 2 * h).reshape(-1, c.shape[-1]).min(axis=0)
 
 
-def auto_window_width(coeffs, family: str = "sinc4", target: str = "radiance", tolerance: float = 1e-6,
-                      iterations: int = 40) -> float:
+BISECTIONS = 40  # bisection steps of auto_window_width: the width to 2^-40 of its range
+
+
+def auto_window_width(coeffs, family: str = "sinc4", target: str = "radiance", tolerance: float = 1e-6) -> float:
     """Largest width (weakest window) of ``family`` with the reconstruction non-negative.
 
     Returns math.inf when no window is needed. Bisection on 1/width in (0, 1]; width 1 keeps L_00
@@ -109,7 +111,7 @@ def auto_window_width(coeffs, family: str = "sinc4", target: str = "radiance", t
     if ok(math.inf):
         return math.inf
     lo, hi = 0.0, 1.0  # strength s = 1 / width; s = hi is feasible
-    for _ in range(iterations):
+    for _ in range(BISECTIONS):
         mid = 0.5 * (lo + hi)
         if ok(1.0 / mid):
             hi = mid

@@ -41,9 +41,10 @@ def conv2d(x: np.ndarray, weight: np.ndarray, bias: np.ndarray | None = None, st
     return out.reshape(n, cout, ho, wo)
 
 
-def elu(x: np.ndarray, alpha: float = 1.0) -> np.ndarray:
-    """ELU: x for x > 0, alpha (exp(x) - 1) otherwise (expm1, no overflow for large x)."""
-    return np.where(x > 0, x, alpha * np.expm1(np.minimum(x, 0.0)))
+def elu(x: np.ndarray) -> np.ndarray:
+    """ELU (alpha 1, as torch's default the networks were trained with): x for x > 0, exp(x) - 1 otherwise (expm1,
+    no overflow for large x)."""
+    return np.where(x > 0, x, np.expm1(np.minimum(x, 0.0)))
 
 
 def linear(x: np.ndarray, weight: np.ndarray, bias: np.ndarray | None = None) -> np.ndarray:
