@@ -31,9 +31,10 @@ logger = logging.getLogger(__name__)
 OUTPUT_GROUPS = {  # --outputs: what each group writes
     "lighting": ("lighting.json", "radiance.exr", "lighting.usda"),  # the model; usda needs usd-core
     "hdr": ("hdr.exr",),  # the full-resolution HDR panorama (the costly one at 8K-16K)
-    "previews": ("irradiance.exr", "preview.png"),
+    "previews": ("irradiance.exr", "preview.png", "clipped.png"),  # clipped.png: a bracket set's only
 }
-OUTPUT_FILES = ("lighting.json", "hdr.exr", "radiance.exr", "irradiance.exr", "preview.png", "lighting.usda")
+OUTPUT_FILES = ("lighting.json", "hdr.exr", "radiance.exr", "irradiance.exr", "preview.png", "clipped.png",
+                "lighting.usda")
 
 
 def parse_outputs(text) -> tuple[str, ...]:
@@ -78,7 +79,7 @@ def run_estimate(src, out_dir, settings: Settings = Settings(), *, resolution=(5
     try:
         with folder_lock(out_dir):  # the whole run: a second writer is refused before it reads anything
             clean_stale(out_dir, {ownership.MANIFEST: "files"})  # what a killed run left, proven its own
-            writes = _planned_files(outputs)
+            writes = _planned_files(outputs, isinstance(src, BracketSet))
             _check_destinations(out_dir, writes)
             if not overwrite:
                 _check_foreign_outputs(out_dir, writes)
@@ -101,12 +102,14 @@ def _same_file(a: Path, b: Path) -> bool:
         return False
 
 
-def _planned_files(outputs) -> tuple[str, ...]:
-    """The files a run with these output groups writes (lighting.usda only where usd-core is installed)."""
+def _planned_files(outputs, bracket: bool = False) -> tuple[str, ...]:
+    """The files a run with these output groups writes (lighting.usda only where usd-core is installed; clipped.png
+    only for a ``bracket`` set)."""
     from ..io.usd import usd_available
 
     names = [n for g in outputs for n in OUTPUT_GROUPS[g]]
-    return tuple(n for n in OUTPUT_FILES if n in names and (n != "lighting.usda" or usd_available()))
+    return tuple(n for n in OUTPUT_FILES if n in names and (n != "lighting.usda" or usd_available())
+                 and (n != "clipped.png" or bracket))
 
 
 def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_megapixels, outputs) -> dict:
@@ -210,6 +213,10 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
                                                                 exposure=1.0 if pixels.dtype == np.uint8 else None,
                                                                 model_gain=result.scale))
             written.append("preview.png")
+            ceiling = ((doc.get("source") or {}).get("brackets") or {}).get("ceiling")
+            if ceiling:  # a bracket set: what it could not capture, clipped in every frame
+                write_srgb8(stage / "clipped.png", clipped_mask(pixels, ceiling))
+                written.append("clipped.png")
         if usd_available():
             write_usd(stage / "lighting.usda", doc, hdri="hdr.exr" if "hdr" in outputs else None)
             written.append("lighting.usda")
@@ -240,6 +247,17 @@ def _write_outputs(out_dir, src, pixels, doc, result, maps, outputs, exposure_ev
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     return doc
+
+
+def clipped_mask(pixels: np.ndarray, ceiling: float) -> np.ndarray:
+    """(H, W, 3) uint8: white where a merged bracket set's pixel is clipped in every frame (a channel at the set's
+    ``ceiling``, the darkest frame's white: ``camera.brackets.merge_brackets``), black elsewhere; by row blocks."""
+    h = pixels.shape[0]
+    out = np.zeros(pixels.shape[:2] + (3,), np.uint8)
+    level = np.float32(ceiling * (1.0 - 1e-6))
+    for r in range(0, h, 256):
+        out[r:r + 256] = (np.asarray(pixels[r:r + 256]).max(axis=-1) >= level)[..., None] * np.uint8(255)
+    return out
 
 
 def _move(src: Path, dest: Path) -> None:

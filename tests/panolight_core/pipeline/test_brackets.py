@@ -280,3 +280,21 @@ def test_one_picture_listed_under_two_exposures_is_left_out_and_said(tmp_path, d
     assert record["files"][record["reference"]] == json.loads((tmp_path / "out" / "lighting.json").read_text())["source"]["path"]
     assert main(["estimate", a, str(b), "--evs", "0,1", "-o", str(tmp_path / "none"), "-q"]) == 1
     assert "every frame of the set is the same picture" in capsys.readouterr().err
+
+
+def test_a_set_writes_what_it_clipped_in_every_frame_as_a_mask(tmp_path, day):
+    """clipped.png (the previews group, bracket sets only): white where the set clipped in every frame, the share
+    lighting.json records; a single picture writes none, and a later single run into the folder removes a set's."""
+    truth, s, _ = day
+    files = [_frame(tmp_path / f"m{i}.jpg", hdr_to_ldr(truth, ev)) for i, ev in enumerate((-2, 0, 2))]
+    assert main(["estimate", *files, "--evs", "-2,0,2", "-o", str(tmp_path / "out"), "-q"]) == 0
+    mask = np.asarray(Image.open(tmp_path / "out" / "clipped.png"))[..., 0] > 127
+    record = json.loads((tmp_path / "out" / "lighting.json").read_text())["source"]["brackets"]
+    assert mask.sum() > 0 and mask.mean() == pytest.approx(record["clipped_in_every_frame"], abs=1e-6)
+    from panolight_core import sh
+
+    ys, xs = np.nonzero(mask)
+    d = sh.pixel_directions(*mask.shape)[ys, xs]
+    assert np.degrees(np.arccos(np.clip(d @ s, -1, 1))).max() < 10.0  # the sun, nothing else
+    assert main(["estimate", files[1], "-o", str(tmp_path / "out"), "-q"]) == 0
+    assert not (tmp_path / "out" / "clipped.png").exists()  # an earlier run's output this run does not write
