@@ -29,11 +29,12 @@ outputs (in OUTDIR; nothing is written anywhere else):
   radiance.exr    the SH part's radiance map at --resolution (the lights are in lighting.json)
   irradiance.exr  diffuse irradiance of the whole model (lights + SH) for a surface facing each direction
   preview.png     input | SH radiance | a white diffuse sphere lit by the estimate, each auto-exposed
+  clipped.png     a bracket set's only: white where every frame clipped (what the set could not capture)
   lighting.usda   the same lighting as a USD stage (Z up, metersPerUnit 1; needs usd-core): variant
                   "lights" = a DomeLight with radiance.exr + a DistantLight per light (lighting.json's
                   model), variant "hdri" = a DomeLight with hdr.exr (its sources already in the image)
 --outputs lighting,hdr,previews picks the groups (lighting.json, radiance.exr, lighting.usda | hdr.exr |
-irradiance.exr, preview.png); an earlier run's files outside the chosen groups are removed.
+irradiance.exr, preview.png, clipped.png); an earlier run's files outside the chosen groups are removed.
 """
 
 EPILOG_ESTIMATE = f"""\
@@ -48,6 +49,10 @@ models: auto finds compact bright sources (sun, lamps, windows) and stores them 
 colour, intensity, angular size, sun/area) in lighting.json; the rest goes to SH at the smallest order whose
 diffuse relighting error is within --tolerance. lighting.json records what was chosen and why.
 estimators: see --estimator; auto is the best measured on real photographs (docs/accuracy.md).
+when unsure: a key light its evidence cannot weigh surely gets the strength that evidence is sure of, and a
+'note:' line gives its 68 % range and the setting that raises it (--sun-strength); a sun the photo does not show
+is put back only where its clear sky says, and --sun AZ,EL places one by hand. The files and the note say what
+was done: check the key light against the photo's own shadows.
 LDR results are relative to the camera's clip level (1 = white); --exposure EV scales them by 2^EV.
 """
 
