@@ -24,10 +24,13 @@ from .color import SRGB8_TO_LINEAR, gray8
 RESPONSE_SAMPLES = 96  # pixels whose three channels the curve is solved on (256 + 3 x this unknowns)
 RESPONSE_SMOOTHNESS = 256.0  # the weight of g's second difference against the data (Debevec's lambda): 16-1024 tried on
 # three scenes x three camera curves at JPEG q90; lower follows the JPEG noise (10-20 % waves), higher bends the curve
-RESPONSE_GAIN = 0.35  # the recovered curve is used where the frames' disagreement under it is at most this share of
-# their disagreement under sRGB: over the 111 real HDRs' camera JPEGs at {-2, 0, +2} and {-4 .. +4} (sRGB sets) the
-# share was 0.91-6.8 (a smooth curve explains JPEG noise no better), against 0.03-0.08 for a gamma-2.8, S-curve or
-# highlight-shoulder camera (tests/panolight_core/camera/test_response.py)
+RESPONSE_GAIN = 0.7  # the recovered curve is used where the frames' disagreement under it is at most this share of
+# their disagreement under sRGB: over the 121 real HDRs' camera JPEGs at {-2, 0, +2} and {-4 .. +4} (242 sRGB sets)
+# the share is 0.907 or more (a smooth curve explains JPEG noise no better), so every sRGB set keeps sRGB bit for
+# bit; real Nikon D90 and Canon 5D II sets reach 0.45-0.67 (their curve fits 1.5-2.2x better, and sRGB misreads
+# them by 1.2-1.55x a stop), and a camera a little off sRGB (an S-curve of 1.03-1.04, gamma 2.25) 0.2-0.7: at 0.35
+# those kept sRGB, and their merges' mid-tone error was 1.0-1.8x what their own curve gives (no case worse; 13
+# real scenes, docs/studies/captures.md)
 RESPONSE_CODES = (8, 247)  # codes a frame contributes to the solve and to the disagreement (the hat's reliable part)
 MIN_RESPONSE_FRAMES = 3  # two frames pin too little of the curve: sRGB
 MIN_RESPONSE_CODES = 64  # ... as do frames whose solved pixels hold fewer distinct codes (a flat scene: any curve
