@@ -18,7 +18,7 @@ def run_workers(tasks, jobs: int, work, record) -> None:
     task[0]) for each of ``tasks`` on ``jobs`` worker processes, each fed over a pipe of its own, calling
     ``record(k, result)`` as each finishes. No queue or lock is shared, so a worker stopped, killed or crashed
     mid-task cannot stall the others: a worker killed while it held multiprocessing.Pool's queue lock made
-    Pool.terminate() hang forever (1 Ctrl-C in 5-7). A worker that dies mid-task fails that input (its exit
+    Pool.terminate() hang forever (1 Ctrl-C in 30 here). A worker that dies mid-task fails that input (its exit
     said) and a new one takes its place. Interrupted, or on any error, every worker is stopped (``_stop_workers``)
     before the exception goes on."""
     import os

@@ -93,9 +93,9 @@ def with_key_strength(est: Estimate, strength: float) -> Estimate:
 
 
 def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, origin: str | None = None) -> Estimate:
-    """``est`` with a sun at ``direction`` (``pointed_sun.with_pointed_sun``), recorded in its info as
+    """``est`` with a sun at ``direction`` (``keylight.with_pointed_sun``), recorded in its info as
     ``pointed_sun`` with where the direction came from: the artist (``origin`` None), or the photo's own capture
-    metadata (``origin`` says which: ``pointed_sun.METADATA_DEFERS_DEG``): that one gives way to a sun the photo
+    metadata (``origin`` says which: ``keylight.METADATA_DEFERS_DEG``): that one gives way to a sun the photo
     itself places surely, and to a sky that cannot weigh it (recorded as ``sun_metadata``, unused, and why). An
     estimate without a per-source recovery (an HDR input, whose sun is in its pixels, or another estimator) is
     returned as it is."""

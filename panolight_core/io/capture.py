@@ -5,8 +5,8 @@ its offset; else XMP ``GPano:FirstPhotoDate`` with its zone), the compass headin
 ExposureTime, FNumber, ISO). With position, time and heading the sun's direction follows
 (``pipeline.metadata_sun``); without them nothing is guessed.
 
-Every tag goes through ``io.metadata``'s validating readers: ``parse_capture`` and ``parse_exposure`` take a
-getter of raw tag values (whatever shape a file holds) and never raise.
+Every tag goes through ``io.metadata``'s validating readers: ``parse_capture`` (here) and ``metadata.exposure``
+take a getter of raw tag values (whatever shape a file holds) and never raise.
 """
 from __future__ import annotations
 

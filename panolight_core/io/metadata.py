@@ -19,14 +19,20 @@ _RATIONAL = re.compile(r"^\s*([-+]?[0-9.eE+-]+)\s*/\s*([-+]?[0-9.eE+-]+)\s*$")
 _SEQUENCES = (list, tuple)
 
 
+def _plain(raw):
+    """``raw`` with a numpy scalar or array made plain Python (its ``tolist``); None where that fails."""
+    if hasattr(raw, "tolist") and not isinstance(raw, (str, bytes)):
+        try:
+            return raw.tolist()
+        except (TypeError, ValueError):
+            return None
+    return raw
+
+
 def _scalar(raw):
     """The one value ``raw`` holds: itself, or the first item of a sequence (EXIF's ISOSpeedRatings may hold
     several; the first is the one the shot used), or a numpy array's first element; None when empty or nested."""
-    if hasattr(raw, "tolist") and not isinstance(raw, (str, bytes)):  # numpy scalars and arrays
-        try:
-            raw = raw.tolist()
-        except (TypeError, ValueError):
-            return None
+    raw = _plain(raw)
     if isinstance(raw, _SEQUENCES):
         if not raw or isinstance(raw[0], _SEQUENCES):
             return None
@@ -84,11 +90,7 @@ def positive(raw, hi: float = math.inf) -> float | None:
 def numbers(raw, count: int, lo: float = -math.inf, hi: float = math.inf) -> tuple[float, ...] | None:
     """Exactly ``count`` numbers (``number`` each, within [lo, hi]) from a sequence of that length (GPS's degrees,
     minutes and seconds; its hours, minutes and seconds); None otherwise."""
-    if hasattr(raw, "tolist") and not isinstance(raw, (str, bytes)):
-        try:
-            raw = raw.tolist()
-        except (TypeError, ValueError):
-            return None
+    raw = _plain(raw)
     if not isinstance(raw, _SEQUENCES) or len(raw) != count:
         return None
     values = tuple(number(v, lo, hi) if not isinstance(v, _SEQUENCES) else None for v in raw)

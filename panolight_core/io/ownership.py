@@ -54,9 +54,10 @@ def _entries(folder: Path) -> dict[str, list[dict]]:
     text = read_small_file(path, MANIFEST_MAX_BYTES)
     if text is None:
         return {}
-    if too_deep(text):
+    doc = json_object(text, MANIFEST_MAX_BYTES)
+    if doc is None and too_deep(text):  # its depth read again only for a manifest that does not parse
         raise PanoLightError(f"{path}: nested too deeply to be PanoLight's manifest; remove it")
-    files = (json_object(text, MANIFEST_MAX_BYTES) or {}).get("files")  # not a manifest: nothing is owned
+    files = (doc or {}).get("files")  # not a manifest: nothing is owned
     if not isinstance(files, dict):
         return {}
     return {str(k): [e for e in v if _entry(e)] for k, v in files.items() if isinstance(v, list)}

@@ -48,7 +48,7 @@ class Settings:
     weighed) times this, in every output alike; a raised light takes over its own region's fill first, nothing
     else changes. sun_direction: the artist's sun (x, y, z; CONVENTIONS.md frame, made unit), in place of any sun
     the estimate found; sun_contrast: weigh it by the photo's lit / shadow ground contrast (> 1) instead of its sky
-    (``pointed_sun.with_pointed_sun``). sun_metadata: where no direction is given, a photo whose metadata holds its
+    (``keylight.with_pointed_sun``). sun_metadata: where no direction is given, a photo whose metadata holds its
     GPS position, UTC time and heading gets the sun's direction from them (``estimate.capture_sun``) where the photo
     does not place a sun itself. restore: RESTORES (an HDR file that clips its own source). Invalid values raise
     PanoLightError naming the setting."""
