@@ -194,16 +194,16 @@ def clipped_or_ringing(top: np.ndarray) -> np.ndarray:
     return pad[:n, :w] | (near & (top >= RING_CODE))
 
 
-def kept_shift(reference: np.ndarray, frame: np.ndarray, ratio: float, shift: tuple) -> tuple[int, int]:
-    """``shift`` (an ``align_shift`` of ``frame`` onto ``reference``, exposed ``ratio`` times as much) where it
-    measurably improves how the two agree, else (0, 0): moved, the frame's blocks must rank more like the reference's
-    than unmoved (``block_agreement``'s correlation). A still tripod pair 4 stops apart was moved 16 rows and 10
+def kept_shift(reference_codes: np.ndarray, frame: np.ndarray, ratio: float, shift: tuple) -> tuple[int, int]:
+    """``shift`` (an ``align_shift`` of ``frame`` onto the reference frame, whose ``block_codes`` are
+    ``reference_codes``; ``frame`` exposed ``ratio`` times as much) where it measurably improves how the two agree,
+    else (0, 0): moved, the frame's blocks must rank more like the reference's than unmoved (``block_agreement``'s
+    correlation). A still tripod pair 4 stops apart was moved 16 rows and 10
     columns by the bitmaps, and then refused as two scenes, though unmoved it agreed (0.60)."""
     if tuple(shift) == (0, 0):
         return 0, 0
-    ref = block_codes(reference)
-    moved = block_agreement(ref, block_codes(shift_frame(frame, *shift)), ratio).rank_correlation
-    still = block_agreement(ref, block_codes(frame), ratio).rank_correlation
+    moved = block_agreement(reference_codes, block_codes(shift_frame(frame, *shift)), ratio).rank_correlation
+    still = block_agreement(reference_codes, block_codes(frame), ratio).rank_correlation
     if moved is not None and still is not None and moved <= still:
         return 0, 0
     return int(shift[0]), int(shift[1])
@@ -367,7 +367,9 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     grid = AlignmentReference(frames[ref]) if align else None
     shifts = threads.map_ordered(lambda i: grid.shift_of(frames[i], e[i] / e[ref]) if align and i != ref
                                  else (0, 0), range(len(frames)))
-    shifts = [kept_shift(frames[ref], f, e[i] / e[ref], shift) for i, (f, shift) in enumerate(zip(frames, shifts))]
+    if any(tuple(s) != (0, 0) for s in shifts):  # each move checked against the reference's blocks, made once
+        ref_codes = block_codes(frames[ref])
+        shifts = [kept_shift(ref_codes, f, e[i] / e[ref], s) for i, (f, s) in enumerate(zip(frames, shifts))]
     frames = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(frames, shifts)]
     if linear is not None:
         linear = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(linear, shifts)]

@@ -166,14 +166,14 @@ def test_a_shift_that_makes_a_still_pair_agree_worse_is_not_made(monkeypatch):
     """A still tripod pair 4 stops apart that the bitmaps moved 16 rows and 10 columns (a real Canon pair: then
     refused as "a set grouped across two scenes", though unmoved it agreed): a frame is moved only where the move
     makes it rank its blocks more like the middle frame's. Without alignment (--no-align) nothing moves."""
-    from panolight_core.camera.brackets import AlignmentReference, kept_shift, shift_frame
+    from panolight_core.camera.brackets import AlignmentReference, block_codes, kept_shift, shift_frame
     from panolight_core.data import load_studio_hdri
 
     truth = load_studio_hdri("city")
     frames = [hdr_to_ldr(truth, ev, 90) for ev in (-2, 2)]  # 1/250 s and 1/4000 s of one still scene
-    assert kept_shift(frames[0], frames[1], 16.0, (16, 10)) == (0, 0)
+    assert kept_shift(block_codes(frames[0]), frames[1], 16.0, (16, 10)) == (0, 0)
     moved = shift_frame(frames[1], 5, -30)  # a frame truly turned is still put back
-    assert kept_shift(frames[0], moved, 16.0, (-5, 30)) == (-5, 30)
+    assert kept_shift(block_codes(frames[0]), moved, 16.0, (-5, 30)) == (-5, 30)
     monkeypatch.setattr(AlignmentReference, "shift_of", lambda self, frame, ratio=1.0: (16, 10))  # what it found
     merged, info = merge_brackets(frames, [1.0, 16.0])
     assert info["shifts"] == [[0, 0], [0, 0]] and info["agreement"][0]["rank_correlation"] > 0.9
