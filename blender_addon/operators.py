@@ -344,8 +344,7 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         if not store.same_settings_but_strength(world, settings):
             raise Error("the panel's settings changed since Estimate lighting (not only Sun lamp strength): run "
                         "Estimate lighting again")
-        pixels = _read_panorama(panorama)
-        result = _fit(pixels, settings, _capture(panorama, settings))
+        pixels, result = _estimate_again(panorama, settings)
         store.store_lighting(world, result.document, settings)
         for problem in result.warnings:  # "sun strength 2 changes nothing: the estimate has no key light"
             self.report({"WARNING"}, f"PanoLight: {problem}")
@@ -356,13 +355,18 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         and estimated again (the estimators are deterministic). If the panel's settings have changed since
         Estimate lighting, that would be another estimate: refused, so the stored lighting is never
         replaced behind the user's back."""
-        pixels = _read_panorama(panorama)
-        settings = _checked(context).estimate_settings()
-        result = _fit(pixels, settings, _capture(panorama, settings))  # the photo's metadata sun, as Estimate had it
+        pixels, result = _estimate_again(panorama, _checked(context).estimate_settings())
         if not same_lighting(result.document, doc):
             raise Error("the panel's settings changed since Estimate lighting, so the HDRI would belong to "
                         "another estimate: run Estimate lighting again (or restore the settings)")
         return _make_hdri(world, pixels, result)
+
+
+def _estimate_again(panorama, settings):
+    """(pixels, the core's Result) of the panorama estimated now with ``settings``, its photo's metadata sun
+    included as Estimate lighting had it (the estimators are deterministic)."""
+    pixels = _read_panorama(panorama)
+    return pixels, _fit(pixels, settings, _capture(panorama, settings))
 
 
 def same_lighting(a: dict, b: dict) -> bool:
