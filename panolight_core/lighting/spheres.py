@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import sh
 from ..camera.resample import area_downsample
+from ..sh.grid import pixel_coordinates
 
 SPHERE_SIZE = 64
 ENV_HEIGHT = 128  # 1.4-degree cells: the mirror sphere's resolution (a 64-pixel sphere resolves about 3 degrees)
@@ -70,10 +71,9 @@ def render_spheres(env: np.ndarray, size: int = SPHERE_SIZE) -> dict:
     lobe = np.array([math.exp(-l * l / (2.0 * MATTE_EXPONENT)) for l in range(EXACT_ORDER + 1)])
     per_coeff = np.repeat(lobe, [2 * l + 1 for l in range(EXACT_ORDER + 1)])
     h, w = env.shape[:2]
-    theta = np.arccos(np.clip(mirror[:, 2], -1.0, 1.0))
-    phi = np.arctan2(mirror[:, 1], mirror[:, 0])
-    row = np.clip((theta / math.pi * h).astype(int), 0, h - 1)
-    col = np.clip(((math.pi - phi) / (2.0 * math.pi) * w).astype(int) % w, 0, w - 1)
+    rows, cols = pixel_coordinates(mirror, h, w)  # the nearest cell: pixel centres at integers
+    row = np.clip(np.floor(rows + 0.5).astype(int), 0, h - 1)
+    col = np.floor(cols + 0.5).astype(int) % w
     return {"diffuse": sh.irradiance(coeffs, normals) / math.pi,
             "matte": sh.basis(mirror, EXACT_ORDER) @ (coeffs * per_coeff[:, None]),
             "mirror": env[row, col]}
