@@ -68,6 +68,8 @@ TOOLS = {
                          "clipped at +4 stops: as they are, restored, and the truth (docs/studies/restore_previews.jpg)"),
     "bracket-agreement": ("training.experiments.bracket_agreement", "bracket sets' frames against their exposures over "
                           "the real HDRs and four camera curves: right sets passed, reversed or mixed-scene sets refused"),
+    "bracket-merge": ("training.experiments.bracket_merge", "the bracket merge's dark-ring rule and camera-curve gain "
+                      "against the rules they replaced over the real HDRs (docs/studies/captures.md)"),
     "small-inputs": ("training.experiments.small_inputs", "clipped suns weighed in panoramas 1024 down to 128 wide: "
                      "the JPEG and the HDR clipped at +4 stops, the evidence for the narrow-file warning"),
     "energy-oracle": ("training.experiments.energy_oracle", "experiment: a restored HDR's key light given the "

@@ -6,5 +6,7 @@ registration) with its notebook in docs/studies/keylight_tried.md. Nothing shipp
 - ``key_variants``: what a key light carries (one account of its region's energy, a sure sun at its belief; issue 46),
   scored by keylight-cv;
 - ``energy_oracle``, ``restore_harm``: a restored HDR's key light at the truth's energy, and what restoring does to
-  every scene, with a dominant source or none (issue 45; docs/studies/captures.md).
+  every scene, with a dominant source or none (issue 45; docs/studies/captures.md);
+- ``bracket_merge``: the merge's dark-ring rule and camera-curve gain against the rules they replaced (shipped; the
+  evidence in docs/studies/captures.md).
 """
