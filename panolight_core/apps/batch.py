@@ -204,7 +204,7 @@ def _write_json(path: Path, doc) -> None:
 
 def _process(job, src: Path, dst: Path, settings) -> dict:
     """One input: skip it if up to date, else run ``job(src, dst)`` and record how it was made. Never
-    raises for a bad input (the result says why); runs in a pool worker or in the batch process."""
+    raises for a bad input (the result says why); runs in a batch worker or in the batch process."""
     t = time.perf_counter()
     _clean_stale(dst)
     try:

@@ -115,7 +115,7 @@ def _stop_workers(workers) -> None:
 
 
 def _worker_init(parent: int):
-    """Pool workers leave Ctrl-C to the batch process, which stops them (SIGTERM: they clean up), and
+    """Batch workers leave Ctrl-C to the batch process, which stops them (SIGTERM: they clean up), and
     run their pixel passes on one thread: the workers already fill the CPUs."""
     import signal
 
@@ -150,7 +150,7 @@ class _QuietOrphan:
 
 def _quiet_resource_tracker() -> None:
     """Start multiprocessing's resource tracker with its stderr on the null device. It outlives a batch
-    killed with SIGKILL and then warns, on the user's terminal, of the pool's 'leaked semaphore objects',
+    killed with SIGKILL and then warns, on the user's terminal, of 'leaked semaphore objects',
     which it cleans up itself (nothing is lost; the message is noise). No-op where it already runs."""
     import os
 
@@ -170,7 +170,7 @@ def _quiet_resource_tracker() -> None:
 
 
 def _exit_on_sigterm(signum, frame):
-    """A worker told to stop (pool.terminate, or its parent gone) unwinds: the writers' ``finally`` blocks
+    """A worker told to stop (``_stop_workers``, or its parent gone) unwinds: the writers' ``finally`` blocks
     remove their staging folders, and SystemExit ends the process without a traceback."""
     raise SystemExit(128 + signum)
 
