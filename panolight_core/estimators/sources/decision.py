@@ -64,6 +64,42 @@ def _weighted_errors(qc: np.ndarray, gc: np.ndarray, y: np.ndarray, w: np.ndarra
     return num / np.where(np.abs(den) > 0, den, np.inf)[None, :]
 
 
+def decision_errors(base: np.ndarray, regions: Regions, cand_lr: np.ndarray, true_lr: np.ndarray):
+    """(err (2, C, S), healthy (C,)): EVALUATION.md's m-RMSE and irr-RMSE at lmax 2 of each of C candidate reports
+    against each of S truths, both (X, n) log ratios of the n ``regions`` over the plain linearised work map
+    ``base`` (each region's excess spread as ``fill_regions`` spreads it, white), taken on the decision's grid; and
+    whether each candidate's lmax-2 map keeps a median of at least MIN_MEDIAN_RATIO of its mean (one whose source
+    rings the rest of the sphere down makes the metric's median scale explode for any truth that does not share
+    it). The last candidate is taken as healthy (the plain map, in ``choose_shrink``)."""
+    from ...sh.irradiance import convolve_lambert
+
+    n = regions.count
+    h, w = regions.labels.shape
+    y = _grid_basis(h, w)  # (h w, 9)
+    m = (regions.labels >= 0).ravel()
+    lab = regions.labels.ravel()[m]
+    # SH of each region's fill per unit excess energy (white), as fill_regions spreads it
+    wt = regions.share.ravel()[m]
+    unit = np.stack([np.bincount(lab, wt * y[m, k], n) for k in range(9)], -1)  # (n, 9) per unit excess energy
+    b = sh.project(base, 2)  # (9, 3)
+
+    def coeffs(lr):  # (X, n) log ratios -> (X, 9, 3)
+        excess = (np.exp(lr) - 1.0) * regions.held[None, :]
+        return b[None] + (excess @ unit)[:, :, None] * np.ones(3)
+
+    gh, gw = _DECISION_GRID
+    grid_y = _grid_basis(gh, gw)
+    wgrid = sh.pixel_solid_angles(gh, gw).ravel() / (4.0 * math.pi)
+    qc, gc = coeffs(cand_lr), coeffs(true_lr)
+    err = np.stack([_weighted_errors(qc, gc, grid_y, wgrid),
+                    _weighted_errors(convolve_lambert(qc), convolve_lambert(gc), grid_y, wgrid)])
+    med = _map_medians(qc, grid_y)
+    mean = np.einsum("i,cik->c", wgrid @ grid_y, qc) / 3.0
+    healthy = med >= MIN_MEDIAN_RATIO * np.maximum(mean, 1e-300)
+    healthy[-1] = True
+    return err, healthy
+
+
 def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.ndarray, seed: int = 0,
                   tolerance: float | None = None):
     """Pick c in SHRINK_CANDIDATES so that log r_i = max(mu_i - c sigma_i^2, 0) minimises the expected
@@ -81,42 +117,13 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     n = regions.count
     if n == 0:
         return 0.0, {}
-    from ...sh.irradiance import convolve_lambert
-
-    h, w = regions.labels.shape
-    y = _grid_basis(h, w)  # (h w, 9)
-    m = (regions.labels >= 0).ravel()
-    lab = regions.labels.ravel()[m]
-    # SH of each region's fill per unit excess energy (white), as fill_regions spreads it
-    wt = regions.share.ravel()[m]
-    unit = np.stack([np.bincount(lab, wt * y[m, k], n) for k in range(9)], -1)  # (n, 9) per unit excess energy
-    b = sh.project(base, 2)  # (9, 3)
     rng = np.random.default_rng(seed)
     z0 = rng.standard_normal((DECISION_SAMPLES, 1))
     z = DECISION_CORRELATION * z0 + math.sqrt(1 - DECISION_CORRELATION ** 2) * rng.standard_normal((DECISION_SAMPLES, n))
     true_lr = np.maximum(mu[None, :] + sigma[None, :] * z, 0.0)
     cand_lr = np.stack([shrunk(mu, sigma, c) for c in SHRINK_CANDIDATES])
-
-    def coeffs(lr):  # (X, n) log ratios -> (X, 9, 3)
-        excess = (np.exp(lr) - 1.0) * regions.held[None, :]
-        return b[None] + (excess @ unit)[:, :, None] * np.ones(3)
-
-    gh, gw = _DECISION_GRID
-    grid_y = _grid_basis(gh, gw)
-    wgrid = sh.pixel_solid_angles(gh, gw).ravel() / (4.0 * math.pi)
-    qc, gc = coeffs(cand_lr), coeffs(true_lr)
-    err = np.zeros((len(SHRINK_CANDIDATES), DECISION_SAMPLES))
-    for conv in (False, True):
-        q, g = (convolve_lambert(qc), convolve_lambert(gc)) if conv else (qc, gc)
-        err += _weighted_errors(q, g, grid_y, wgrid)
-    expected = err.mean(axis=1)
-    # a candidate whose lmax-2 map has a median near zero (its source rings the rest of the sphere
-    # down) makes the metric's median scale explode for any truth that does not share it: never report
-    # one while a healthier candidate exists (the last candidate, no recovery, is the plain map)
-    med = _map_medians(qc, grid_y)
-    mean = np.einsum("i,cik->c", wgrid @ grid_y, qc) / 3.0
-    healthy = med >= MIN_MEDIAN_RATIO * np.maximum(mean, 1e-300)
-    healthy[-1] = True
+    err, healthy = decision_errors(base, regions, cand_lr, true_lr)
+    expected = err.sum(axis=0).mean(axis=1)
     pool = np.where(healthy, expected, np.inf)
     # the least energy whose expected error is within ``tolerance`` of the best: near-ties go to the
     # side where a wrong answer costs least (an over-estimate's cost is unbounded)
