@@ -78,6 +78,7 @@ def configure(scene, args, core) -> None:
     s.sun_strength = args.sun_strength
     s.sun_pointed = args.sun is not None
     s.sun_metadata = args.sun_metadata
+    s.sky_sun = args.sky_sun
     s.restore_clipped = args.restore != "none"
     if args.sun is not None:  # the panel keeps angles: azimuth to the right in the image, elevation up
         x, y, z = args.sun

@@ -225,7 +225,8 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
         self.report({"INFO"}, f"PanoLight: lighting estimated (SH order {doc['lmax']}, {n} light(s)); "
                               f"use Build environment")
         note = keylight.key_light_note(doc, light="lamp", raise_with="Sun lamp strength",
-                                                   as_is="Restore a clipped sun unticked")
+                                       as_is="Restore a clipped sun unticked",
+                                       place_with="Sun is here at azimuth {az}, elevation {el}")
         if note:
             self.report({"INFO"}, f"PanoLight: {note}")
 

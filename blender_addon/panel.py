@@ -52,6 +52,11 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                            "(Theta, Insta360, Photo Sphere) gets its sun's direction from them where "
                                            "the photo does not place a sun itself (hidden, veiled, a wide clipped "
                                            "patch). 'Sun is here' overrides it")
+    sky_sun: BoolProperty(name="Sun from the sky alone", default=False,
+                          description="Put back a sun the photo does not show wherever its sky's gradient alone "
+                                      "places one (a sun retouched out of a clear sky). Off: such a sun is only "
+                                      "reported, with where the sky puts it, since a hazy sky suggests suns that are "
+                                      "not there; Sun is here places it (panolight estimate --sky-sun)")
     restore_clipped: BoolProperty(name="Restore a clipped sun", default=True,
                                   description="An HDR file that clips its own sun or lamp (a plateau at its "
                                               "ceiling, as most HDRIs shot without an ND filter do) gets the "
@@ -96,7 +101,7 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                   exposure_ev=self.exposure, sun_direction=sun,
                                   sun_contrast=(self.sun_contrast or None) if self.sun_pointed else None,
                                   sun_metadata=self.sun_metadata, sun_strength=self.sun_strength,
-                                  restore="auto" if self.restore_clipped else "none")
+                                  restore="auto" if self.restore_clipped else "none", sky_sun=self.sky_sun)
 
 
 def draw_panel(layout, context):
@@ -121,6 +126,7 @@ def draw_panel(layout, context):
             box.prop(s, prop)
     else:
         box.prop(s, "sun_metadata")
+        box.prop(s, "sky_sun")
     box.prop(s, "restore_clipped")
     box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
     box.label(text="Estimated" if store.has_lighting(world) else "Not estimated yet")

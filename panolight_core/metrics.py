@@ -14,6 +14,7 @@ import numpy as np
 
 from . import sh
 from .camera.color import LUMINANCE_WEIGHTS, luminance
+from .harm import HARM_MARGIN, HARM_RATIO, harmed  # noqa: F401  (the evaluation's harm, one home)
 
 GRID_H, GRID_W = 128, 256
 
@@ -45,16 +46,6 @@ def irr_rmse(gt_coeffs, pred_coeffs) -> float:
     g = sh.irradiance_map(np.asarray(gt_coeffs, dtype=np.float64), GRID_H, GRID_W)
     q = sh.irradiance_map(np.asarray(pred_coeffs, dtype=np.float64), GRID_H, GRID_W)
     return _relative_weighted_rmse(g, q)
-
-
-HARM_RATIO, HARM_MARGIN = 2.0, 0.25  # EVALUATION.md "Harm"
-
-
-def harmed(m_rmse: float, as_is: float) -> bool:
-    """EVALUATION.md's harm: the whole model's m-RMSE above both HARM_RATIO times and HARM_MARGIN over the input's
-    as-is projection's (the naive one for an 8-bit input, the file's own for an HDR, the ev-0 frame's naive one for a
-    bracket set). Reported first, before medians and means."""
-    return m_rmse > HARM_RATIO * as_is and m_rmse > as_is + HARM_MARGIN
 
 
 DOMINANT_THRESHOLD = 0.5  # the dominant light: the pixels above this share of the peak luminance

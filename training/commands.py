@@ -81,6 +81,9 @@ TOOLS = {
                    "the real HDRs, and the suns the estimator invents"),
     "glare-law": ("training.experiments.glare_law", "experiment, not kept: the glare law c E theta^-2 around clipped regions over the real "
                   "HDRs, and the gates that could trust it"),
+    "do-no-harm": ("training.experiments.do_no_harm", "the default's decisions priced for harm (issue 58): the fill's "
+                   "guard over the 68 % range and the sky-alone sun, against the rules they replaced, harmed scenes "
+                   "first"),
     "key-variants": ("training.experiments.key_variants", "experiment: what a key light carries (one account of its "
                      "region, a sure sun at its belief; issue 46), scored by the key-light cross-validation"),
     "digests": ("training.digests", "digests of the shipped estimates over the real HDRs: prove a refactoring "

@@ -49,10 +49,12 @@ models: auto finds compact bright sources (sun, lamps, windows) and stores them 
 colour, intensity, angular size, sun/area) in lighting.json; the rest goes to SH at the smallest order whose
 diffuse relighting error is within --tolerance. lighting.json records what was chosen and why.
 estimators: see --estimator; auto is the best measured on real photographs (docs/accuracy.md).
-when unsure: a key light its evidence cannot weigh surely gets the strength that evidence is sure of, and a
-'note:' line gives its 68 % range and the setting that raises it (--sun-strength); a sun the photo does not show
-is put back only where its clear sky says, and --sun AZ,EL places one by hand. The files and the note say what
-was done: check the key light against the photo's own shadows.
+when unsure: a clipped patch whose energy is unsure gets only what no truth in its 68 % range would make worse
+than the photo's own pixels; a key light its evidence cannot weigh surely gets the strength that evidence is sure
+of, and a 'note:' line gives its 68 % range and the setting that raises it (--sun-strength); a sun the photo does
+not show is not invented from the sky's gradient alone: the note says where the sky puts one and the --sun AZ,EL
+that places it (--sky-sun places it by itself). The files and the note say what was done: check the key light
+against the photo's own shadows.
 LDR results are relative to the camera's clip level (1 = white); --exposure EV scales them by 2^EV.
 """
 

@@ -18,7 +18,7 @@ float32 linear radiance for HDR (and 16-bit) files.
 LDR results are in units of the camera's clip level (1 = white); HDR results in the file's units.
 """
 from .basic import ANALYTIC_WORK_HEIGHT, Estimate, ambient, analytic, naive
-from .per_source import per_source, per_source_key_lights, with_key_strength, with_pointed_sun
+from .per_source import per_source, per_source_key_lights, with_key_strength, with_pointed_sun, with_sky_sun
 from .registry import (
     AUTO,
     BUILTIN,
@@ -34,4 +34,4 @@ from .registry import (
 
 __all__ = ["ANALYTIC_WORK_HEIGHT", "AUTO", "BUILTIN", "DESCRIPTIONS", "Entry", "Estimate", "ambient", "analytic",
            "available", "estimate", "naive", "neural_estimator", "per_source", "per_source_key_lights",
-           "register_model", "register_source_model", "resolve", "with_key_strength", "with_pointed_sun"]
+           "register_model", "register_source_model", "resolve", "with_key_strength", "with_pointed_sun", "with_sky_sun"]

@@ -121,5 +121,21 @@ def with_pointed_sun(est: Estimate, direction, contrast: float | None = None, or
     return replace(est, info={**est.info, "sun_metadata": {**said, "used": False, "why": why}})
 
 
+def with_sky_sun(est: Estimate) -> Estimate:
+    """``est`` with the sun its sky's gradient alone suggests put back (``--sky-sun``: the bolder rule,
+    ``keylight.KeyLightParams.sky_alone_sun``), where the sun search refused it for that reason alone
+    (``keylight.find.SKY_ALONE``); recorded in its info's ``sun_search``. Any other estimate is returned as it is."""
+    rec = est.recovery
+    from .keylight import PARAMS, with_key_lights
+    from .keylight.find import SKY_ALONE
+
+    if rec is None or (rec.sun_search or {}).get("refused") != [SKY_ALONE]:
+        return est
+    undecided = replace(rec, log_ratio=rec.log_ratio if rec.decided is None else rec.decided)
+    info = {k: v for k, v in est.info.items() if k not in ("clipped_regions", "sun_search")}
+    return _recovery_estimate(with_key_lights(undecided, replace(PARAMS, sky_alone_sun=True)), est.lmax,
+                              est.estimator, info)
+
+
 def per_source_key_lights(pixels: np.ndarray, lmax: int, restore: bool = True, pointer=None) -> Estimate:
     return per_source(pixels, lmax, key_lights=True, restore=restore, pointer=pointer)

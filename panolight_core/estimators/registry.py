@@ -89,7 +89,7 @@ _REGISTRY = {
                      "clipped", True),
     "keylight": Entry(per_source_key_lights, "Per-source + key lights", "Per-source energy, and each clipped "
                       "region holding a compact sun or lamp made one explicit light that casts shadows; a sun the "
-                      "photo does not show (retouched out) put back where its clear sky places it (exact for HDR, but "
+                      "photo does not show (retouched out) located from its clear sky and reported (exact for HDR, but "
                       "for a sun or lamp the file itself clipped)", True),
     "neural": Entry(neural_estimator(), "Neural", "The paper's network (numpy; no torch needed)"),
 }

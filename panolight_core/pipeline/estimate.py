@@ -10,7 +10,7 @@ import numpy as np
 from .. import sh, threads
 from ..camera.ceiling import IMPLAUSIBLE
 from ..errors import PanoLightError
-from ..estimators import Estimate, estimate, with_key_strength, with_pointed_sun
+from ..estimators import Estimate, estimate, with_key_strength, with_pointed_sun, with_sky_sun
 from ..estimators.highlights import CLIP_LEVEL
 from ..estimators.solar import sun_position
 from ..io.lighting import make_lighting
@@ -36,16 +36,19 @@ def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model:
 
 
 def estimate_pixels(pixels: np.ndarray, lmax="auto", estimator: str = "auto", *, pointed_sun=None,
-                    sun_strength: float = 1.0, restore: bool = True) -> Estimate:
+                    sun_strength: float = 1.0, restore: bool = True, sky_sun: bool = False) -> Estimate:
     """The estimator's step of ``fit_pixels``: ``estimators.estimate`` at order ``lmax`` ("auto": the adaptive
     range's largest; an int), then a pointed sun (``pointed_sun``: (unit direction, lit/shadow contrast or None[,
     where it came from: the photo's metadata]), ``estimators.with_pointed_sun``) and the key lights times
     ``sun_strength`` (``estimators.with_key_strength``). restore: an HDR file that clips its own source has it
-    weighed (``estimators.estimate``)."""
+    weighed (``estimators.estimate``). sky_sun: a sun only the sky's gradient suggests is put back
+    (``estimators.with_sky_sun``), before any pointed sun."""
     threads.check_cancelled()
     artist = pointed_sun is not None and len(pointed_sun) < 3  # on an HDR file, the clipped patch it points at
     est = estimate(pixels, DEFAULT_MAX_ORDER if str(lmax) == "auto" else int(lmax), estimator, restore,
                    pointed_sun[0] if artist and restore else None)
+    if sky_sun:
+        est = with_sky_sun(est)
     if pointed_sun is not None:
         est = with_pointed_sun(est, *pointed_sun)
     est = with_key_strength(est, sun_strength)
@@ -174,7 +177,8 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), captu
     elif settings.sun_metadata and (found := capture_sun(capture)) is not None:
         pointed = (found[0], None, found[1])
     est = estimate_pixels(pixels, settings.order, settings.estimator, pointed_sun=pointed,
-                          sun_strength=settings.sun_strength, restore=settings.restore != "none")
+                          sun_strength=settings.sun_strength, restore=settings.restore != "none",
+                          sky_sun=settings.sky_sun)
     fitted = fit_estimate(est, hdr_input=pixels.dtype != np.uint8, lmax=settings.order, model=settings.model,
                           tolerance=settings.tolerance, deringing=None if settings.window == "none" else "none")
     threads.check_cancelled()

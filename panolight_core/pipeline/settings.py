@@ -50,7 +50,9 @@ class Settings:
     the estimate found; sun_contrast: weigh it by the photo's lit / shadow ground contrast (> 1) instead of its sky
     (``keylight.with_pointed_sun``). sun_metadata: where no direction is given, a photo whose metadata holds its
     GPS position, UTC time and heading gets the sun's direction from them (``estimate.capture_sun``) where the photo
-    does not place a sun itself. restore: RESTORES (an HDR file that clips its own source). Invalid values raise
+    does not place a sun itself. restore: RESTORES (an HDR file that clips its own source). sky_sun: a sun the photo
+    does not show and only its sky's gradient suggests is put back there (``estimators.with_sky_sun``; by default
+    the run's note says where, as a hazy sky suggests suns that are not there). Invalid values raise
     PanoLightError naming the setting."""
 
     estimator: str = "auto"
@@ -65,6 +67,7 @@ class Settings:
     sun_contrast: float | None = None  # ... weighed by the photo's lit/shadow ground contrast instead of its sky
     sun_metadata: bool = True  # the sun from the photo's GPS position, UTC time and heading, where it hides it
     restore: str = "auto"  # RESTORES
+    sky_sun: bool = False  # a sun only the sky's gradient suggests is put back (the bolder rule; default: noted)
 
     def __post_init__(self):
         from ..estimators import resolve
@@ -259,6 +262,11 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                                  "Photo Sphere write it) gets its sun's direction from them wherever the photo does not "
                                  "place a sun itself (hidden, veiled, or inside a wide clipped patch); --sun overrides "
                                  "it, and lighting.json says which was used")
+    parser.add_argument("--sky-sun", action="store_true",
+                        help="put back a sun the photo does not show wherever its sky's gradient alone places one "
+                             "(a sun retouched out of a clear sky). By default such a sun is not added, since a "
+                             "hazy sky suggests suns that are not there: the run's note says where the sky puts "
+                             "it and how sure that is, and --sun AZ,EL places it")
     parser.add_argument("--restore", choices=tuple(RESTORES), default="auto",
                         help="; ".join(f"{n}{' (default)' if n == 'auto' else ''}: {text}"
                                        for n, (_, text) in RESTORES.items())
@@ -277,7 +285,7 @@ def from_args(args) -> Settings:
                     sun_strength=getattr(args, "sun_strength", 1.0),
                     sun_direction=getattr(args, "sun", None) or getattr(args, "sun_direction", None),
                     sun_contrast=getattr(args, "sun_contrast", None), sun_metadata=getattr(args, "sun_metadata", True),
-                    restore=getattr(args, "restore", "auto"))
+                    restore=getattr(args, "restore", "auto"), sky_sun=getattr(args, "sky_sun", False))
 
 
 _NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d)[\d.,eE+-]*$")  # -2,0,2 / -40,5 / -1 / -.5 / -1e-3,0,1: never an option

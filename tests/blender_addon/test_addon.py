@@ -536,8 +536,9 @@ def _estimate_reports(path, **read_options) -> list[str]:
 
 
 def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
-    """A photo whose sun is retouched out: the estimate says a sun was placed from the sky, where and how sure, in
-    the status bar, in Blender's words (``keylight.key_light_note``: its lamp, Sun lamp strength)."""
+    """A photo whose sun is retouched out: the estimate says where its sky puts a sun and how sure, in the status
+    bar, in Blender's words (``keylight.key_light_note``: its lamp, and Sun is here with the angles that place it);
+    with Sun from the sky alone ticked, the sun is placed there."""
     from panolight_core.estimators.keylight import key_light_note
     from panolight_core.io import write_srgb8
     from tests.panolight_core.estimators.test_keylight import _retouched_sky
@@ -546,7 +547,17 @@ def test_a_hidden_sun_is_pointed_out_to_the_artist(tmp_path):
     reports = _estimate_reports(path, ldr_as_uint8=True)
     doc = store.stored_lighting(bpy.context.scene.world)
     search = doc["estimator"]["sun_search"]
-    assert search["hidden_sun"] and abs(search["elevation_deg"] - 40.0) < search["direction_68_deg"]  # sun 40 up
+    assert not search["hidden_sun"] and abs(search["elevation_deg"] - 40.0) < search["direction_68_deg"]  # sun 40 up
+    note = key_light_note(doc, light="lamp", raise_with="Sun lamp strength", as_is="Restore a clipped sun unticked",
+                          place_with="Sun is here at azimuth {az}, elevation {el}")
+    assert f"PanoLight: {note}" in reports and "Sun is here at azimuth" in note and "a sun lamp there" in note
+    bpy.context.scene.panolight.sky_sun = True
+    try:
+        reports = _estimate_reports(path, ldr_as_uint8=True)
+    finally:
+        bpy.context.scene.panolight.sky_sun = False
+    doc = store.stored_lighting(bpy.context.scene.world)
+    assert doc["estimator"]["sun_search"]["hidden_sun"]
     note = key_light_note(doc, light="lamp", raise_with="Sun lamp strength")
     assert f"PanoLight: {note}" in reports and "check its lamp against the photo's shadows" in note
 

@@ -2,7 +2,9 @@
 often the estimator invents one.
 
 ``keylight.hidden_sun`` adds a sun where no clipped region holds a clear-sky sun but the visible sky puts one
-(``sun_search.search_sun``: the clear-sky position that best fits the sky, ``SunSearch.found``). Two measurements:
+(``sun_search.search_sun``: the clear-sky position that best fits the sky, ``SunSearch.found``). Since issue 58 it does
+so only with ``--sky-sun`` (``KeyLightParams.sky_alone_sun``; by default the note says where): every measurement
+here is of that option (``SKY_SUN``). Three measurements:
 
 1. **Located from the sky alone.** For every scene of ../shared/data/hdri with a dominant compact source
    above the horizon (EVALUATION.md), at each ev: the camera JPEG (EVALUATION.md, q90), with every work cell
@@ -11,12 +13,12 @@ often the estimator invents one.
    gate's numbers (residual, visible sky, contrast: the best position's score over the median position's),
    and the fit's solar energy x SKY_CORRECTION over the truth's energy within 5 degrees (in camera units).
    Lamps indoors are the check that the gate refuses what is no sky.
-2. **Invented suns.** Every scene at each ev, unmasked, through the shipped estimator (``keylight``): each hidden
-   sun it adds, and the angle to the truth's brightest source. Where the truth has no dominant source within
+2. **Invented suns.** Every scene at each ev, unmasked, through the ``keylight`` estimator with ``--sky-sun``: each
+   hidden sun it adds, and the angle to the truth's brightest source. Where the truth has no dominant source within
    20 degrees of it, the sun is false.
 3. **Retouched, end to end.** Every scene with a dominant source above the horizon, its HDR retouched as a photo
    editor would: everything within ``--mask`` degrees of the source painted in the colour of the sky just beyond,
-   then the camera JPEG of that. The whole estimate (``keylight`` and ``sources``, the shipped model) is scored
+   then the camera JPEG of that. The whole estimate (``keylight --sky-sun`` and ``sources``, the shipped model) is scored
    against the ORIGINAL HDR, whose sun lit the scene: whether a hidden sun is made, its direction error, the
    dominant source's energy ratio r (EVALUATION.md) and m-RMSE / naive at lmax 2.
 
@@ -32,6 +34,7 @@ from __future__ import annotations
 import json
 import math
 import statistics
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +46,9 @@ from training.common.real_hdri import clipped_truth, load_hdr, scene_files
 from training.common.study import real_hdri_parser, save_study
 
 RIGHT_DEG = 20.0  # a hidden sun this close to the truth's dominant source is that source
+
+
+SKY_SUN = replace(keylight.PARAMS, sky_alone_sun=True)  # --sky-sun: the option this study measures
 
 
 def located(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
@@ -70,7 +76,7 @@ def invented(hdr: np.ndarray, ev: float) -> dict:
     """The shipped estimator's hidden suns on the camera JPEG of ``hdr`` (unmasked)."""
     ds = metrics.dominant_source(hdr)
     ldr = hdr_to_ldr(hdr, ev, 90)
-    rec = keylight.with_key_lights(sources.recover(ldr, maps=sources.work_maps(ldr)))
+    rec = keylight.with_key_lights(sources.recover(ldr, maps=sources.work_maps(ldr)), SKY_SUN)
     suns = [k for k in rec.keys if k.region < 0]
     out = {"ev": ev, "dominant": bool(ds["dominant"]), "hidden": []}
     for k in suns:
@@ -108,7 +114,7 @@ def retouched(hdr: np.ndarray, ev: float, mask_deg: float) -> dict | None:
     naive = metrics.m_rmse(gt, sh.project(ldr_to_linear(ldr), 2))
     row = {"ev": ev}
     for name in ("sources", "keylight"):
-        res = estimate_lighting(ldr, Settings(estimator=name))
+        res = estimate_lighting(ldr, Settings(estimator=name, sky_sun=True))
         est = {"m_rmse_over_naive": metrics.m_rmse(gt, res.model.project(2)) / naive,
                "ratio": metrics.source_energy_ratio(hdr, res.hdr_panorama(ldr), ds["direction"])}
         if name == "keylight":
@@ -133,7 +139,7 @@ def picture(photo: Path, out: Path, width: int = 1024) -> dict:
     if ldr.dtype != np.uint8:
         raise SystemExit(f"{photo}: --picture takes an 8-bit photo (JPEG or PNG)")
     rad, frac_any, frac_all = maps = sources.work_maps(ldr)
-    rec = keylight.with_key_lights(sources.recover(ldr, maps=maps))
+    rec = keylight.with_key_lights(sources.recover(ldr, maps=maps), SKY_SUN)
     h = width // 2
     dirs = sh.pixel_directions(h, width)
     el = np.degrees(np.arcsin(np.clip(dirs[..., 2], -1, 1)))

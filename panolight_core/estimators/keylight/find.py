@@ -70,8 +70,11 @@ def hidden_refusals(search: sun_search.SunSearch | sun_search.NoSun, regions, pa
                     ) -> list[str]:
     """Why no hidden sun is made from this search, one phrase per reason (empty: it is): the search's own tests
     (``SunSearch.refusals``, or why it stopped: ``NoSun``), a sun behind an occluder (whose shade the camera would
-    be in), or a clipped region within its radius plus ``params.hidden_clearance_deg`` of it (the sun the photo
-    shows, weighed as a region)."""
+    be in), a clipped region within its radius plus ``params.hidden_clearance_deg`` of it (the sun the photo
+    shows, weighed as a region), and, where it passes all of those, SKY_ALONE unless ``params.sky_alone_sun``: the
+    sky's gradient alone is no evidence of a sun. Out of fold a hazy sky passed every test and got a clear-sky sun
+    2034x naive's m-RMSE (docs/studies/do_no_harm.md), so a sun the photo does not show is put back by default only
+    from what the photo records (its capture metadata) or the artist's pointer; the note says where the sky puts it."""
     out = search.refusals()
     if not isinstance(search, sun_search.SunSearch):
         return out
@@ -82,7 +85,12 @@ def hidden_refusals(search: sun_search.SunSearch | sun_search.NoSun, regions, pa
         if (apart <= regions.extent_deg() + params.hidden_clearance_deg).any():
             out.append(f"a clipped region within {params.hidden_clearance_deg:g} deg of it holds the sun the photo "
                        f"shows")
+    if not out and not params.sky_alone_sun:
+        out.append(SKY_ALONE)
     return out
+
+
+SKY_ALONE = "only the sky's gradient shows it"  # the one refusal that leaves the sky's sun a suggestion to place
 
 
 def sun_search_report(fits: dict, keys: list, regions, params: KeyLightParams = PARAMS) -> dict:

@@ -9,6 +9,7 @@ import numpy as np
 
 from ... import sh
 from ..sun_search import AT_THE_HORIZON
+from .find import SKY_ALONE
 
 
 def key_light_range(doc: dict) -> dict | None:
@@ -46,10 +47,11 @@ def _factor(x: float) -> str:
 
 def key_light_note(doc: dict, light: str = "light",
                    raise_with: str = "--sun-strength (Blender: Sun lamp strength; or its intensity in lighting.json)",
-                   as_is: str = "--restore none") -> str:
+                   as_is: str = "--restore none", place_with: str = "--sun {az},{el}") -> str:
     """What an artist should know about the key light from lighting.json, in one line: a sun placed from the photo's
     capture metadata (GPS, time, heading); a sun the photo does not show that was placed from its clear sky (where,
-    and how sure); where no key light (sun or lamp) was weighed at
+    and how sure); a sun only the sky's gradient suggests, not placed by default (where, how sure, and
+    ``place_with``: what places it, "{az}" and "{el}" its degrees); where no key light (sun or lamp) was weighed at
     all, why the sky search placed no sun either (``sun_search.refused``), and whether any explicit light is left
     to cast a shadow; a key light given less than its own evidence says (a clear-sky sun capped so that a hazy sky
     does not get a blinding one: its 68 % range over the strength it was given, from KEPT_BELOW up, and what raises
@@ -66,6 +68,8 @@ def key_light_note(doc: dict, light: str = "light",
                 f"shadows")
     lights = doc.get("lights", [])
     keys = [one for one in lights if one.get("source")]  # key lights name their source
+    if search.get("direction") and SKY_ALONE in (search.get("refused") or ()):
+        return _sky_suggests(search, light, place_with)
     if search.get("searched") and not keys and search.get("refused"):
         why = "; ".join(search["refused"])
         cast = (f"the {len(lights)} explicit light(s) are the brightest spots of the recovered map" if lights else
@@ -91,6 +95,18 @@ def key_light_note(doc: dict, light: str = "light",
                 f"{caveat}). If the photo's shadows are harder than a render's, raise {raise_with} toward that (a "
                 f"sun strength of {scaled * key['low']:.1f} reaches its low end)")
     return restoration_note(doc, key, light, raise_with, as_is)
+
+
+def _sky_suggests(search: dict, light: str, place_with: str) -> str:
+    """The note of a sun the sky's gradient alone suggests (``keylight.find.SKY_ALONE``): where, how sure, why it was
+    not placed, and the command that places it."""
+    d = np.asarray(search["direction"], dtype=np.float64)
+    az, el = math.degrees(math.atan2(-d[1], d[0])), sh.elevation_deg(d)
+    command = place_with.format(az=f"{az:.0f}", el=f"{el:.0f}")
+    return (f"the photo shows no sun; its sky's gradient suggests one {el:.0f} deg up, {az:.0f} deg from the "
+            f"panorama's centre (within {search['direction_68_deg']:.0f} deg for 68 %), but a hazy sky suggests suns "
+            f"that are not there, so none was added. If the photo's shadows show a sun, {command} places a sun {light} "
+            f"there")
 
 
 def restoration_note(doc: dict, key: dict | None, light: str, raise_with: str, as_is: str) -> str:

@@ -27,6 +27,8 @@ class KeyLightParams:
     floor_max_extent_deg, floor_min_elevation_deg: a clear-sky sun on a region no wider, standing at least this
         high, is trusted: kept within its fit's 68 % range (``weighing.physics_trusted``).
     belief: a key light carries its evidence's belief, not the decided fill's caution (an HDR file's plateau).
+    sky_alone_sun: a sun the photo does not show is put back where its clear sky alone places it (the bolder rule,
+        ``--sky-sun``); by default only the note says where, and ``--sun`` (Blender: Pick sun) places it.
     """
 
     key_share: float = 0.1
@@ -44,6 +46,7 @@ class KeyLightParams:
     floor_max_extent_deg: float = 30.0
     floor_min_elevation_deg: float = 15.0
     belief: bool = False
+    sky_alone_sun: bool = False
 
 
 PARAMS = KeyLightParams()  # what ships

@@ -1,4 +1,5 @@
-"""Which energy to report per region: the one of least expected error under the metric itself.
+"""Which energy to report per region: the one of least expected error under the metric itself, among those that
+harm no truth within the prediction's 68 % range.
 
 m-RMSE punishes an over-estimate without bound and an under-estimate at most by the source's energy: for a
 dominant source the error is |r_hat / r - 1|, smallest in expectation at log r_hat = mu - sigma^2 when
@@ -6,6 +7,12 @@ log r ~ N(mu, sigma^2). The metric's median scaling adds more (a bright enough e
 an lmax-2 map to zero), so ``choose_shrink`` decides per scene under the metric itself:
 log r_hat = max(mu - c sigma^2, 0) with the c of lowest expected error over truths drawn from the
 predictive distribution. Never below 1: clipping only hides light.
+
+Being wrong is priced too (issue 58, docs/studies/do_no_harm.md): the expected error alone took choices that harm a
+scene (EVALUATION.md's "Harm": over 2x and + 0.25 the plain map's m-RMSE) when its truth lay at the low end of the
+prediction's 68 % range, as clipped clouds' do. A choice is kept only where no truth of the range (every region at
+mu - sigma, mu and mu + sigma together: a scene's regions err together) makes it harm; of those, the least
+expected error; and never a bolder choice than the expected error's own.
 """
 from __future__ import annotations
 
@@ -15,6 +22,7 @@ from functools import lru_cache
 import numpy as np
 
 from ... import sh
+from ...harm import harmed
 from .regions import Regions
 
 SHRINK_CANDIDATES = (0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0, math.inf)  # inf: keep every region at its clip level
@@ -110,8 +118,9 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     (a bright enough source drags the median of an lmax-2 map to zero): deciding under the metric
     itself weighs that too. Of the candidates within ``tolerance`` (default DECISION_TOLERANCE, relative)
     of the lowest expected error the most conservative is taken, skipping candidates whose lmax-2 map
-    has a median below MIN_MEDIAN_RATIO of its mean. base: the plain linearised
-    work map.
+    has a median below MIN_MEDIAN_RATIO of its mean; and where that one could harm a truth of the 68 % range
+    (``harmless``), the same choice among those that could not, if it is more conservative. base: the plain
+    linearised work map.
     Returns (c, expected errors per c)."""
     tolerance = DECISION_TOLERANCE if tolerance is None else tolerance
     n = regions.count
@@ -124,10 +133,25 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     cand_lr = np.stack([shrunk(mu, sigma, c) for c in SHRINK_CANDIDATES])
     err, healthy = decision_errors(base, regions, cand_lr, true_lr)
     expected = err.sum(axis=0).mean(axis=1)
-    pool = np.where(healthy, expected, np.inf)
-    # the least energy whose expected error is within ``tolerance`` of the best: near-ties go to the
-    # side where a wrong answer costs least (an over-estimate's cost is unbounded)
-    ok = np.flatnonzero(pool <= pool.min() * (1.0 + tolerance) + 1e-12)
-    best = int(ok.max())
+
+    def least(allowed):  # the least energy whose expected error is within ``tolerance`` of the best allowed: near-ties
+        pool = np.where(allowed, expected, np.inf)  # go to the side where a wrong answer costs least
+        return int(np.flatnonzero(pool <= pool.min() * (1.0 + tolerance) + 1e-12).max())
+
+    best = max(least(healthy), least(healthy & harmless(base, regions, mu, sigma, cand_lr)))
     return SHRINK_CANDIDATES[best], {("none" if math.isinf(c) else f"{c:g}"): round(float(e), 6)
                                      for c, e in zip(SHRINK_CANDIDATES, expected)}
+
+
+HARM_RANGE_Z = (-1.0, 0.0, 1.0)  # the truths a choice must not harm: the 68 % range's ends and middle
+
+
+def harmless(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.ndarray, cand_lr: np.ndarray) -> np.ndarray:
+    """(C,) whether each candidate report (C, n) harms (``metrics.harmed``: m-RMSE over 2x and + 0.25 the plain
+    map's, the last candidate's) none of the truths of the prediction's 68 % range, every region at mu + z sigma
+    (z in HARM_RANGE_Z) together; the last candidate (the plain map) always."""
+    true_lr = np.stack([np.maximum(mu + z * sigma, 0.0) for z in HARM_RANGE_Z])
+    m = decision_errors(base, regions, cand_lr, true_lr)[0][0]  # (C, Z) m-RMSE
+    ok = np.array([not any(harmed(m[i, j], m[-1, j]) for j in range(m.shape[1])) for i in range(m.shape[0])])
+    ok[-1] = True
+    return ok

@@ -293,8 +293,8 @@ def test_workers_die_with_a_killed_batch(tmp_path):
 
 
 def test_the_report_names_the_plates_whose_key_light_needs_a_look(tmp_path, capsys):
-    """A render farm's report carries each input's key-light note (``keylight.key_light_note``): a sun put
-    back from the sky of a photo whose sun was retouched out; a grey panorama with no light at all; a lamp whose
+    """A render farm's report carries each input's key-light note (``keylight.key_light_note``): where the sky of
+    a photo whose sun was retouched out puts a sun, and the --sun that places it; a grey panorama with no light at all; a lamp whose
     key light is as strong as its evidence has nothing to say. The terminal says it too, one line per input
     (issue 46: batch printed none of it)."""
     from panolight_core.camera import hdr_to_ldr
@@ -309,7 +309,8 @@ def test_the_report_names_the_plates_whose_key_light_needs_a_look(tmp_path, caps
     out = tmp_path / "out"
     assert main(["batch", str(src), "-o", str(out), "-q", "--outputs", "lighting"]) == 0
     results = {Path(r["input"]).name: r for r in json.loads((out / "batch_report.json").read_text())["results"]}
-    assert results["retouched.png"]["key_light"].startswith("the photo shows no sun, so one was placed")
+    assert results["retouched.png"]["key_light"].startswith("the photo shows no sun; its sky's gradient suggests one")
+    assert "--sun " in results["retouched.png"]["key_light"]
     assert results["grey.png"]["key_light"].startswith("no sun or lamp was weighed as a key light")
     assert "key_light" not in results["lamp.png"]
     said = [line for line in capsys.readouterr().err.splitlines() if line.startswith("  key light: ")]

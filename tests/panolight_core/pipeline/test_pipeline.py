@@ -131,8 +131,8 @@ def test_run_estimate_reports_progress_through_logging_and_prints_nothing(tmp_pa
 
 
 def test_run_estimate_says_what_an_artist_should_know_of_the_key_light(tmp_path, caplog):
-    """A photo whose sun is retouched out: the run logs that a sun was placed from its sky (``key_light_note``),
-    where and how sure, in the words of a tool that has no lamps."""
+    """A photo whose sun is retouched out: the run logs where its sky puts a sun (``key_light_note``), how sure, and
+    the --sun that places it, in the words of a tool that has no lamps; with --sky-sun it was placed there."""
     import logging
 
     from panolight_core.io import write_srgb8
@@ -143,6 +143,12 @@ def test_run_estimate_says_what_an_artist_should_know_of_the_key_light(tmp_path,
         doc = run_estimate(src, tmp_path / "out", outputs=("lighting",))
     said = [r.getMessage() for r in caplog.records if r.name == "panolight_core.pipeline.job"]
     notes = [m for m in said if m.startswith("note: ")]
+    assert len(notes) == 1 and notes[0].startswith("note: the photo shows no sun; its sky's gradient suggests one")
+    assert f"{doc['estimator']['sun_search']['elevation_deg']:.0f} deg up" in notes[0] and "a sun light" in notes[0]
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="panolight_core"):
+        doc = run_estimate(src, tmp_path / "bold", outputs=("lighting",), settings=Settings(sky_sun=True))
+    notes = [r.getMessage() for r in caplog.records if r.getMessage().startswith("note: ")]
     assert len(notes) == 1 and notes[0].startswith("note: the photo shows no sun, so one was placed")
     assert f"{doc['estimator']['sun_search']['elevation_deg']:.0f} deg up" in notes[0] and "its light" in notes[0]
 

@@ -8,8 +8,7 @@ from .test_hidden_sun import _sky_hdr, _write_hdr
 
 
 def test_a_clipped_hdr_is_scored_as_it_is_and_restored(tmp_path):
-    """A clear day with its sun (a 1-degree disk, as a lens blurs it): the JPEG (whose clipped sun the key light
-    weighs) and the HDR clipped at +2 and +6 stops, taken as it is (its exact projection: the more the file clips,
+    """A clear day with its sun (a 1-degree disk, as a lens blurs it): the JPEG and the HDR clipped at +2 and +6 stops, taken as it is (its exact projection: the more the file clips,
     the less of the sun it holds) and restored (its plateau weighed: nearer the truth); the summary has a row per
     capture, and draws."""
     from tests.panolight_core.estimators.sources.test_restore import _clear_day
@@ -21,7 +20,10 @@ def test_a_clipped_hdr_is_scored_as_it_is_and_restored(tmp_path):
                                             "HDR clipped at +6 stops, restored"]
     jpeg, low, low_restored, high, high_restored = rows
     assert low["ratio"] < high["ratio"] <= 1.0 + 1e-6 and low["contrast"] <= high["contrast"]
-    assert low["m_rmse_over_own"] == pytest.approx(1.0, abs=0.02) and jpeg["m_rmse_over_naive"] < 1.0
+    assert low["m_rmse_over_own"] == pytest.approx(1.0, abs=0.02)
+    # at 512 wide the JPEG clips no patch the work map holds, and only its sky suggests the sun: nothing is added
+    # (issue 58), so it scores as naive
+    assert jpeg["m_rmse_over_naive"] == pytest.approx(1.0, abs=1e-4)
     for as_is, restored in ((low, low_restored), (high, high_restored)):
         assert abs(np.log2(restored["ratio"])) < abs(np.log2(as_is["ratio"]))
         assert restored["m_rmse_over_own"] < 1.0

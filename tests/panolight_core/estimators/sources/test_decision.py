@@ -34,3 +34,32 @@ def test_decision_without_uncertainty_reports_the_mean():
     c, expected = sources.choose_shrink(rad, reg, mu, np.full(reg.count, 1e-9))
     assert math.isfinite(c) and expected["0"] == pytest.approx(0.0, abs=1e-6)  # known truth: mu - c sigma^2 = mu
     assert expected["none"] > 0.1 and expected["1"] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_choice_that_would_harm_the_low_end_of_the_range_gives_way_to_a_harmless_one(monkeypatch):
+    """A wide clipped patch in a bright sky, predicted unsure (log ratio 2.5 +- 1.5, as the trees predict clipped
+    clouds): the least expected error alone reports the whole mean, which harms a truth at the range's low end
+    (EVALUATION.md's harm against the plain map); the shipped decision takes a more cautious choice that harms no
+    truth of the range."""
+    from panolight_core.estimators.sources import decision
+    from panolight_core.metrics import harmed
+
+    ldr, _ = sun_ldr(64, radius_deg=20.0, sky=0.2)
+    rad, fa, fb = sources.work_maps(ldr)
+    reg = sources.region_features(rad, fa, fb)
+    mu, sigma = np.full(reg.count, 2.5), np.full(reg.count, 1.5)
+    guarded, _ = decision.choose_shrink(rad, reg, mu, sigma)
+    monkeypatch.setattr(decision, "harmless", lambda base, regions, mu, sigma, cand: np.ones(len(cand), bool))
+    alone, _ = decision.choose_shrink(rad, reg, mu, sigma)
+    assert guarded > alone
+    low = np.maximum(mu - sigma, 0.0)[None]
+
+    def m_rmse(c):
+        cand = np.stack([decision.shrunk(mu, sigma, c), np.zeros_like(mu)])  # the choice and the plain map
+        return decision.decision_errors(rad, reg, cand, low)[0][0][:, 0]
+
+    assert harmed(*m_rmse(alone))
+    for z in (-1.0, 0.0, 1.0):
+        truth = np.maximum(mu + z * sigma, 0.0)[None]
+        cand = np.stack([decision.shrunk(mu, sigma, guarded), np.zeros_like(mu)])
+        assert not harmed(*decision.decision_errors(rad, reg, cand, truth)[0][0][:, 0])

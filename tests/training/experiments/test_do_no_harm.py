@@ -1,0 +1,36 @@
+"""training.experiments.do_no_harm: each decision rule holds only inside its block, a scene is scored under each
+variant, and the summary counts harmed scenes first."""
+
+import numpy as np
+import pytest
+
+from panolight_core import metrics
+from panolight_core.camera.resample import area_downsample
+from panolight_core.data import load_studio_hdri
+from panolight_core.estimators import sources
+from panolight_core.estimators.sources import decision, recovery
+from training.experiments import do_no_harm
+
+
+def test_the_rules_hold_only_inside_and_the_shipped_one_comes_back():
+    shipped = (recovery.choose_shrink, recovery.shrunk, decision.harmless, decision.HARM_RANGE_Z)
+    with do_no_harm.decision_rule("expected"):
+        assert decision.harmless(None, None, None, None, np.zeros((3, 2))).all()
+    with do_no_harm.decision_rule("bounded:2"):
+        assert decision.HARM_RANGE_Z == (-2.0, 0.0, 2.0)
+    with do_no_harm.decision_rule("quantile:0.16"):
+        assert recovery.shrunk(np.array([2.0]), np.array([1.0]), 0.0)[0] == pytest.approx(1.0057, abs=1e-3)
+    with pytest.raises(ValueError, match="unknown decision"), do_no_harm.decision_rule("median"):
+        pass
+    assert (recovery.choose_shrink, recovery.shrunk, decision.harmless, decision.HARM_RANGE_Z) == shipped
+
+
+def test_a_scene_is_scored_under_each_variant_and_the_summary_counts_harm_first():
+    hdr = area_downsample(load_studio_hdri("forest"), 128)
+    row = dict(do_no_harm.score(hdr, 0.0, sources.load_source_model(), ("shipped", "expected+sky-sun")), scene="forest")
+    assert set(row["variants"]) == {"shipped", "expected+sky-sun"} and row["naive"][0] > 0
+    low = dict(row, variants={v: [row["naive"][0] * 0.5, 0.0] for v in row["variants"]})
+    high = dict(row, scene="other", variants={v: [row["naive"][0] * 3 + 1.0, 0.0] for v in row["variants"]})
+    s = do_no_harm.summary([low, high], ["shipped"])["shipped"]
+    assert list(s)[0] == "harmed" and s["harmed"] == 1 and s["harmed_scenes"] == ["other"]
+    assert metrics.harmed(high["variants"]["shipped"][0], high["naive"][0])

@@ -1,0 +1,151 @@
+"""Do no harm (issue 58): decisions that price being wrong, scored out of fold by harmed scenes first.
+
+For every scene of ../shared/data/hdri with an un-clipped truth, at each ev, the camera JPEG (EVALUATION.md, q90)
+is estimated as the shipped per-source model (of the scene's fold, which never saw it) and key lights do, under
+each variant, and the recovered work map is scored as ``training.keylight.rules`` scores it (m-RMSE at lmax 2,
+as a ratio to the naive map's; harmed: EVALUATION.md's "Harm", ``metrics.harmed``). Variants:
+
+- ``shipped``: the default as it ships: the fill's decision (``sources.choose_shrink``) keeps, of its candidates,
+  only those that harm no truth within the prediction's 68 % range (every region at mu - sigma, mu, mu + sigma
+  together), then takes the least expected error: a minimax guard over the range, expected loss inside it, never
+  bolder than the expected loss alone;
+- ``expected``: the decision by the least expected error alone (the rule before issue 58);
+- ``bounded:Z``: the shipped guard over the truths at Z standard deviations (Z 1 ships);
+- ``quantile:P``: every region reports the P quantile of its predicted log ratio (mu + z_P sigma, at least 0):
+  the decision of least expected pinball loss when an over-estimate costs (1 - P) / P times an under-estimate;
+- a variant followed by ``+sky-sun``: a sun the photo does not show is put back where its sky's gradient alone
+  places it (``--sky-sun``; the default before issue 58); by ``+key-decided``: no key light carries more than its
+  regions' decided energy.
+
+    python -m training.experiments.do_no_harm --fold-models 'runs/folds/sources_{k}.safetensors' --out runs/harm.json \
+        [--variants expected+sky-sun expected shipped bounded:1.5 quantile:0.2]
+"""
+from __future__ import annotations
+
+import contextlib
+import statistics
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
+from pathlib import Path
+from statistics import NormalDist
+
+import numpy as np
+
+from panolight_core import metrics, sh, threads
+from panolight_core.camera import hdr_to_ldr, ldr_to_linear
+from panolight_core.estimators import keylight, sources
+from panolight_core.estimators.sources import decision, recovery
+from panolight_core.estimators.sources.fill import cap_log_ratios, fill_with_keys
+from panolight_core.pipeline import fit_radiance
+from training.common.real_hdri import clipped_truth, load_hdr, scene_files
+from training.common.study import fold_models_option, real_hdri_parser, save_study, scene_models
+
+VARIANTS = ("expected+sky-sun", "expected", "shipped", "bounded:1.5", "bounded:2", "quantile:0.16", "quantile:0.3")
+
+
+@contextlib.contextmanager
+def decision_rule(rule: str):
+    """The fill's decision ``recover`` uses under a variant's first part, for the ``with`` block: "shipped";
+    "expected" (the least expected error alone, no harm guard: the rule before issue 58); "bounded:Z" (the guard
+    over the truths at -Z, 0, +Z standard deviations); "quantile:P"."""
+    saved = recovery.choose_shrink, recovery.shrunk, decision.harmless, decision.HARM_RANGE_Z
+    name, _, arg = rule.partition(":")
+    if name == "expected":
+        decision.harmless = lambda base, regions, mu, sigma, cand_lr: np.ones(len(cand_lr), bool)
+    elif name == "bounded":
+        decision.HARM_RANGE_Z = (-float(arg), 0.0, float(arg))
+    elif name == "quantile":
+        z = NormalDist().inv_cdf(float(arg))
+        recovery.choose_shrink = lambda *a, **k: (0.0, {})
+        recovery.shrunk = lambda mu, sigma, c: np.maximum(mu + z * sigma, 0.0)
+    elif name != "shipped":
+        raise ValueError(f"unknown decision {rule!r}")
+    try:
+        yield
+    finally:
+        recovery.choose_shrink, recovery.shrunk, decision.harmless, decision.HARM_RANGE_Z = saved
+
+
+def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
+    """One scene at one ev: naive's and each variant's [m-RMSE, irr-RMSE], and the key lights' sources."""
+    ds = metrics.dominant_source(hdr)
+    gt = sh.project(hdr, 2)
+    ldr = hdr_to_ldr(hdr, ev, 90, robust=True)
+    naive = sh.project(ldr_to_linear(ldr), 2)
+    maps = sources.work_maps(ldr)
+    row = {"ev": ev, "dominant": bool(ds["dominant"]), "naive": [metrics.m_rmse(gt, naive), metrics.irr_rmse(gt, naive)], "variants": {}, "keys": {}}
+    for variant in variants:
+        rule, *extras = variant.split("+")
+        with decision_rule(rule):
+            rec = sources.recover(ldr, model, maps=maps)
+        params = replace(keylight.PARAMS, sky_alone_sun="sky-sun" in extras)
+        keys = keylight.find_key_lights(maps, rec.regions, (rec.mu, rec.sigma, rec.log_ratio), params)
+        if "key-decided" in extras:
+            keys = [replace(k, energy=min(k.energy, k.decided)) if k.region >= 0 else k for k in keys]
+            keys = [k for k in keys if k.energy > 0]
+        work = fill_with_keys(maps[0], rec.regions, cap_log_ratios(rec.regions, rec.log_ratio, keys), keys)[1]
+        q = fit_radiance(work, hdr_input=False).project(2)
+        row["variants"][variant] = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
+        row["keys"][variant] = [k.method.split(":")[0].split(" (")[0] for k in keys]
+    return row
+
+
+def _scene_job(args):
+    path, evs, model_path, variants = args
+    from panolight_core.estimators.sources import load_source_model
+
+    model = load_source_model(model_path) if model_path else load_source_model()
+    hdr = load_hdr(Path(path))
+    return [dict(score(hdr, ev, model, variants), scene=Path(path).stem) for ev in evs]
+
+
+def summary(rows: list[dict], variants) -> dict:
+    """Per variant: harmed scenes (first), m-RMSE / naive median and mean over every scene and over those with a
+    dominant source, and the harmed scenes' names."""
+    out = {}
+    for v in variants:
+        ratio = [r["variants"][v][0] / r["naive"][0] for r in rows]
+        dom = [r["variants"][v][0] / r["naive"][0] for r in rows if r["dominant"]]
+        harmed = [r["scene"] for r in rows if metrics.harmed(r["variants"][v][0], r["naive"][0])]
+        out[v] = {"harmed": len(harmed), "scenes": len(rows), "m_rmse_median": statistics.median(ratio),
+                  "m_rmse_mean": statistics.mean(ratio), "dominant": len(dom),
+                  "dominant_median": statistics.median(dom) if dom else None,
+                  "dominant_mean": statistics.mean(dom) if dom else None, "harmed_scenes": harmed}
+    return out
+
+
+def main(argv=None) -> int:
+    ap = real_hdri_parser("python -m training.experiments.do_no_harm", __doc__)
+    fold_models_option(ap)
+    ap.add_argument("--variants", nargs="+", default=list(VARIANTS), metavar="VARIANT",
+                    help="the variants to score (module doc; default: %(default)s)")
+    ap.add_argument("--workers", type=int, default=2, help="processes, one scene each at a time (default 2)")
+    ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
+    args = ap.parse_args(argv)
+    files = scene_files(args.hdri)
+    clipped = clipped_truth(args.hdri)
+    model_of = scene_models(args.fold_models, files)
+    jobs = [(str(p), list(args.evs), str(model_of[p].path) if args.fold_models else None, args.variants)
+            for p in files if p.name not in clipped]
+    rows = []
+    with ProcessPoolExecutor(args.workers, mp_context=threads.process_context()) as pool:
+        for i, got in enumerate(pool.map(_scene_job, jobs), 1):
+            rows += got
+            for r in got:
+                print(f"[{i}/{len(jobs)}] {r['scene']:28s} ev {r['ev']:+g}: naive {r['naive'][0]:.3f}  " + "  ".join(
+                    f"{v} {r['variants'][v][0] / r['naive'][0]:.2f}x" for v in args.variants), flush=True)
+    result = {"fold_models": args.fold_models, "summary": {}}
+    print("| ev | variant | harmed | scenes | m-RMSE / naive, median / mean | dominant: median / mean | harmed scenes |")
+    print("|---|---|---:|---:|---:|---:|---|")
+    for ev in args.evs:
+        s = summary([r for r in rows if r["ev"] == ev], args.variants)
+        result["summary"][f"{ev:+g}"] = s
+        for v, x in s.items():
+            print(f"| {ev:+g} | `{v}` | {x['harmed']} | {x['scenes']} | {x['m_rmse_median']:.3f} / {x['m_rmse_mean']:.3f} "
+                  f"| {x['dominant_median']:.3f} / {x['dominant_mean']:.3f} | {', '.join(x['harmed_scenes'])} |")
+    save_study(dict(result, rows=rows), args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
