@@ -53,13 +53,16 @@ def markdown(result: dict) -> str:
         out.append("| **mean** | " + " | ".join(f"**{m['mean_m_rmse']:.3f} / {m['mean_irr_rmse']:.3f}**" for m in means) + " |")
         out += ["", "cells: m-RMSE / irr-RMSE / dominant-light angle in degrees (lower is better)", ""]
     out += ["## Summary", "", "Baselines (ambient, naive) are projections; other estimators are scored as their whole "
-            "model (lights + SH). Wins: scenes whose m-RMSE beats naive's.", "",
-            "| estimator | ev | mean m-RMSE | median m-RMSE | median m-RMSE of hdr.exr | mean irr-RMSE | "
+            "model (lights + SH). Harmed (EVALUATION.md, first): scenes whose m-RMSE is over both 2x and + 0.25 "
+            "naive's. Wins: scenes whose m-RMSE beats naive's.", "",
+            "| estimator | ev | harmed | mean m-RMSE | median m-RMSE | median m-RMSE of hdr.exr | mean irr-RMSE | "
             "median irr-RMSE | wins vs naive | mean sun angle (5 sun scenes) | median ms |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+            "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for m in result["summary"].values():
         wins = "n/a" if m.get("wins_vs_naive") is None else f"{m['wins_vs_naive']}/{len(s['scenes'])}"
-        out.append(f"| {m['estimator']} | {m['ev']:+g} | {m['mean_m_rmse']:.3f} | {m['median_m_rmse']:.3f} | "
+        hurt = m.get("harmed")
+        hurt = "n/a" if hurt is None else f"{len(hurt)}" + (f" ({', '.join(hurt)})" if hurt else "")
+        out.append(f"| {m['estimator']} | {m['ev']:+g} | {hurt} | {m['mean_m_rmse']:.3f} | {m['median_m_rmse']:.3f} | "
                    f"{_fmt(m.get('median_hdri_m_rmse'))} | {m['mean_irr_rmse']:.3f} | {m['median_irr_rmse']:.3f} | {wins} | "
                    f"{_fmt(m['mean_sun_angle_deg'], 1)} | {m['median_ms']:.1f} |")
     out += _markdown_dominant(result) + _markdown_spheres(result)

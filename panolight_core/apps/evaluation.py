@@ -93,6 +93,8 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
             naive = {r["scene"]: r for r in rows if r["estimator"] == "naive" and r["ev"] == ev}
             summary[f"{name}@{ev:+g}"] = {
                 "estimator": name, "ev": ev,
+                "harmed": ([r["scene"] for r in sel if r["scene"] in naive and
+                            metrics.harmed(r["m_rmse"], naive[r["scene"]]["m_rmse"])] if naive else None),
                 "mean_m_rmse": float(np.mean([r["m_rmse"] for r in sel])),
                 "median_m_rmse": float(np.median([r["m_rmse"] for r in sel])),
                 "mean_irr_rmse": float(np.mean([r["irr_rmse"] for r in sel])),

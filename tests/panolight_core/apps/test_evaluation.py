@@ -28,7 +28,7 @@ def test_protocol_reproduces_baselines_and_writes_reports(tmp_path):
 def test_eval_cli_subset(tmp_path, capsys):
     assert main(["eval", "-o", str(tmp_path), "--evs", "0", "--estimators", "naive", "--repeats", "1", "-q"]) == 0
     out = capsys.readouterr().out
-    assert "| naive | +0 | 1.123 |" in out  # mean of the eight EVALUATION.md naive numbers
+    assert "| naive | +0 | 0 | 1.123 |" in out  # mean of the eight EVALUATION.md naive numbers
 
 
 def test_eval_scores_trained_variants_by_label_and_names_bad_ones(tmp_path, capsys):
@@ -37,7 +37,7 @@ def test_eval_scores_trained_variants_by_label_and_names_bad_ones(tmp_path, caps
     assert main(["eval", "-o", str(tmp_path), "--evs", "0", "--estimators", "naive", "--repeats", "1", "-q",
                  "--no-adaptive", "--weights", f"mine={DEFAULT_WEIGHTS}"]) == 0
     out = capsys.readouterr().out
-    assert out.count("| mine | +0 |") == 2 and "| naive | +0 | 1.123 |" in out  # the summary and the three spheres
+    assert out.count("| mine | +0 |") == 2 and "| naive | +0 | 0 | 1.123 |" in out  # the summary and the three spheres
     assert "## Three spheres (the published tables' protocol)" in out
     assert main(["eval", "-o", str(tmp_path), "--weights", f"naive={DEFAULT_WEIGHTS}"]) == 1
     assert "built-in" in capsys.readouterr().err
