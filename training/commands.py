@@ -100,6 +100,8 @@ TOOLS = {
                       "set, against their peers"),
     "bench-captures": ("training.benchmarks.bench_captures", "benchmark: each capture's time to the estimate, beside "
                        "its accuracy (JPEG, brackets, clipped HDRs, RAW)"),
+    "bench-merge": ("training.benchmarks.bench_merge", "benchmark: the bracket merge against OpenCV's calibrated Debevec "
+                    "merge (time, agreement, fireflies) on noisy camera sets of real HDRs, or a real set's folder"),
     "bench-io": ("training.benchmarks.bench_io", "benchmark: decode time per format, peak memory per size"),
     "bench-neural": ("training.benchmarks.bench_neural", "benchmark: the learned estimator's network latency"),
     "bench-scale": ("training.benchmarks.bench_scale", "benchmark: 16K CLI, 8K/16K Blender and batch throughput"),

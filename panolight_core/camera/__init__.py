@@ -60,15 +60,29 @@ def tone_curve(x: np.ndarray, curve: str = "srgb", param: float | None = None) -
     return linear_to_srgb(np.clip(MID_GREY * (np.maximum(x, 0.0) / MID_GREY) ** p, 0.0, 1.0))
 
 
+def sensor_noise(x: np.ndarray, rng: np.random.Generator, full_well: float = 10000.0, read: float = 4.0
+                 ) -> np.ndarray:
+    """Exposed linear values ``x`` (1 = the sensor's white) as a sensor records them: photon (shot) noise of
+    ``full_well`` electrons at white (Poisson, taken as Gaussian of variance x full_well) and read noise of ``read``
+    electrons (Gaussian), in the same units; not clipped (the tone curve clips). The defaults are a small sensor's
+    (a 360 camera's or a phone's: about 10,000 electrons, 4 of read noise)."""
+    e = np.maximum(np.asarray(x, dtype=np.float64), 0.0) * full_well
+    return (e + rng.standard_normal(e.shape) * np.sqrt(e + read ** 2)) / full_well
+
+
 def hdr_to_ldr(hdr: np.ndarray, ev: float = 0.0, jpeg_quality: int | None = None, robust: bool = False,
-               scale: float | None = None, curve: str = "srgb", curve_param: float | None = None) -> np.ndarray:
+               scale: float | None = None, curve: str = "srgb", curve_param: float | None = None,
+               noise: np.random.Generator | None = None) -> np.ndarray:
     """(H, W, 3) linear HDR -> (H, W, 3) uint8 sRGB as an auto-exposing camera would (EVALUATION.md).
 
     robust: see auto_exposure (for training data with masked or black regions). scale: use this exposure
     factor instead of the automatic one (training code that needs k itself). curve, curve_param: another
-    camera's tone curve (``tone_curve``; EVALUATION.md's is "srgb")."""
+    camera's tone curve (``tone_curve``; EVALUATION.md's is "srgb"). noise: a random generator to record the
+    exposure through ``sensor_noise`` first (None: a noiseless sensor, EVALUATION.md's)."""
     k = auto_exposure(hdr, ev, robust) if scale is None else float(scale)
     x = k * np.asarray(hdr, dtype=np.float64)
+    if noise is not None:
+        x = sensor_noise(x, noise)
     ldr = np.round(tone_curve(x, curve, curve_param) * 255.0).astype(np.uint8)
     return ldr if jpeg_quality is None else jpeg_roundtrip(ldr, jpeg_quality)
 

@@ -34,10 +34,8 @@ from .. import threads
 from ..errors import PanoLightError
 from .color import SRGB8_TO_LINEAR, gray8
 from .response import SRGB, recover_response
+from .weights import CLIPPED_CODE, GHOST_RATIO, noise_weights, sure_codes
 
-CLIPPED_CODE = 250  # a channel at this 8-bit code or above is clipped: a JPEG's compression leaves a clipped sun's
-# pixels at 250-253 as often as at 255 (noon_grass at -2 ev, q90: 2812 pixels at 254 or more, 3138 at 250), and a
-# frame's near-white pixel weighs almost nothing by the hat anyway
 RING_CODE = 230  # a JPEG rings 10-20 codes round a clipped patch (codes 230-249 beside a clipped edge) ...
 RING_BLOCK = 16  # ... inside the compression's blocks that hold the edge (8 x 8 luma, 16 x 16 with 4:2:0 chroma): a
 # code from RING_CODE up in a block of this size that holds a clipped code is taken as clipped, never as the light
@@ -54,13 +52,6 @@ def exposure(time_s: float, f_number: float, iso: float) -> float:
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise PanoLightError(f"{name} {value!r} is not a positive number")
     return float(time_s) * float(iso) / float(f_number) ** 2
-
-
-def hat(codes: np.ndarray) -> np.ndarray:
-    """Debevec's hat weight of 8-bit codes (float32): 1 at 0 rising to 128 at mid-scale and falling again, 0 at
-    CLIPPED_CODE or above."""
-    z = codes.astype(np.float32)
-    return np.where(codes >= CLIPPED_CODE, np.float32(0.0), np.minimum(z + 1.0, 256.0 - z))
 
 
 def check_exposures(exposures) -> np.ndarray:
@@ -209,11 +200,6 @@ def kept_shift(reference_codes: np.ndarray, frame: np.ndarray, ratio: float, shi
     return int(shift[0]), int(shift[1])
 
 
-GHOST_RATIO = 2.0  # a pixel whose brightest channel's radiance in a frame is this far from the reference frame's ...
-GHOST_CODES = (20, 235)  # ... where both frames see it well exposed (these codes), moved between them (a person, a
-# leaf, a wave): that frame gives it nothing. A still scene's frames agree within JPEG's few per cent there
-
-
 AGREE_GRID_WIDTH = 128  # ``frame_agreement`` compares the frames' mean codes over blocks, a grid this wide (8 x 8
 # pixels of a 1024-wide frame): a residual of the alignment (a pixel or two: what a hand-held set keeps) put 84-127
 # of 818 still pairs against each other pixel by pixel (docs/studies/captures.md)
@@ -349,7 +335,7 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     each frame's exposure over the reference's (in stops), the ceiling, the share of pixels clipped in every frame
     and, with ``align``, each frame's (dy, dx) shift onto the reference (``align_shift``: a hand-held set). With
     ``ghosts`` a frame gives nothing to a pixel it sees GHOST_RATIO brighter or darker than the reference frame does
-    where both see it well exposed (GHOST_CODES): what moved between the frames is the reference frame's alone.
+    where both see it well exposed (``sure_codes``): what moved between the frames is the reference frame's alone.
     With ``response`` 8-bit frames are decoded through their own camera curve where it explains them better than
     sRGB (``camera.response.recover_response``; the record's ``response`` says which and why), else sRGB. Frames
     that contradict their exposures' order or show another scene are refused, named by ``names`` (file names; else
@@ -378,12 +364,12 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     curve = recover_response(frames, rel, ref) if response and linear is None else SRGB
     ceiling = float(curve.table[255] / rel.min())  # the darkest frame's white: above every value a frame holds
     dark = int(np.argmin(rel))
-    weight = hat(np.arange(256, dtype=np.uint8))  # by code: a table lookup per pixel, not arithmetic
+    weight = noise_weights(curve.table)  # by code: a table lookup per pixel, not arithmetic
     radiance = [(curve.table / np.float32(k)).astype(np.float32) for k in rel]  # each frame's code -> radiance
-    # each frame's weight by (the reference's code, its own code) of a pixel's brightest channel: the hat, and 0 where
-    # the two differ by GHOST_RATIO in radiance though both are well exposed (GHOST_CODES): one table lookup per pixel
-    codes = np.arange(256)
-    sure = (codes >= GHOST_CODES[0]) & (codes <= GHOST_CODES[1])
+    # each frame's weight by (the reference's code, its own code) of a pixel's brightest channel: the noise weight,
+    # and 0 where the two differ by GHOST_RATIO in radiance though both are well exposed (``sure_codes``): one table
+    # lookup per pixel
+    sure = sure_codes(curve.table)
     weights = []
     for i, k in enumerate(rel):
         table = np.broadcast_to(weight[None, :], (256, 256)).copy()  # [reference code, own code]

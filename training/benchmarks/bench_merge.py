@@ -1,0 +1,201 @@
+"""The bracket merge against OpenCV's calibrated Debevec merge (issue 59): time, agreement and fireflies.
+
+Sets, each merged by PanoLight (``camera.brackets.merge_brackets``: its own camera curve where that fits better
+than sRGB; no alignment, the sets are still) and by OpenCV (``CalibrateDebevec``, then ``MergeDebevec`` with that
+curve) on the same frames and exposures:
+
+- **simulated** (default): real HDRs of ../shared/data/hdri (``--scenes``), each taken as a camera takes a bracket:
+  the EVALUATION.md ev-0 exposure times 2^s for each s of ``--stops``, photon and read noise
+  (``camera.sensor_noise``: a small sensor's), the sRGB curve, JPEG q90;
+- **real**: ``--frames DIR``, a folder of a real set's frames (8-bit, one scene) with their exposure times: from
+  EXIF, or from a ``shutter_times.txt`` beside them (one time per line, in seconds or as 1/N, frames in name order,
+  as Debevec's memorial set carries them). Never copied into the repository.
+
+Scores (``score``):
+- agreement: the median |ln(ours / OpenCV's)| of luminance over the pixels the reference frame (the median
+  exposure) sees well exposed (its brightest channel's code 20-235), after one scale (the two merges' units differ);
+- fireflies: pixels whose luminance is over FIREFLY_RATIO x the median of their 5 x 5 neighbourhood (and above a
+  thousandth of the reference white: no flicker in black counts); for a simulated set also those that are no
+  bright point of the truth's own (spurious: a night scene's lamps are points a merge must keep);
+- truth (simulated): the median |ln(merged / true)| of luminance where the truth is 0.01-0.9 of the reference
+  frame's white, after one scale;
+- time: the median of ``--repeats`` runs, in this process.
+
+    python -m training.benchmarks.bench_merge [--scenes noon_grass ...] [--stops -4 -2 0 2 4] [--width 1024]
+    python -m training.benchmarks.bench_merge --frames PATH/TO/memorial --out runs/bench_merge_memorial.json
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import time
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+from panolight_core.camera import auto_exposure, brackets, hdr_to_ldr
+from panolight_core.camera.color import LUMINANCE_WEIGHTS
+from panolight_core.camera.resample import area_downsample
+
+FIREFLY_RATIO = 10.0
+WELL_EXPOSED = (20, 235)
+DEFAULT_SCENES = ("noon_grass", "kloppenheim_05", "brown_photostudio_02", "dresden_station_night")
+
+
+def camera_set(hdr: np.ndarray, stops, seed: int = 0):
+    """(frames, relative exposures) of ``hdr`` bracketed at ``stops`` about the EVALUATION.md ev-0 exposure: each a
+    noisy sensor's (``camera.sensor_noise``) sRGB JPEG at q90."""
+    rng = np.random.default_rng(seed)
+    k = auto_exposure(hdr, 0.0, robust=True)
+    frames = [hdr_to_ldr(hdr, scale=k * 2.0 ** s, jpeg_quality=90, noise=rng) for s in stops]
+    return frames, np.array([2.0 ** s for s in stops])
+
+
+def read_set(folder: Path):
+    """(frames, exposure times in s, names) of a real set in ``folder``: its 8-bit frames in name order, timed by a
+    shutter_times.txt beside them or by their EXIF. SystemExit naming what is missing."""
+    from PIL import Image
+
+    from panolight_core.io.capture import read_exposure
+
+    names = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".jpg", ".jpeg", ".png", ".tif", ".tiff"))
+    if not names:
+        raise SystemExit(f"--frames {folder}: no 8-bit frames (JPEG, PNG or TIFF) there")
+    listed = folder / "shutter_times.txt"
+    if listed.is_file():
+        times = [float(Fraction(line.strip())) for line in listed.read_text().split() if line.strip()]
+    else:
+        found = [read_exposure(p) for p in names]
+        if any(f is None for f in found):
+            raise SystemExit(f"--frames {folder}: {names[found.index(None)].name} records no exposure and there is no "
+                             f"shutter_times.txt")
+        times = [f["time_s"] * f["iso"] / f["f_number"] ** 2 for f in found]
+    if len(times) != len(names):
+        raise SystemExit(f"--frames {folder}: {len(names)} frames but {len(times)} exposure times")
+    frames = [np.asarray(Image.open(p).convert("RGB")) for p in names]  # any shape: a merge needs no panorama
+    return frames, np.array(times, dtype=np.float64), [p.name for p in names]
+
+
+def merge_panolight(frames, exposures):
+    return brackets.merge_brackets(frames, exposures, align=False)[0]
+
+
+def merge_opencv(frames, exposures):
+    """OpenCV's calibrated Debevec merge: its curve from the frames (CalibrateDebevec), then MergeDebevec (RGB)."""
+    import cv2
+
+    bgr = [np.ascontiguousarray(f[..., ::-1]) for f in frames]
+    times = np.asarray(exposures, dtype=np.float32)
+    curve = cv2.createCalibrateDebevec().process(bgr, times)
+    return cv2.createMergeDebevec().process(bgr, times, curve)[..., ::-1].astype(np.float64)
+
+
+def firefly_mask(img: np.ndarray, floor: float) -> np.ndarray:
+    """Pixels whose luminance is over FIREFLY_RATIO x their 5 x 5 neighbourhood's median, and over ``floor``."""
+    from scipy.ndimage import median_filter
+
+    lum = np.asarray(img, dtype=np.float64) @ LUMINANCE_WEIGHTS
+    return (lum > FIREFLY_RATIO * median_filter(lum, size=5, mode="nearest")) & (lum > floor)
+
+
+def fireflies(img: np.ndarray, floor: float, truth: np.ndarray | None = None) -> int:
+    """``firefly_mask``'s count; with ``truth`` (the same units) only those that are no bright point of the truth's
+    own (none within a pixel): a night scene's lamps are points a merge must keep."""
+    from scipy.ndimage import binary_dilation
+
+    found = firefly_mask(img, floor)
+    if truth is not None:
+        found &= ~binary_dilation(firefly_mask(truth, floor), iterations=1)
+    return int(found.sum())
+
+
+def _scaled_log_error(a: np.ndarray, b: np.ndarray) -> float:
+    """Median |ln(a / b)| after one scale (the median ratio), over positive pairs."""
+    ok = (a > 0) & (b > 0)
+    r = np.log(a[ok] / b[ok])
+    return float(np.median(np.abs(r - np.median(r))))
+
+
+def score(frames, exposures, repeats: int = 3, truth: np.ndarray | None = None) -> dict:
+    """Both merges of one set: time, agreement, fireflies and (with ``truth``, in the reference frame's units) the
+    error against it."""
+    e = np.asarray(exposures, dtype=np.float64)
+    ref = int(np.argsort(e)[(e.size - 1) // 2])
+    out, merged = {}, {}
+    for name, merge in (("panolight", merge_panolight), ("opencv", merge_opencv)):
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            merged[name] = merge(frames, e)
+            times.append(time.perf_counter() - t0)
+        out[name] = {"seconds": statistics.median(times)}
+    top = frames[ref].max(axis=-1)
+    well = (top >= WELL_EXPOSED[0]) & (top <= WELL_EXPOSED[1])
+    lum = {n: m @ LUMINANCE_WEIGHTS for n, m in merged.items()}
+    out["agreement"] = _scaled_log_error(lum["panolight"][well], lum["opencv"][well])
+    white = {n: float(np.median(lum[n][well])) / max(float(np.median(merged["panolight"][well] @ LUMINANCE_WEIGHTS)),
+                                                      1e-30) for n in merged}  # each merge's reference white
+    for n in merged:
+        out[n]["fireflies"] = fireflies(merged[n], 1e-3 * white[n])
+        if truth is not None:
+            scale = float(np.median(lum[n][well])) / max(float(np.median((truth @ LUMINANCE_WEIGHTS)[well])), 1e-30)
+            out[n]["spurious_fireflies"] = fireflies(merged[n], 1e-3 * white[n], truth * scale)
+            lt = truth @ LUMINANCE_WEIGHTS
+            mid = (lt > 0.01) & (lt < 0.9)
+            out[n]["truth_error"] = _scaled_log_error(lum[n][mid], lt[mid])
+    out["pixels"] = int(top.size)
+    return out
+
+
+def table(rows: list[dict]) -> list[str]:
+    lines = ["| set | frames | pixels | agreement (median abs ln) | fireflies (spurious): PanoLight / OpenCV | error vs "
+             "truth: PanoLight / OpenCV | time s: PanoLight / OpenCV (ratio) |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        p, o = r["panolight"], r["opencv"]
+        truth = (f"{p['truth_error']:.3f} / {o['truth_error']:.3f}" if "truth_error" in p else "n/a")
+        flies = [f"{x['fireflies']}" + (f" ({x['spurious_fireflies']})" if "spurious_fireflies" in x else "")
+                 for x in (p, o)]
+        lines.append(f"| {r['set']} | {r['frames']} | {r['pixels']} | {r['agreement']:.3f} | {flies[0]} / "
+                     f"{flies[1]} | {truth} | {p['seconds']:.2f} / {o['seconds']:.2f} "
+                     f"({p['seconds'] / o['seconds']:.2f}x) |")
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m training.benchmarks.bench_merge", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scenes", nargs="+", default=list(DEFAULT_SCENES), help="real HDRs to bracket (simulated sets)")
+    ap.add_argument("--stops", type=float, nargs="+", default=[-4.0, -2.0, 0.0, 2.0, 4.0],
+                    help="the simulated sets' exposures in stops about the ev-0 one (default -4 -2 0 2 4)")
+    ap.add_argument("--width", type=int, default=1024, help="the simulated sets' width (default 1024)")
+    ap.add_argument("--frames", type=Path, action="append", default=[], metavar="DIR",
+                    help="a real set's folder (repeatable): frames and their times (EXIF or shutter_times.txt)")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--out", type=Path, default=None, help="write the rows as JSON here")
+    args = ap.parse_args(argv)
+    rows = []
+    for folder in args.frames:
+        frames, times, names = read_set(folder)
+        rows.append({"set": folder.name, "frames": len(frames), **score(frames, times, args.repeats)})
+        print("\n".join(table(rows[-1:])[2:]), flush=True)
+    if not args.frames:
+        from training.common.real_hdri import DEFAULT_HDRI, load_hdr
+
+        for scene in args.scenes:
+            hdr = area_downsample(load_hdr(next(DEFAULT_HDRI.glob(f"{scene}.*"))), args.width // 2)
+            frames, exposures = camera_set(hdr, args.stops)
+            truth = hdr * auto_exposure(hdr, 0.0, robust=True)
+            rows.append({"set": scene, "frames": len(frames), **score(frames, exposures, args.repeats, truth)})
+            print("\n".join(table(rows[-1:])[2:]), flush=True)
+    print("\n".join(table(rows)))
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps({"rows": rows, "stops": args.stops}, indent=1))
+    return 0 if math.isfinite(sum(r["agreement"] for r in rows)) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
