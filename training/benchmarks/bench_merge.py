@@ -19,7 +19,9 @@ Scores (``score``):
   bright point of the truth's own (spurious: a night scene's lamps are points a merge must keep);
 - truth (simulated): the median |ln(merged / true)| of luminance where the truth is 0.01-0.9 of the reference
   frame's white, after one scale;
-- time: the median of ``--repeats`` runs, in this process.
+- time: the median of ``--repeats`` runs, in this process;
+- the camera curve (``curves``): PanoLight's recovered curve against OpenCV's CalibrateDebevec, and each against
+  sRGB (the simulated cameras' own), in log over codes 30-230 after one scale; and which curve the merge used.
 
     python -m training.benchmarks.bench_merge [--scenes noon_grass ...] [--stops -4 -2 0 2 4] [--width 1024]
     python -m training.benchmarks.bench_merge --frames PATH/TO/memorial --out runs/bench_merge_memorial.json
@@ -101,6 +103,40 @@ def firefly_mask(img: np.ndarray, floor: float) -> np.ndarray:
     return (lum > FIREFLY_RATIO * median_filter(lum, size=5, mode="nearest")) & (lum > floor)
 
 
+CURVE_CODES = (30, 230)  # the codes the curves are compared on (both solves' reliable part)
+
+
+def curves(frames, exposures) -> dict:
+    """The set's camera curve as PanoLight recovers it (``camera.response.recover_response``, taken whatever its gain
+    over sRGB) and as OpenCV's ``CalibrateDebevec`` does, compared in log luminance over CURVE_CODES after one scale:
+    the median |ln| between the two, and each against sRGB (the simulated sets' true curve); and which curve the merge
+    used (sRGB unless the recovered one explains the frames RESPONSE_GAIN better)."""
+    import cv2
+
+    from panolight_core.camera import response
+
+    e = np.asarray(exposures, dtype=np.float64)
+    ref = int(np.argsort(e)[(e.size - 1) // 2])
+    used = response.recover_response(frames, e / e[ref], ref)
+    shipped, response.RESPONSE_GAIN = response.RESPONSE_GAIN, float("inf")
+    try:
+        ours = response.recover_response(frames, e / e[ref], ref)
+    finally:
+        response.RESPONSE_GAIN = shipped
+    bgr = [np.ascontiguousarray(f[..., ::-1]) for f in frames]
+    theirs = cv2.createCalibrateDebevec().process(bgr, e.astype(np.float32))[:, 0, ::-1] @ LUMINANCE_WEIGHTS
+    z = slice(CURVE_CODES[0], CURVE_CODES[1] + 1)
+    logs = {"panolight": np.log(ours.table[z].astype(np.float64)), "opencv": np.log(theirs[z]),
+            "srgb": np.log(response.SRGB.table[z].astype(np.float64))}
+
+    def apart(a, b):
+        d = logs[a] - logs[b]
+        return float(np.median(np.abs(d - np.median(d))))
+
+    return {"used": used.name, "recovered": ours.name, "panolight_vs_opencv": apart("panolight", "opencv"),
+            "panolight_vs_srgb": apart("panolight", "srgb"), "opencv_vs_srgb": apart("opencv", "srgb")}
+
+
 def fireflies(img: np.ndarray, floor: float, truth: np.ndarray | None = None) -> int:
     """``firefly_mask``'s count; with ``truth`` (the same units) only those that are no bright point of the truth's
     own (none within a pixel): a night scene's lamps are points a merge must keep."""
@@ -147,6 +183,7 @@ def score(frames, exposures, repeats: int = 3, truth: np.ndarray | None = None) 
             mid = (lt > 0.01) & (lt < 0.9)
             out[n]["truth_error"] = _scaled_log_error(lum[n][mid], lt[mid])
     out["pixels"] = int(top.size)
+    out["curve"] = curves(frames, e)
     return out
 
 
@@ -191,6 +228,11 @@ def main(argv=None) -> int:
             rows.append({"set": scene, "frames": len(frames), **score(frames, exposures, args.repeats, truth)})
             print("\n".join(table(rows[-1:])[2:]), flush=True)
     print("\n".join(table(rows)))
+    print("\n| set | curve used | recovered vs OpenCV's | recovered vs sRGB | OpenCV's vs sRGB |\n|---|---|---:|---:|---:|")
+    for r in rows:
+        c = r["curve"]
+        print(f"| {r['set']} | {c['used']} | {c['panolight_vs_opencv']:.3f} | {c['panolight_vs_srgb']:.3f} | "
+              f"{c['opencv_vs_srgb']:.3f} |")
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps({"rows": rows, "stops": args.stops}, indent=1))
