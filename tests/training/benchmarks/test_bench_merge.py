@@ -27,6 +27,7 @@ def test_both_merges_of_a_camera_set_are_scored():
     for name in ("panolight", "opencv"):
         assert r[name]["seconds"] > 0 and r[name]["fireflies"] >= 0 and r[name]["truth_error"] >= 0
     assert 0 <= r["agreement"] < 0.5 and r["pixels"] == 32 * 64
+    assert r["curve"]["used"] == "sRGB" and r["curve"]["opencv_vs_srgb"] >= 0  # an sRGB camera keeps sRGB
     assert bench_merge.table([dict(r, set="s", frames=3)])[2].startswith("| s | 3 | 2048 |")
 
 
