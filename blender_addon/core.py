@@ -11,7 +11,7 @@ import importlib.util
 if importlib.util.find_spec(f"{__package__}.panolight_core") is not None:
     from . import panolight_core as core
     from .panolight_core import errors, estimators, pipeline, sh, threads
-    from .panolight_core.camera import resample
+    from .panolight_core.camera import resample, units
     from .panolight_core.estimators import keylight
     from .panolight_core.io import capture, checks, metadata, ownership
     from .panolight_core.io import images as core_images
@@ -23,7 +23,7 @@ if importlib.util.find_spec(f"{__package__}.panolight_core") is not None:
 else:  # a development checkout or a pip install: no bundled copy beside this file
     import panolight_core as core
     from panolight_core import errors, estimators, pipeline, sh, threads
-    from panolight_core.camera import resample
+    from panolight_core.camera import resample, units
     from panolight_core.estimators import keylight
     from panolight_core.io import capture, checks, metadata, ownership
     from panolight_core.io import images as core_images
@@ -35,10 +35,10 @@ else:  # a development checkout or a pip install: no bundled copy beside this fi
 
 # the core modules the add-on uses, as imported above (and so the extension bundles, with what they import:
 # scripts/build_extension.py reads this list; a test checks it names what is imported), relative to panolight_core
-CORE_MODULES = ("camera.resample", "errors", "estimators", "estimators.keylight", "io.capture", "io.checks",
+CORE_MODULES = ("camera.resample", "camera.units", "errors", "estimators", "estimators.keylight", "io.capture", "io.checks",
                 "io.images", "io.lighting", "io.metadata", "io.ownership", "lighting.lights", "lighting.order",
                 "pipeline", "pipeline.brackets", "pipeline.hdri", "pipeline.settings", "sh", "threads")
 
 __all__ = ["CORE_MODULES", "brackets", "capture", "checks", "core", "core_images", "core_lights", "errors",
            "estimators", "hdri", "keylight", "lighting_file", "metadata", "order", "ownership", "pipeline",
-           "pipeline_settings", "resample", "sh", "threads"]
+           "pipeline_settings", "resample", "sh", "threads", "units"]

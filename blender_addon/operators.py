@@ -86,18 +86,21 @@ def _checked(context):
     return s
 
 
-def _fit(pixels, settings, found=None):
-    """Runs in a worker thread: numpy only, never bpy. Returns the core's pipeline.Result."""
-    return pipeline.estimate_lighting(pixels, settings, found)
+def _fit(pixels, settings, found=(None, None)):
+    """Runs in a worker thread: numpy only, never bpy. ``found``: the photo's (capture, exposure) (``_photo``).
+    Returns the core's pipeline.Result."""
+    return pipeline.estimate_lighting(pixels, settings, *found)
 
 
-def _capture(image, settings):
-    """The panorama file's capture metadata (GPS, UTC time, heading: io.capture) when the panel asks for the
-    sun from it and points at none; None otherwise, or for an image without a file."""
-    if settings.sun_direction is not None or not settings.sun_metadata or not image.filepath:
-        return None
-    path = Path(bpy.path.abspath(image.filepath))
-    return capture.read_capture(path) if path.is_file() else None
+def _photo(image, settings):
+    """(capture, exposure) of the panorama's file: its capture metadata (GPS, UTC time, heading: io.capture) when
+    the panel asks for the sun from it and points at none, and its EXIF exposure (the absolute scale,
+    ``camera.units``); each None where there is none, or for an image without a file."""
+    path = Path(bpy.path.abspath(image.filepath)) if image.filepath else None
+    if path is None or not path.is_file():
+        return None, None
+    wanted = settings.sun_direction is None and settings.sun_metadata
+    return (capture.read_capture(path) if wanted else None), capture.read_exposure(path)
 
 
 def _read_panorama(image):
@@ -210,7 +213,7 @@ class PANOLIGHT_OT_estimate_lighting(bpy.types.Operator):
         settings = _checked(context).estimate_settings()  # invalid settings fail before any pixel is read
         panorama = store.stored_panorama(world)
         self._pixels, self._used = _read_panorama(panorama), settings
-        return world, self._pixels, settings, _capture(panorama, settings)
+        return world, self._pixels, settings, _photo(panorama, settings)
 
     def _store(self, context, world, result):
         doc = result.document
@@ -367,7 +370,7 @@ def _estimate_again(panorama, settings):
     """(pixels, the core's Result) of the panorama estimated now with ``settings``, its photo's metadata sun
     included as Estimate lighting had it (the estimators are deterministic)."""
     pixels = _read_panorama(panorama)
-    return pixels, _fit(pixels, settings, _capture(panorama, settings))
+    return pixels, _fit(pixels, settings, _photo(panorama, settings))
 
 
 def same_lighting(a: dict, b: dict) -> bool:

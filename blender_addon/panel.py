@@ -130,6 +130,9 @@ def draw_panel(layout, context):
     box.prop(s, "restore_clipped")
     box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
     box.label(text="Estimated" if store.has_lighting(world) else "Not estimated yet")
+    said = store.units_line(world)
+    if said is not None:  # which units the estimate holds, and what one unit is (the photo's EXIF: cd/m^2, lux)
+        box.label(text=f"Units: {said}", icon="LIGHT_DATA")
     box = layout.box()
     for prop in ("lighting_source", "background_strength", "lighting_strength", "background_rotation",
                  "lighting_rotation", "glossy_panorama", "create_lights", "radiance_height"):

@@ -10,7 +10,7 @@ import json
 
 import bpy
 
-from .core import errors, keylight, lighting_file, metadata
+from .core import errors, keylight, lighting_file, metadata, units
 
 TAG = "panolight"
 PANORAMA_KEY = "panolight_panorama"  # world ID property: the panorama image itself (an ID pointer: renames follow)
@@ -90,6 +90,14 @@ def same_settings_but_strength(world, settings) -> bool:
 
 def has_lighting(world) -> bool:
     return bool(world is not None and world.get(LIGHTING_KEY))
+
+
+def units_line(world) -> str | None:
+    """The stored estimate's units in one line (``camera.units.summary``: relative, or cd/m^2 and lux, and what one
+    unit is), for the panel; None without an estimate. Never raises."""
+    raw = world.get(LIGHTING_KEY) if world is not None else None
+    doc = metadata.json_object(raw, LIGHTING_MAX_BYTES) if raw else None
+    return None if doc is None else units.summary(doc.get("physical"))
 
 
 def key_light_range(world) -> dict | None:

@@ -95,3 +95,21 @@ def from_lux(lux: float, upward_illuminance: float) -> Scale:
         raise ValueError("the estimate lights an upward surface with nothing, so no --lux can scale it")
     cd_m2 = lux / upward_illuminance
     return Scale(cd_m2, "lux", math.log2(cd_m2 / WHITE_FACTOR))
+
+
+def summary(physical: dict | None) -> str:
+    """One line of a lighting document's ``physical`` block (``Scale.describe`` and the pipeline's figures), for the
+    run's log and Blender's panel: which units the files hold and what one unit is. Never raises on a malformed
+    block (a stored estimate a user edited): it says the scale is unknown."""
+    try:
+        if not physical or not physical.get("absolute"):
+            return "relative (1 = the camera's white); no exposure recorded: --ev100 or --lux sets the scale"
+        origin = {"exif": "EXIF", "ev100": "--ev100", "lux": "--lux"}.get(physical.get("from"), "?")
+        white = float(physical["white_cd_m2"])
+        up = physical.get("upward_illuminance_lux")
+        lux = f"; {float(up):.3g} lux on an upward surface" if up is not None else ""
+        if physical.get("applied"):
+            return f"cd/m^2 and lux (white {white:.3g} cd/m^2, from {origin}{lux})"
+        return f"relative: 1 = the camera's white = {white:.3g} cd/m^2 (from {origin}){lux}"
+    except (TypeError, ValueError, KeyError, AttributeError):
+        return "the stored scale cannot be read"

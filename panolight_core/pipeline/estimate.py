@@ -8,7 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import sh, threads
+from ..camera import units
 from ..camera.ceiling import IMPLAUSIBLE
+from ..camera.color import LUMINANCE_WEIGHTS
 from ..errors import PanoLightError
 from ..estimators import Estimate, estimate, with_key_strength, with_pointed_sun, with_sky_sun
 from ..estimators.highlights import CLIP_LEVEL
@@ -22,6 +24,7 @@ from .settings import MODELS, Settings, check_choice, direction_from_az_el
 
 UNITS_HDR = "input radiance units"
 UNITS_LDR = "relative: 1 = the LDR camera's clip level (white)"
+UNITS_ABSOLUTE = "cd/m^2 (Rec.709 luminance-weighted); lights: lux on a surface facing them"
 
 
 def fit_pixels(pixels: np.ndarray, *, lmax=None, estimator: str = "auto", model: str = "auto"):
@@ -133,8 +136,10 @@ class Result:
 
     @property
     def scale(self) -> float:
-        """The exposure factor 2^exposure_ev the model (and the HDRI) carry."""
-        return 2.0 ** self.document["exposure_ev"]
+        """The factor the model (and the HDRI) carry over the estimate's relative units: 2^exposure_ev, times the
+        cd/m^2 of the camera's white where the values are absolute (--absolute: ``physical``)."""
+        physical = self.document.get("physical") or {}
+        return 2.0 ** self.document["exposure_ev"] * (physical["white_cd_m2"] if physical.get("applied") else 1.0)
 
     def hdr_panorama(self, pixels: np.ndarray) -> np.ndarray:
         """The full-resolution HDR panorama (pipeline.hdri) in the document's units: (H, W, 3) float32."""
@@ -164,12 +169,13 @@ def capture_sun(capture) -> tuple | None:
             f"north")
 
 
-def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), capture=None) -> Result:
+def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), capture=None, exposure=None) -> Result:
     """Panorama pixels (uint8 sRGB LDR or float32 linear HDR, (H, W, 3), equirect, Blender world frame) ->
     Result: estimator, lighting model (lights + the SH order the scene needs, or a fixed recipe), the
     requested deringing and exposure. capture: the photo's ``io.capture.Capture`` (with ``settings.sun_metadata``
-    and no ``sun_direction``: the sun's direction where the photo does not place one). Raises PanoLightError on bad
-    settings or pixels."""
+    and no ``sun_direction``: the sun's direction where the photo does not place one). exposure: the photo's EXIF
+    exposure ({"time_s", "f_number", "iso"}: ``io.capture.read_exposure``; a bracket set's reference frame's), which
+    gives the absolute scale (``physical_scale``). Raises PanoLightError on bad settings or pixels."""
     t1 = time.perf_counter()
     pointed = None
     if settings.sun_direction is not None:
@@ -197,13 +203,20 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), captu
     with np.errstate(over="ignore", invalid="ignore"):
         lights = [dict(light, intensity=light["intensity"] * scale) for light in fitted.lights]
         model = LightingModel(lights, coeffs * scale, fitted.info)
+    physical = physical_scale(model, settings, exposure)
+    if settings.absolute and physical.absolute:
+        with np.errstate(over="ignore", invalid="ignore"):
+            lights = [dict(light, intensity=light["intensity"] * physical.cd_m2) for light in lights]
+            model = LightingModel(lights, model.coeffs * physical.cd_m2, fitted.info)
     require_finite({"the SH coefficients": model.coeffs,
                     "the lights": np.array([light["intensity"] for light in lights], dtype=np.float64)},
                    settings.exposure_ev)
     model_info = dict(fitted.info, window=window_info)
     hdr = pixels.dtype != np.uint8
+    applied = settings.absolute and physical.absolute
     doc = make_lighting(
-        model.coeffs, lights=lights, units=UNITS_HDR if hdr else UNITS_LDR,
+        model.coeffs, lights=lights, units=UNITS_ABSOLUTE if applied else UNITS_HDR if hdr else UNITS_LDR,
+        physical=physical_block(model, physical, applied),
         estimator={k: v for k, v in est.info.items() if k not in ("clipped_regions", "estimate_s")},
         model=model_info, order=model_info["order"], window=window_info, exposure_ev=settings.exposure_ev,
         sun_strength=settings.sun_strength,
@@ -212,6 +225,8 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), captu
                  "model_s": round(time.perf_counter() - t1 - est.info["estimate_s"], 6)},
     )
     warnings = input_warnings(pixels)
+    if settings.absolute and not physical.absolute:
+        warnings.append("--absolute changes nothing: " + physical.describe()["why"] + "; the results stay relative")
     if (narrow := narrow_warning(pixels.shape, est)) is not None:
         warnings.append(narrow)
     if settings.sun_strength != 1.0 and "key_light_strength" not in est.info:
@@ -222,6 +237,39 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), captu
             est.info.get("pointed_restoration", "an HDR input holds its own sun in its pixels") if hdr else
             f"the {est.estimator} estimator weighs no key light (use --estimator keylight or sources)"))
     return Result(doc, model, est, tuple(warnings))
+
+
+def upward_illuminance(model: LightingModel) -> float:
+    """The luminance-weighted illuminance of ``model`` (lights and SH) on an upward surface at the camera, in its
+    own units x sr (lux where the model is in cd/m^2)."""
+    return float(model.irradiance(np.array([[0.0, 0.0, 1.0]]))[0] @ LUMINANCE_WEIGHTS)
+
+
+def physical_scale(model: LightingModel, settings: Settings, exposure: dict | None) -> units.Scale:
+    """How the relative ``model`` stands to cd/m^2 (``camera.units``): a light meter's ``settings.lux`` (the model's
+    upward illuminance made E), else ``settings.ev100``, else the photo's EXIF ``exposure``, else relative."""
+    if settings.lux is not None:
+        try:
+            return units.from_lux(settings.lux, upward_illuminance(model))
+        except ValueError as exc:
+            raise PanoLightError(f"--lux {settings.lux:g}: {exc}") from None
+    if settings.ev100 is not None:
+        return units.from_ev100(settings.ev100)
+    return units.from_exposure(exposure)
+
+
+def physical_block(model: LightingModel, scale: units.Scale, applied: bool) -> dict:
+    """lighting.json's ``physical``: the scale (``units.Scale.describe``), whether the file's values carry it
+    (``applied``: --absolute), and in absolute units the upward illuminance (lux) and each light's illuminance on a
+    surface facing it (lux, and W/m^2 at 683 lm/W), in the order of ``lights``."""
+    out = {**scale.describe(), "applied": bool(applied)}
+    if scale.absolute:
+        per = 1.0 if applied else scale.cd_m2  # the model's units to cd/m^2
+        out["upward_illuminance_lux"] = upward_illuminance(model) * per
+        out["lights"] = [{"illuminance_lux": float(light["intensity"]) * per,
+                          "irradiance_w_m2": float(light["intensity"]) * per / units.LUMENS_PER_WATT}
+                         for light in model.lights]
+    return out
 
 
 def require_finite(outputs: dict, exposure_ev: float, what: str = "") -> None:

@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 
 from .. import sh
-from ..camera import linear
+from ..camera import linear, units
 from ..camera.resample import area_downsample_rows
 from ..errors import PanoLightError, PanoLightWarning, naming
 from ..estimators.keylight import key_light_note
 from ..io import ownership, read_image, write_image, write_srgb8
 from ..io.atomic import folder_lock
-from ..io.capture import read_capture
+from ..io.capture import read_capture, read_exposure
 from ..io.checks import file_state
 from ..io.images import PACKED_ABOVE_MEGAPIXELS, RAW_FORMAT, sniff_format, write_exr_rows
 from ..io.lighting import write_lighting
@@ -139,9 +139,10 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
                 f"on {pixels.shape[1]}x{pixels.shape[0]}")
     try:
         photo = src if bracket is None else src.paths[bracket["reference"]]  # a set: its reference frame's
-        capture = (read_capture(photo) if (pixels.dtype == np.uint8 or bracket or raw) and settings.sun_direction is None
-                   and settings.sun_metadata else None)
-        result = estimate_lighting(pixels, settings, capture)
+        camera = pixels.dtype == np.uint8 or bracket or raw  # a picture whose white is its camera's
+        capture = read_capture(photo) if camera and settings.sun_direction is None and settings.sun_metadata else None
+        exposure = read_exposure(photo) if camera else None  # the absolute scale (camera.units): the set's reference
+        result = estimate_lighting(pixels, settings, capture, exposure)
     except PanoLightError as exc:
         raise naming(src, exc) from None
     for problem in result.warnings:
@@ -176,6 +177,7 @@ def _estimate_into(src, out_dir, settings, resolution, repair_nonfinite, max_meg
     doc["timings"] = {"read_s": round(t_read, 6), **doc["timings"]}
     doc.setdefault("model", {}).setdefault("ringing", {})["emitter"] = {
         "negative_fraction": round(made["negative_fraction"], 6), "moment_error": made["moment_error"]}
+    logger.info("units: " + units.summary(doc.get("physical")))
     note = key_light_note(doc)
     if note:
         logger.info("note: %s", note)

@@ -52,7 +52,9 @@ class Settings:
     GPS position, UTC time and heading gets the sun's direction from them (``estimate.capture_sun``) where the photo
     does not place a sun itself. restore: RESTORES (an HDR file that clips its own source). sky_sun: a sun the photo
     does not show and only its sky's gradient suggests is put back there (``estimators.with_sky_sun``; by default
-    the run's note says where, as a hazy sky suggests suns that are not there). Invalid values raise
+    the run's note says where, as a hazy sky suggests suns that are not there). ev100, lux: the absolute scale where
+    the EXIF does not give it (``camera.units``: EV100, or a light meter's upward illuminance, which wins); absolute:
+    the outputs in cd/m^2 and lux instead of relative units where a scale is known. Invalid values raise
     PanoLightError naming the setting."""
 
     estimator: str = "auto"
@@ -68,6 +70,9 @@ class Settings:
     sun_metadata: bool = True  # the sun from the photo's GPS position, UTC time and heading, where it hides it
     restore: str = "auto"  # RESTORES
     sky_sun: bool = False  # a sun only the sky's gradient suggests is put back (the bolder rule; default: noted)
+    ev100: float | None = None  # the exposure's EV100 where the file's EXIF lost it (camera/units.py)
+    lux: float | None = None  # a light meter's upward illuminance at the camera, lux: the whole model scaled to it
+    absolute: bool = False  # the outputs in cd/m^2 and lux where the scale is known (else relative, and said)
 
     def __post_init__(self):
         from ..estimators import resolve
@@ -83,6 +88,14 @@ class Settings:
             if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value)
                                           and lo <= value <= hi):
                 raise PanoLightError(f"{name} must be a number between {lo:g} and {hi:g}, got {value!r}")
+        from ..camera.units import EV100_RANGE, MAX_LUX
+
+        for name, (lo, hi), low_open in (("ev100", EV100_RANGE, False), ("lux", (0.0, MAX_LUX), True)):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value)
+                                          and (lo < value if low_open else lo <= value) and value <= hi):
+                raise PanoLightError(f"{name} must be a number {'above' if low_open else 'from'} {lo:g} up to {hi:g}, "
+                                     f"got {value!r}")
         if self.sun_direction is not None:
             object.__setattr__(self, "sun_direction", unit_direction(self.sun_direction))
         if self.sun_contrast is not None:
@@ -267,6 +280,19 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                              "(a sun retouched out of a clear sky). By default such a sun is not added, since a "
                              "hazy sky suggests suns that are not there: the run's note says where the sky puts "
                              "it and how sure that is, and --sun AZ,EL places it")
+    units = parser.add_argument_group("physical units (docs/units.md)")
+    units.add_argument("--absolute", action="store_true",
+                       help="write radiance in cd/m^2 and each light's intensity in lux (the illuminance on a surface "
+                            "facing it), where the scale is known: from the photo's EXIF (exposure time, f-number, "
+                            "ISO: white = 1.2 x 2^EV100 cd/m^2), --ev100 or --lux. By default the files stay relative "
+                            "(1 = the camera's white) and lighting.json's 'physical' says the scale and each light in "
+                            "lux and W/m^2")
+    units.add_argument("--ev100", type=number("--ev100", -20.0, 40.0), default=None, metavar="X",
+                       help="the photo's exposure as EV100 = log2(N^2/t) - log2(ISO/100), for a file whose EXIF "
+                            "lost it (f/8, 1/250 s, ISO 100: 13.97)")
+    units.add_argument("--lux", type=number("--lux", 1e-9, 1e7), default=None, metavar="E",
+                       help="a light meter's reading at the camera on an upward surface, in lux: the whole model "
+                            "(lights and SH) is scaled so its upward illuminance is E (wins over EXIF and --ev100)")
     parser.add_argument("--restore", choices=tuple(RESTORES), default="auto",
                         help="; ".join(f"{n}{' (default)' if n == 'auto' else ''}: {text}"
                                        for n, (_, text) in RESTORES.items())
@@ -285,7 +311,9 @@ def from_args(args) -> Settings:
                     sun_strength=getattr(args, "sun_strength", 1.0),
                     sun_direction=getattr(args, "sun", None) or getattr(args, "sun_direction", None),
                     sun_contrast=getattr(args, "sun_contrast", None), sun_metadata=getattr(args, "sun_metadata", True),
-                    restore=getattr(args, "restore", "auto"), sky_sun=getattr(args, "sky_sun", False))
+                    restore=getattr(args, "restore", "auto"), sky_sun=getattr(args, "sky_sun", False),
+                    ev100=getattr(args, "ev100", None), lux=getattr(args, "lux", None),
+                    absolute=getattr(args, "absolute", False))
 
 
 _NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d)[\d.,eE+-]*$")  # -2,0,2 / -40,5 / -1 / -.5 / -1e-3,0,1: never an option

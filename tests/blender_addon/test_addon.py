@@ -1,4 +1,5 @@
 """The Blender extension with the bpy module: node graph, exact background, lighting, zip, batch."""
+import json
 import math
 import os
 import subprocess
@@ -1124,3 +1125,24 @@ def test_the_headless_script_merges_a_bracket_set(tmp_path):
     r = subprocess.run([sys.executable, str(batch), "--", "--input", frames[0], "--evs=-2"], capture_output=True,
                        text=True, timeout=300)
     assert r.returncode != 0 and "c0.png: --evs gives a bracket set's exposures" in r.stderr
+
+
+def test_the_panel_shows_the_units_the_photo_s_exif_gives(tmp_path):
+    """A JPEG whose EXIF records f/8, 1/100 s, ISO 200 (EV100 11.64): the estimate the panel stores is relative, and
+    the panel's line says what one unit is in cd/m^2 and the lux an upward surface gets (issue 60); a stored estimate
+    without a scale says how to set one."""
+    from panolight_core.camera import hdr_to_ldr, units
+    from tests.panolight_core.pipeline.test_brackets import _city, _frame
+
+    path = _frame(tmp_path / "exif.jpg", hdr_to_ldr(_city(64), 0.0), 1 / 100, 8.0, 200)
+    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
+    _configure()
+    assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+    world = bpy.context.scene.world
+    white = units.white_luminance(units.ev100(1 / 100, 8.0, 200.0))
+    line = store.units_line(world)
+    assert line.startswith(f"relative: 1 = the camera's white = {white:.3g} cd/m^2 (from EXIF); ") and "lux" in line
+    doc = store.stored_lighting(world)
+    assert doc["physical"]["from"] == "exif" and not doc["physical"]["applied"]
+    world[store.LIGHTING_KEY] = json.dumps({**doc, "physical": {"absolute": False}})
+    assert store.units_line(world).startswith("relative (1 = the camera's white); no exposure")

@@ -46,3 +46,13 @@ def test_lux_scales_the_upward_illuminance_to_the_meter():
         units.from_lux(-5.0, 4.0)
     with pytest.raises(ValueError, match="nothing"):
         units.from_lux(100.0, 0.0)
+
+
+def test_the_one_line_says_the_units_and_survives_an_edited_block():
+    s = units.from_exposure({"time_s": 2.5, "f_number": 11.0, "iso": 200.0})
+    line = units.summary({**s.describe(), "applied": False, "upward_illuminance_lux": 17.3})
+    assert line.startswith("relative: 1 = the camera's white = 29 cd/m^2 (from EXIF); 17.3 lux")
+    assert units.summary({**s.describe(), "applied": True}).startswith("cd/m^2 and lux (white 29 cd/m^2")
+    assert units.summary(None).startswith("relative (1 = the camera's white); no exposure")
+    for edited in ({"absolute": True}, {"absolute": True, "white_cd_m2": "bright"}, ["x"]):
+        assert units.summary(edited) == "the stored scale cannot be read"

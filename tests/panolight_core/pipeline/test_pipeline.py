@@ -126,7 +126,8 @@ def test_run_estimate_reports_progress_through_logging_and_prints_nothing(tmp_pa
     with caplog.at_level(logging.INFO, logger="panolight_core"):
         run_estimate(src, tmp_path / "out")
     said = [r.getMessage() for r in caplog.records if r.name == "panolight_core.pipeline.job"]
-    assert said[0] == f"reading {src}" and said[-1].startswith("writing ") and len(said) == 4
+    assert said[0] == f"reading {src}" and said[-1].startswith("writing ") and len(said) == 5
+    assert said[3].startswith("units: relative")  # the scale the files hold (docs/units.md)
     assert capsys.readouterr() == ("", "")  # a library user's terminal stays theirs
 
 
