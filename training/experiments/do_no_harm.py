@@ -15,7 +15,8 @@ as a ratio to the naive map's; harmed: EVALUATION.md's "Harm", ``metrics.harmed`
   the decision of least expected pinball loss when an over-estimate costs (1 - P) / P times an under-estimate;
 - a variant followed by ``+sky-sun``: a sun the photo does not show is put back where its sky's gradient alone
   places it (``--sky-sun``; the default before issue 58); by ``+key-decided``: no key light carries more than its
-  regions' decided energy.
+  regions' decided energy; by ``+key-agree``: a clear-sky sun whose fit's 68 % range lies wholly above the trees'
+  carries no more than its regions' decided energy (two kinds of evidence that disagree: the cautious one).
 
     python -m training.experiments.do_no_harm --fold-models 'runs/folds/sources_{k}.safetensors' --out runs/harm.json \
         [--variants expected+sky-sun expected shipped bounded:1.5 quantile:0.2]
@@ -66,6 +67,15 @@ def decision_rule(rule: str):
         recovery.choose_shrink, recovery.shrunk, decision.harmless, decision.HARM_RANGE_Z = saved
 
 
+def agreeing(k, rec):
+    """``+key-agree``: a clear-sky sun whose fit's 68 % range lies wholly above the trees' (their high end under the
+    fit's low end) carries at most its regions' decided energy; any other light as it is."""
+    if k.region < 0 or k.physical is None:
+        return k
+    high = rec.regions.added_energy(rec.mu + rec.sigma, [k.region, *k.parts])
+    return k if high >= k.physical / keylight.PARAMS.sky_spread else replace(k, energy=min(k.energy, k.decided))
+
+
 def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
     """One scene at one ev: naive's and each variant's [m-RMSE, irr-RMSE], and the key lights' sources."""
     ds = metrics.dominant_source(hdr)
@@ -80,6 +90,8 @@ def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
             rec = sources.recover(ldr, model, maps=maps)
         params = replace(keylight.PARAMS, sky_alone_sun="sky-sun" in extras)
         keys = keylight.find_key_lights(maps, rec.regions, (rec.mu, rec.sigma, rec.log_ratio), params)
+        if "key-agree" in extras:
+            keys = [agreeing(k, rec) for k in keys]
         if "key-decided" in extras:
             keys = [replace(k, energy=min(k.energy, k.decided)) if k.region >= 0 else k for k in keys]
             keys = [k for k in keys if k.energy > 0]
