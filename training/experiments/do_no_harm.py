@@ -15,8 +15,10 @@ as a ratio to the naive map's; harmed: EVALUATION.md's "Harm", ``metrics.harmed`
   the decision of least expected pinball loss when an over-estimate costs (1 - P) / P times an under-estimate;
 - a variant followed by ``+sky-sun``: a sun the photo does not show is put back where its sky's gradient alone
   places it (``--sky-sun``; the default before issue 58); by ``+key-decided``: no key light carries more than its
-  regions' decided energy; by ``+key-agree``: a clear-sky sun whose fit's 68 % range lies wholly above the trees'
-  carries no more than its regions' decided energy (two kinds of evidence that disagree: the cautious one).
+  regions' decided energy; by ``+as-before``: a clear-sky sun whose evidence disagrees weighed as before the shipped
+  rule (``keylight.weighing.when_disagreeing``); with it, ``+key-agree``: any clear-sky sun whose fit's 68 % range lies
+  wholly above the trees' carries no more than its regions' decided energy, ``+trusted-agree``: only a trusted one
+  (the fit's floor), ``+trusted-untrust``: a trusted one weighed as untrusted (no floor, no cap).
 
     python -m training.experiments.do_no_harm --fold-models 'runs/folds/sources_{k}.safetensors' --out runs/harm.json \
         [--variants expected+sky-sun expected shipped bounded:1.5 quantile:0.2]
@@ -35,6 +37,7 @@ import numpy as np
 from panolight_core import metrics, sh, threads
 from panolight_core.camera import hdr_to_ldr, ldr_to_linear
 from panolight_core.estimators import keylight, sources
+from panolight_core.estimators.keylight import weighing
 from panolight_core.estimators.sources import decision, recovery
 from panolight_core.estimators.sources.fill import cap_log_ratios, fill_with_keys
 from panolight_core.pipeline import fit_radiance
@@ -67,6 +70,19 @@ def decision_rule(rule: str):
         recovery.choose_shrink, recovery.shrunk, decision.harmless, decision.HARM_RANGE_Z = saved
 
 
+@contextlib.contextmanager
+def disagreement(shipped: bool):
+    """Within it, a clear-sky sun whose evidence disagrees is weighed as shipped (``weighing.when_disagreeing``), or
+    as before it (``shipped`` False: the variant ``+as-before``)."""
+    saved = weighing.when_disagreeing
+    if not shipped:
+        weighing.when_disagreeing = lambda energy, *rest, **kw: energy
+    try:
+        yield
+    finally:
+        weighing.when_disagreeing = saved
+
+
 def agreeing(k, rec):
     """``+key-agree``: a clear-sky sun whose fit's 68 % range lies wholly above the trees' (their high end under the
     fit's low end) carries at most its regions' decided energy; any other light as it is."""
@@ -74,6 +90,18 @@ def agreeing(k, rec):
         return k
     high = rec.regions.added_energy(rec.mu + rec.sigma, [k.region, *k.parts])
     return k if high >= k.physical / keylight.PARAMS.sky_spread else replace(k, energy=min(k.energy, k.decided))
+
+
+def untrusting(k, rec):
+    """``+trusted-untrust``: a trusted clear-sky sun (its fit's floor and cap) whose fit's 68 % range lies wholly
+    above the trees' is weighed as an untrusted one (``keylight.key_energy``: its fit capped at the larger of the
+    trees' mean and the decided fill, no floor) and its regions keep their decided fill (no cap)."""
+    if k.region < 0 or k.physical is None or k.cap is None:
+        return k
+    high = rec.regions.added_energy(rec.mu + rec.sigma, [k.region, *k.parts])
+    if high >= k.physical / keylight.PARAMS.sky_spread:
+        return k
+    return replace(k, energy=keylight.key_energy(k.physical, k.learned, k.decided, False), cap=None)
 
 
 def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
@@ -89,9 +117,14 @@ def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
         with decision_rule(rule):
             rec = sources.recover(ldr, model, maps=maps)
         params = replace(keylight.PARAMS, sky_alone_sun="sky-sun" in extras)
-        keys = keylight.find_key_lights(maps, rec.regions, (rec.mu, rec.sigma, rec.log_ratio), params)
+        with disagreement("as-before" not in extras):
+            keys = keylight.find_key_lights(maps, rec.regions, (rec.mu, rec.sigma, rec.log_ratio), params)
         if "key-agree" in extras:
             keys = [agreeing(k, rec) for k in keys]
+        if "trusted-agree" in extras:  # the same, for a trusted sun only (the fit's floor), any other as it is
+            keys = [agreeing(k, rec) if k.cap is not None else k for k in keys]
+        if "trusted-untrust" in extras:  # a trusted sun the trees disagree with weighed as an untrusted one
+            keys = [untrusting(k, rec) for k in keys]
         if "key-decided" in extras:
             keys = [replace(k, energy=min(k.energy, k.decided)) if k.region >= 0 else k for k in keys]
             keys = [k for k in keys if k.energy > 0]

@@ -41,17 +41,17 @@ def weigh(physical: float | None, learned: float = 0.0, decided: float = 0.0, *,
     per-source model's mean and the decided fill's energy for its regions; trusted: whether the fit bounds it
     (``physics_trusted``); trees_68: the per-source model's 68 % range for its regions (a clipped region's light);
     given: an energy already set by its evidence (a sun weighed by the fit alone, or by the photo's lit / shadow
-    contrast). The energy is ``given``, else ``key_energy``'s, but at most the decided fill's where the two kinds of
-    evidence disagree: the trees' 68 % range wholly under the fit's (a hazy patch whose clear-sky fit passes: out of
-    fold, evening_meadow's sun at ev -2 went from 8.7x naive's m-RMSE to 0.26x, and no other scene moved;
-    docs/studies/do_no_harm.md). The range: about a region's light, the fit's
+    contrast). The energy is ``given``, else ``key_energy``'s, but for a trusted sun at most the decided fill's where
+    the two kinds of evidence disagree (``when_disagreeing``): the trees' 68 % range wholly under the fit's (a hazy
+    patch whose clear-sky fit passes: out of fold, evening_meadow's sun at ev -2 went from 8.7x naive's m-RMSE to
+    0.26x, and no other scene moved; docs/studies/do_no_harm.md). The range: about a region's light, the fit's
     (physical / sky_spread .. physical x sky_spread) where a fit weighs it, averaged in log with the trees' under
     ``params.belief``, else the trees'; about any other light, its energy's, sky_spread either way. The cap: a
     trusted fit's high end."""
     energy = key_energy(physical, learned, decided, trusted, params) if given is None else given
     spread = params.sky_spread
-    if given is None and physical is not None and trees_68 is not None and trees_68[1] < physical / spread:
-        energy = min(energy, decided)  # the fit and the trees disagree: the cautious evidence (issue 58)
+    if given is None and physical is not None and trees_68 is not None:
+        energy = when_disagreeing(energy, physical, decided, trees_68, trusted, params)
     if trees_68 is None:
         lo, hi = energy / spread, energy * spread
     elif physical is None:
@@ -61,6 +61,16 @@ def weigh(physical: float | None, learned: float = 0.0, decided: float = 0.0, *,
         if params.belief:  # the belief's range: the trees' and the fit's, averaged in log
             lo, hi = math.sqrt(trees_68[0] * lo), math.sqrt(trees_68[1] * hi)
     return Weight(float(energy), (float(lo), float(hi)), physical * spread if trusted else None)
+
+
+def when_disagreeing(energy: float, physical: float, decided: float, trees_68: tuple, trusted: bool,
+                     params: KeyLightParams = PARAMS) -> float:
+    """A trusted clear-sky sun's energy (``physics_trusted``: its fit's floor) where its two kinds of evidence
+    disagree: the trees' 68 % range wholly under the fit's (its high end under physical / sky_spread) takes at most
+    the decided fill's energy (the cautious one); ``energy`` otherwise. An untrusted sun is already capped at the
+    trees' mean (``key_energy``); out of fold the rule for every clear-sky sun moved the same one scene, and on the
+    real photos it weakened three low suns already kept below their evidence (docs/studies/do_no_harm.md)."""
+    return min(energy, decided) if trusted and trees_68[1] < physical / params.sky_spread else energy
 
 
 def key_energy(physical: float | None, learned: float, decided: float, trusted: bool,
