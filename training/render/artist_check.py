@@ -17,7 +17,8 @@ For each photo (default: every JPEG in ../shared/data/ldr; never trained or tune
   colour (the tunnel's sodium lamps must come out orange);
 - what the product tells the artist of the key light (``keylight.key_light_note``) and, for a key light
   kept below its own evidence, the same render estimated again with ``--sun-strength`` at the low end of its 68 %
-  range, as the note advises (Blender: Sun lamp strength).
+  range, as the note advises (Blender: Sun lamp strength); for a sun only the sky suggests (not placed by
+  default), the render with the ``--sun AZ,EL`` the note gives.
 Writes OUT/<photo>.png (photo | composite per estimator) and OUT/artist_check.md (the table).
 
     python -m training.render.artist_check [--photos a.jpg ...] [--estimators sources auto] [--spp 64] --out docs/artist_check
@@ -26,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -109,7 +111,7 @@ def check(photo: Path, estimators, spp: int, size=(320, 240), fov: float = 70.0,
     from panolight_core.camera.resample import area_downsample, sample_equirect
     from panolight_core.io import read_image
     from panolight_core.pipeline.estimate import estimate_lighting
-    from panolight_core.pipeline.settings import Settings
+    from panolight_core.pipeline.settings import Settings, direction_from_az_el
     from training.render.mitsuba import composite_view, perspective_rays, scene_emitters
 
     px = read_image(photo, ldr_as_uint8=True)
@@ -126,6 +128,11 @@ def check(photo: Path, estimators, spp: int, size=(320, 240), fov: float = 70.0,
             strength = round(key["low"], 1)
             raised = estimate_lighting(px, Settings(estimator=name, sun_strength=strength))
             runs.append((f"{name}, --sun-strength {strength:g}", raised.model, ""))
+        said = re.search(r"(--sun (-?\d+),(-?\d+)) places", key_light_note(res.document))
+        if said:  # a sun only the sky suggests: what the artist gets by placing it as the note says
+            pointed = direction_from_az_el(float(said.group(2)), float(said.group(3)))
+            placed = estimate_lighting(px, Settings(estimator=name, sun_direction=pointed))
+            runs.append((f"{name}, {said.group(1)}", placed.model, ""))
     for name, model, note in runs:
         t = time.perf_counter()
         d, kind = key_direction(model)
@@ -203,7 +210,8 @@ def write(results, out: Path) -> Path:
     if notes:
         lines += ["", "What `panolight estimate` and the Blender status bar tell the artist "
                   "(`keylight.key_light_note`; a key light kept below its evidence is also rendered at the low "
-                  "end of its 68 % range with `--sun-strength`, as the note advises):", ""] + notes
+                  "end of its 68 % range with `--sun-strength`, and a sun only the sky suggests with the `--sun` "
+                  "that places it, as the note advises):", ""] + notes
     lines += pictures
     report = out / "artist_check.md"
     report.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")
