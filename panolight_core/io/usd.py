@@ -16,6 +16,8 @@ along its local -Z; its transform points local +Z at the light's direction. It i
 intensity is the irradiance on a surface facing the light (lighting.json's intensity times its largest
 colour channel); colour is normalised to a largest channel of 1, angle is the angular diameter in
 degrees (the UsdLux specification; Blender 5.0's importer reads 4x the strength and twice the angle).
+The stage's root carries lighting.json's units and, where one is known, its absolute scale
+(``panolight:physicalScale``: whether the values are in cd/m^2 and lux, the camera's white in cd/m^2, EV100).
 Needs usd-core (``pip install usd-core``, the official Pixar bindings), imported only here.
 """
 from __future__ import annotations
@@ -85,6 +87,13 @@ def write_usd(path, doc: dict, *, hdri: str | None = "hdr.exr") -> Path:
     stage.SetDefaultPrim(root.GetPrim())
     root.GetPrim().SetCustomDataByKey("panolight:units", doc.get("units", ""))
     root.GetPrim().SetCustomDataByKey("panolight:frame", doc.get("frame", ""))
+    physical = doc.get("physical") or {}
+    if physical.get("absolute"):  # the absolute scale (docs/units.md): the stage's values in cd/m^2 and lux, or
+        # relative with what one unit is; a pipeline reading only the stage can scale it
+        root.GetPrim().SetCustomDataByKey("panolight:physicalScale", {
+            "applied": bool(physical.get("applied")), "whiteCdM2": float(physical["white_cd_m2"]),
+            "ev100": float(physical.get("ev100") or 0.0), "from": str(physical.get("from", "")),
+            "lumensPerWatt": 683.0})
     stage.SetMetadata("comment", "PanoLight lighting estimate (lighting.json beside it holds the full record)")
     rigs = root.GetPrim().GetVariantSets().AddVariantSet("lighting")
     for name in VARIANTS if hdri else VARIANTS[:1]:

@@ -123,3 +123,19 @@ def test_a_key_light_says_how_it_was_found_and_how_sure_it_is(tmp_path):
     intensity = UsdLux.DistantLight(prims["Light_0"]).GetIntensityAttr().Get()
     assert (lo / intensity, hi / intensity) == pytest.approx((1.2 / 0.5, 4.8 / 0.5))  # the range over the light
     assert set(prims["Light_1"].GetCustomData()["panolight"]) == {"type"}
+
+
+def test_the_stage_carries_the_absolute_scale_where_one_is_known(tmp_path):
+    """lighting.json's physical block rides along on the root (docs/units.md): a pipeline reading only the stage
+    knows what one unit is, and whether the values are already cd/m^2 and lux; a stage without a scale carries none."""
+    from pxr import Usd
+
+    physical = {"absolute": True, "applied": False, "from": "exif", "ev100": 4.5969, "white_cd_m2": 29.04}
+    write_usd(tmp_path / "a.usda", {"lights": [], "units": "relative", "physical": physical})
+    stage = Usd.Stage.Open(str(tmp_path / "a.usda"))  # held: a prim of a dropped stage expires
+    scale = stage.GetDefaultPrim().GetCustomData()["panolight"]["physicalScale"]
+    assert scale["whiteCdM2"] == pytest.approx(29.04) and scale["applied"] is False and scale["from"] == "exif"
+    assert scale["lumensPerWatt"] == 683.0 and scale["ev100"] == pytest.approx(4.5969)
+    write_usd(tmp_path / "b.usda", {"lights": [], "physical": {"absolute": False, "applied": False}})
+    other = Usd.Stage.Open(str(tmp_path / "b.usda"))
+    assert "physicalScale" not in other.GetDefaultPrim().GetCustomData()["panolight"]
