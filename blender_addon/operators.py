@@ -13,6 +13,7 @@ panolight.pick_sun()                     click the sun (or where a shadow points
 """
 
 import functools
+import math
 import threading
 from pathlib import Path
 
@@ -34,6 +35,7 @@ from .core import (
     pipeline,
     sh,
     threads,
+    units,
 )
 from .lights import LIGHTS_COLLECTION, set_lights
 from .world import build_world
@@ -332,13 +334,35 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
             radiance = sh.emitter_map(coeffs, h, 2 * h)[0].astype(np.float32)
             image = images.radiance_image(radiance)
             lights = doc.get("lights", []) if s.create_lights else []
-        build_world(panorama, image, **_world_kwargs(context))
-        set_lights(lights, context.scene, s.lighting_strength, s.lighting_rotation)  # the key lights at Sun lamp strength
+        factor = self._physical_factor(context, doc)  # W/m^2/sr per unit of the estimate, or 1 (relative)
+        kwargs = _world_kwargs(context)
+        kwargs["background_strength"] *= factor
+        kwargs["lighting_strength"] *= factor
+        build_world(panorama, image, **kwargs)
+        # the key lights at Sun lamp strength, in W/m^2 where the units are physical
+        set_lights(lights, context.scene, s.lighting_strength * factor, s.lighting_rotation)
         context.scene.world = world
         what = "the reconstructed HDRI" if s.lighting_source == "HDRI" else \
             f"SH order {doc['lmax']}, {len(lights)} sun lamp(s)"
+        if factor != 1.0:
+            what += (f"; physical units: {factor:.4g} W/m^2/sr per unit of the estimate, film exposure "
+                     f"{context.scene.view_settings.exposure:+.2f} EV")
         self.report({"INFO"}, f"PanoLight: environment built ({what})")
         return {"FINISHED"}
+
+    def _physical_factor(self, context, doc) -> float:
+        """With Physical units ticked and a scale the estimate knows (``camera.units.blender_factor``): W/m^2/sr per
+        unit of its values, and the film's exposure set to -log2 of it, so the plate's white renders white; else 1
+        (and a warning where the estimate knows no scale), the exposure untouched."""
+        if not _checked(context).physical_units:
+            return 1.0
+        factor = units.blender_factor(doc.get("physical"))
+        if factor is None:
+            self.report({"WARNING"}, "PanoLight: Physical units: the estimate knows no absolute scale (the photo "
+                                     "records no exposure); the relative setup is kept")
+            return 1.0
+        context.scene.view_settings.exposure = -math.log2(factor)
+        return factor
 
     def _at_new_strength(self, context, world, panorama):
         """(pixels, the core's Result) of the stored estimate at the panel's Sun lamp strength, stored in its place:

@@ -81,6 +81,11 @@ class PanoLightSettings(bpy.types.PropertyGroup):
     glossy_panorama: BoolProperty(name="Panorama in reflections", default=False,
                                   description="Glossy rays see the panorama instead of the smooth SH lighting")
     create_lights: BoolProperty(name="Sun lamps for explicit lights", default=True)
+    physical_units: BoolProperty(
+        name="Physical units", default=False,
+        description="Where the estimate knows its absolute scale (the photo's EXIF, --ev100 or --lux): the world's "
+                    "strengths in W/m^2/sr and the sun lamps' in W/m^2 (683 lm/W), and the film's exposure set so the "
+                    "plate's white renders white. Off: the relative setup (1 = the camera's white), exposure untouched")
     radiance_height: IntProperty(name="SH map height", default=256, min=64, max=1024)
     lighting_source: EnumProperty(
         name="Light with", default="SH",
@@ -135,7 +140,7 @@ def draw_panel(layout, context):
         box.label(text=f"Units: {said}", icon="LIGHT_DATA")
     box = layout.box()
     for prop in ("lighting_source", "background_strength", "lighting_strength", "background_rotation",
-                 "lighting_rotation", "glossy_panorama", "create_lights", "radiance_height"):
+                 "lighting_rotation", "glossy_panorama", "create_lights", "radiance_height", "physical_units"):
         box.prop(s, prop)
     if s.lighting_source == "HDRI" or s.create_lights:
         box.prop(s, "sun_strength")

@@ -113,3 +113,16 @@ def summary(physical: dict | None) -> str:
         return f"relative: 1 = the camera's white = {white:.3g} cd/m^2 (from {origin}){lux}"
     except (TypeError, ValueError, KeyError, AttributeError):
         return "the stored scale cannot be read"
+
+
+def blender_factor(physical: dict | None) -> float | None:
+    """W/m^2/sr per unit of a lighting document's values (its ``physical`` block), Blender's radiometric units at
+    683 lm/W: the camera's white / 683 for relative values, 1 / 683 for values already in cd/m^2 (``applied``); None
+    where no scale is known or the block cannot be read (a stored estimate a user edited)."""
+    try:
+        if not physical or not physical.get("absolute"):
+            return None
+        per = 1.0 if physical.get("applied") else float(physical["white_cd_m2"])
+    except (TypeError, ValueError, KeyError, AttributeError):
+        return None
+    return per / LUMENS_PER_WATT if math.isfinite(per) and per > 0 else None

@@ -1146,3 +1146,35 @@ def test_the_panel_shows_the_units_the_photo_s_exif_gives(tmp_path):
     assert doc["physical"]["from"] == "exif" and not doc["physical"]["applied"]
     world[store.LIGHTING_KEY] = json.dumps({**doc, "physical": {"absolute": False}})
     assert store.units_line(world).startswith("relative (1 = the camera's white); no exposure")
+
+
+def test_physical_units_put_the_world_and_the_lamps_in_watts_and_the_plate_s_white_at_white(tmp_path):
+    """Physical units ticked, for a JPEG whose EXIF gives its scale: both Background strengths are the panel's times
+    the camera's white in W/m^2/sr (white cd/m^2 / 683), each sun lamp's energy is its intensity times that in W/m^2,
+    and the film's exposure is -log2 of it, so the plate renders as before; unticked, today's relative setup."""
+    from panolight_core.camera import hdr_to_ldr, units
+    from tests.panolight_core.pipeline.test_brackets import _city, _frame
+
+    path = _frame(tmp_path / "exif.jpg", hdr_to_ldr(_city(64), 0.0), 1 / 100, 8.0, 200)
+    scene = bpy.context.scene
+    scene.view_settings.exposure = 0.0
+    s = scene.panolight
+    s.lighting_source, s.create_lights, s.sun_strength, s.lighting_strength = "SH", True, 1.0, 1.0
+    _estimate_and_build(path)
+    relative = {n.label: n.inputs["Strength"].default_value for n in scene.world.node_tree.nodes
+                if n.type == "BACKGROUND"}
+    lamps = {o.name: o.data.energy for o in bpy.data.objects if o.get(store.TAG) and o.type == "LIGHT"}  # ours
+    assert scene.view_settings.exposure == 0.0 and lamps
+    scene.panolight.physical_units = True
+    try:
+        assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+        factor = units.white_luminance(units.ev100(1 / 100, 8.0, 200.0)) / 683.0
+        got = {n.label: n.inputs["Strength"].default_value for n in scene.world.node_tree.nodes
+               if n.type == "BACKGROUND"}
+        assert got == pytest.approx({k: v * factor for k, v in relative.items()}, rel=1e-5)
+        physical = {o.name: o.data.energy for o in bpy.data.objects if o.get(store.TAG) and o.type == "LIGHT"}
+        assert physical == pytest.approx({k: v * factor for k, v in lamps.items()}, rel=1e-5)
+        assert scene.view_settings.exposure == pytest.approx(-math.log2(factor), abs=1e-5)
+    finally:
+        scene.panolight.physical_units = False
+        scene.view_settings.exposure = 0.0

@@ -56,3 +56,11 @@ def test_the_one_line_says_the_units_and_survives_an_edited_block():
     assert units.summary(None).startswith("relative (1 = the camera's white); no exposure")
     for edited in ({"absolute": True}, {"absolute": True, "white_cd_m2": "bright"}, ["x"]):
         assert units.summary(edited) == "the stored scale cannot be read"
+
+
+def test_blender_s_factor_is_watts_per_unit_at_683_lumens():
+    s = units.from_ev100(10.0)
+    assert units.blender_factor({**s.describe(), "applied": False}) == pytest.approx(1228.8 / 683.0)
+    assert units.blender_factor({**s.describe(), "applied": True}) == pytest.approx(1.0 / 683.0)
+    for none in (None, {"absolute": False}, {"absolute": True}, {"absolute": True, "white_cd_m2": -1.0}):
+        assert units.blender_factor(none) is None
