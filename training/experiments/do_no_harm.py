@@ -22,6 +22,7 @@ as a ratio to the naive map's; harmed: EVALUATION.md's "Harm", ``metrics.harmed`
 
     python -m training.experiments.do_no_harm --fold-models 'runs/folds/sources_{k}.safetensors' --out runs/harm.json \
         [--variants expected+sky-sun expected shipped bounded:1.5 quantile:0.2]
+    python -m training.experiments.do_no_harm --clipped 4 --variants expected+as-before shipped   # an HDR clipped 4 stops over
 """
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ from statistics import NormalDist
 import numpy as np
 
 from panolight_core import metrics, sh, threads
-from panolight_core.camera import hdr_to_ldr, ldr_to_linear
+from panolight_core.camera import auto_exposure, hdr_to_ldr, ldr_to_linear
 from panolight_core.estimators import keylight, sources
 from panolight_core.estimators.keylight import weighing
 from panolight_core.estimators.sources import decision, recovery
@@ -135,8 +136,36 @@ def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
     return row
 
 
+def score_clipped(hdr: np.ndarray, stops: float, variants=VARIANTS) -> dict:
+    """An HDR file clipped 2^``stops`` over the ev-0 exposure's white (as a merge without an ND filter clips its sun),
+    estimated whole as ``panolight estimate`` does (restored, by the shipped HDR model) under each variant's decision
+    and key-light rule: the model's [m-RMSE, irr-RMSE] at lmax 2 against the truth, and the file's own as "naive"
+    (harm is against the file as it is)."""
+    from panolight_core.pipeline.estimate import estimate_lighting
+    from panolight_core.pipeline.settings import Settings
+
+    ds = metrics.dominant_source(hdr)
+    truth = hdr * auto_exposure(hdr, 0.0)
+    gt = sh.project(truth, 2)
+    pixels = np.minimum(truth, 2.0 ** stops).astype(np.float32)
+    own = sh.project(pixels, 2)
+    row = {"ev": stops, "dominant": bool(ds["dominant"]), "naive": [metrics.m_rmse(gt, own), metrics.irr_rmse(gt, own)],
+           "variants": {}, "keys": {}}
+    for variant in variants:
+        rule, *extras = variant.split("+")
+        with decision_rule(rule), disagreement("as-before" not in extras):
+            res = estimate_lighting(pixels, Settings(sky_sun="sky-sun" in extras))
+        q = res.model.project(2)
+        row["variants"][variant] = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
+        row["keys"][variant] = [str(light.get("source", "exact")).split(":")[0].split(" (")[0]
+                                for light in res.document["lights"]]
+    return row
+
+
 def _scene_job(args):
-    path, evs, model_path, variants = args
+    path, evs, model_path, variants, clipped = args
+    if clipped is not None:
+        return [dict(score_clipped(load_hdr(Path(path)), clipped, variants), scene=Path(path).stem)]
     from panolight_core.estimators.sources import load_source_model
 
     model = load_source_model(model_path) if model_path else load_source_model()
@@ -164,13 +193,16 @@ def main(argv=None) -> int:
     fold_models_option(ap)
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), metavar="VARIANT",
                     help="the variants to score (module doc; default: %(default)s)")
+    ap.add_argument("--clipped", type=float, default=None, metavar="STOPS",
+                    help="instead of camera JPEGs, each HDR clipped this many stops over its ev-0 white and restored "
+                         "as panolight estimate does (the shipped HDR model: in sample), harm against the file as it is")
     ap.add_argument("--workers", type=int, default=2, help="processes, one scene each at a time (default 2)")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
     clipped = clipped_truth(args.hdri)
     model_of = scene_models(args.fold_models, files)
-    jobs = [(str(p), list(args.evs), str(model_of[p].path) if args.fold_models else None, args.variants)
+    jobs = [(str(p), list(args.evs), str(model_of[p].path) if args.fold_models else None, args.variants, args.clipped)
             for p in files if p.name not in clipped]
     rows = []
     with ProcessPoolExecutor(args.workers, mp_context=threads.process_context()) as pool:
@@ -182,7 +214,7 @@ def main(argv=None) -> int:
     result = {"fold_models": args.fold_models, "summary": {}}
     print("| ev | variant | harmed | scenes | m-RMSE / naive, median / mean | dominant: median / mean | harmed scenes |")
     print("|---|---|---:|---:|---:|---:|---|")
-    for ev in args.evs:
+    for ev in ([args.clipped] if args.clipped is not None else args.evs):
         s = summary([r for r in rows if r["ev"] == ev], args.variants)
         result["summary"][f"{ev:+g}"] = s
         for v, x in s.items():
