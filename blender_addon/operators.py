@@ -341,6 +341,7 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         build_world(panorama, image, **kwargs)
         # the key lights at Sun lamp strength, in W/m^2 where the units are physical
         set_lights(lights, context.scene, s.lighting_strength * factor, s.lighting_rotation)
+        _eevee_sun(world, bool(lights), factor)
         context.scene.world = world
         what = "the reconstructed HDRI" if s.lighting_source == "HDRI" else \
             f"SH order {doc['lmax']}, {len(lights)} sun lamp(s)"
@@ -388,6 +389,19 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
             raise Error("the panel's settings changed since Estimate lighting, so the HDRI would belong to "
                         "another estimate: run Estimate lighting again (or restore the settings)")
         return _make_hdri(world, pixels, result)
+
+
+EEVEE_SUN_THRESHOLD = 10.0  # EEVEE's default: world radiance above it (relative units here) becomes EEVEE's own sun
+
+
+def _eevee_sun(world, lamps: bool, factor: float) -> None:
+    """No light counted twice in EEVEE (4.2+), which turns world radiance above ``World.sun_threshold`` into a sun of
+    its own: where PanoLight's Sun lamps carry the key lights (SH lighting + sun lamps), none (0: the whole world goes
+    to the light probe); where the world's HDRI carries them (no lamps), EEVEE's default threshold in the estimate's
+    units (``factor``: W/m^2/sr per unit with Physical units), so the restored sun, hundreds of times the sky, is the
+    one EEVEE makes a sun of, as it would be without PanoLight's units."""
+    if hasattr(world, "sun_threshold"):
+        world.sun_threshold = 0.0 if lamps else EEVEE_SUN_THRESHOLD * factor
 
 
 def _estimate_again(panorama, settings):

@@ -1175,6 +1175,10 @@ def test_physical_units_put_the_world_and_the_lamps_in_watts_and_the_plate_s_whi
         physical = {o.name: o.data.energy for o in bpy.data.objects if o.get(store.TAG) and o.type == "LIGHT"}
         assert physical == pytest.approx({k: v * factor for k, v in lamps.items()}, rel=1e-5)
         assert scene.view_settings.exposure == pytest.approx(-math.log2(factor), abs=1e-5)
+        assert scene.world.sun_threshold == 0.0  # the sun lamps carry the key lights: EEVEE makes no sun of its own
+        s.lighting_source = "HDRI"  # the world's HDRI carries them: EEVEE's own threshold, in these units
+        assert bpy.ops.panolight.build_environment() == {"FINISHED"}
+        assert scene.world.sun_threshold == pytest.approx(10.0 * factor, rel=1e-5)
     finally:
-        scene.panolight.physical_units = False
+        scene.panolight.physical_units, s.lighting_source = False, "SH"
         scene.view_settings.exposure = 0.0
