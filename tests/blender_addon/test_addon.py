@@ -1182,3 +1182,65 @@ def test_physical_units_put_the_world_and_the_lamps_in_watts_and_the_plate_s_whi
     finally:
         scene.panolight.physical_units, s.lighting_source = False, "SH"
         scene.view_settings.exposure = 0.0
+
+
+def test_with_physical_units_a_white_plane_gets_lighting_json_s_upward_illuminance_in_watts(tmp_path):
+    """Physical units, for a JPEG whose EXIF gives its scale: a white diffuse plane facing up, rendered by Cycles (the
+    EXR is scene-linear: the film exposure is the view's, not the file's), gets the irradiance lighting.json states,
+    physical.upward_illuminance_lux / 683 W/m^2, within 3 %: the world and the sun lamps are in Blender's units. (The
+    factory scene's own point light is removed first: it had added 25 %.)"""
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.camera.color import LUMINANCE_WEIGHTS
+    from tests.panolight_core.pipeline.test_brackets import _city, _frame
+
+    path = _frame(tmp_path / "exif.jpg", hdr_to_ldr(_city(64), 0.0), 1 / 100, 8.0, 200)
+    scene = bpy.context.scene
+    s = scene.panolight
+    s.lighting_source, s.create_lights, s.sun_strength, s.lighting_strength = "SH", True, 1.0, 1.0
+    s.physical_units = True
+    try:
+        _estimate_and_build(path)
+    finally:
+        s.physical_units = False
+    doc = store.stored_lighting(scene.world)
+    assert doc["lights"]  # the city's sun, a lamp of its own
+    want = doc["physical"]["upward_illuminance_lux"] / 683.0  # W/m^2, luminance-weighted
+    for obj in [o for o in scene.objects if o.type == "MESH" or (o.type == "LIGHT" and not o.get(store.TAG))]:
+        bpy.data.objects.remove(obj)
+    bpy.ops.mesh.primitive_plane_add(size=200.0, location=(0, 0, 0))
+    plane = bpy.context.active_object
+    mat = bpy.data.materials.new("white plane")
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    diff.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    nt.links.new(diff.outputs["BSDF"], out.inputs["Surface"])
+    plane.data.materials.append(mat)
+    cam_data = bpy.data.cameras.new("down")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 1.0
+    cam = bpy.data.objects.new("down", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (0, 0, 1.0)  # looking straight down at the plane (a camera casts no shadow)
+    scene.camera = cam
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 256
+    scene.cycles.use_denoising = False
+    scene.cycles.max_bounces = 1
+    scene.render.resolution_x = scene.render.resolution_y = 16
+    scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
+    scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "OPEN_EXR", "32"
+    scene.render.filepath = str(tmp_path / "plane.exr")
+    try:
+        bpy.ops.render.render(write_still=True)
+    finally:
+        bpy.data.objects.remove(cam)
+        bpy.data.objects.remove(plane)
+        scene.view_settings.exposure = 0.0
+    img = read_image(tmp_path / "plane.exr", equirect=False).astype(np.float64)
+    got = float(img.reshape(-1, 3).mean(0) @ LUMINANCE_WEIGHTS) * math.pi / 0.8  # radiance -> irradiance, W/m^2
+    assert got == pytest.approx(want, rel=0.03)
