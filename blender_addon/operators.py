@@ -358,9 +358,9 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         if not _checked(context).physical_units:
             return 1.0
         factor = units.blender_factor(doc.get("physical"))
-        if factor is None:
-            self.report({"WARNING"}, "PanoLight: Physical units: the estimate knows no absolute scale (the photo "
-                                     "records no exposure); the relative setup is kept")
+        if factor is None:  # the photo records no exposure (on by default: no warning for the common case)
+            self.report({"INFO"}, "PanoLight: the estimate knows no absolute scale (the photo records no exposure): "
+                                  "relative units, 1 = the camera's white")
             return 1.0
         context.scene.view_settings.exposure = -math.log2(factor)
         return factor

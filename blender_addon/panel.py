@@ -82,10 +82,11 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                   description="Glossy rays see the panorama instead of the smooth SH lighting")
     create_lights: BoolProperty(name="Sun lamps for explicit lights", default=True)
     physical_units: BoolProperty(
-        name="Physical units", default=False,
-        description="Where the estimate knows its absolute scale (the photo's EXIF, --ev100 or --lux): the world's "
-                    "strengths in W/m^2/sr and the sun lamps' in W/m^2 (683 lm/W), and the film's exposure set so the "
-                    "plate's white renders white. Off: the relative setup (1 = the camera's white), exposure untouched")
+        name="Physical units", default=True,
+        description="Where the estimate knows its absolute scale (the photo's EXIF): the world's strengths in W/m^2/sr "
+                    "and the sun lamps' in W/m^2 (683 lm/W), and the film's exposure set so the plate's white renders "
+                    "white. Off, or where nothing gives the scale: the relative setup (1 = the camera's white), the "
+                    "exposure untouched")
     radiance_height: IntProperty(name="SH map height", default=256, min=64, max=1024)
     lighting_source: EnumProperty(
         name="Light with", default="SH",

@@ -1149,9 +1149,10 @@ def test_the_panel_shows_the_units_the_photo_s_exif_gives(tmp_path):
 
 
 def test_physical_units_put_the_world_and_the_lamps_in_watts_and_the_plate_s_white_at_white(tmp_path):
-    """Physical units ticked, for a JPEG whose EXIF gives its scale: both Background strengths are the panel's times
-    the camera's white in W/m^2/sr (white cd/m^2 / 683), each sun lamp's energy is its intensity times that in W/m^2,
-    and the film's exposure is -log2 of it, so the plate renders as before; unticked, today's relative setup."""
+    """Physical units ticked (the default), for a JPEG whose EXIF gives its scale: both Background strengths are the
+    panel's times the camera's white in W/m^2/sr (white cd/m^2 / 683), each sun lamp's energy is its intensity times
+    that in W/m^2, and the film's exposure is -log2 of it, so the plate renders as before; unticked, today's
+    relative setup."""
     from panolight_core.camera import hdr_to_ldr, units
     from tests.panolight_core.pipeline.test_brackets import _city, _frame
 
@@ -1160,6 +1161,7 @@ def test_physical_units_put_the_world_and_the_lamps_in_watts_and_the_plate_s_whi
     scene.view_settings.exposure = 0.0
     s = scene.panolight
     s.lighting_source, s.create_lights, s.sun_strength, s.lighting_strength = "SH", True, 1.0, 1.0
+    s.physical_units = False  # the relative setup first (on by default)
     _estimate_and_build(path)
     relative = {n.label: n.inputs["Strength"].default_value for n in scene.world.node_tree.nodes
                 if n.type == "BACKGROUND"}
@@ -1180,7 +1182,7 @@ def test_physical_units_put_the_world_and_the_lamps_in_watts_and_the_plate_s_whi
         assert bpy.ops.panolight.build_environment() == {"FINISHED"}
         assert scene.world.sun_threshold == pytest.approx(10.0 * factor, rel=1e-5)
     finally:
-        scene.panolight.physical_units, s.lighting_source = False, "SH"
+        scene.panolight.physical_units, s.lighting_source = True, "SH"  # the default
         scene.view_settings.exposure = 0.0
 
 
@@ -1197,11 +1199,8 @@ def test_with_physical_units_a_white_plane_gets_lighting_json_s_upward_illuminan
     scene = bpy.context.scene
     s = scene.panolight
     s.lighting_source, s.create_lights, s.sun_strength, s.lighting_strength = "SH", True, 1.0, 1.0
-    s.physical_units = True
-    try:
-        _estimate_and_build(path)
-    finally:
-        s.physical_units = False
+    assert s.physical_units  # on by default
+    _estimate_and_build(path)
     doc = store.stored_lighting(scene.world)
     assert doc["lights"]  # the city's sun, a lamp of its own
     want = doc["physical"]["upward_illuminance_lux"] / 683.0  # W/m^2, luminance-weighted
