@@ -15,7 +15,7 @@ Mitsuba's photometric convention).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 LUMENS_PER_WATT = 683.0
 SATURATION_Q = 0.65  # ISO 12232's lens and vignetting factor
@@ -42,11 +42,13 @@ def white_luminance(ev: float) -> float:
 class Scale:
     """How PanoLight's relative units (1 = the camera's white) stand to physical ones. cd_m2: cd/m^2 per unit
     (None: relative, nothing gives the scale); origin: what gave it ("exif", "ev100": --ev100, "lux": --lux);
-    ev100: the EV100 it stands for (from --lux, the EV100 that white would have)."""
+    ev100: the EV100 it stands for (from --lux, the EV100 that white would have); iso_assumed: the EXIF recorded no
+    ISO, and 100 was taken."""
 
     cd_m2: float | None = None
     origin: str = "none"
     ev100: float | None = None
+    iso_assumed: bool = False  # the EXIF recorded no ISO: 100 was taken (the scale is then a guess)
 
     @property
     def absolute(self) -> bool:
@@ -60,7 +62,7 @@ class Scale:
                            "--ev100 or --lux sets it"}
         return {"absolute": True, "radiance": "cd/m^2", "light_intensity": "lux", "watts_per_lumen": 1.0 / LUMENS_PER_WATT,
                 "from": self.origin, "ev100": round(self.ev100, 4) if self.ev100 is not None else None,
-                "white_cd_m2": self.cd_m2,
+                "white_cd_m2": self.cd_m2, **({"iso_assumed": True} if self.iso_assumed else {}),
                 "convention": "EV100 = log2(N^2/t) - log2(ISO/100); white = 1.2 x 2^EV100 cd/m^2 (ISO 12232 "
                               "saturation speed, q = 0.65); 683 lm/W"}
 
@@ -76,14 +78,16 @@ def from_ev100(ev: float, origin: str = "ev100") -> Scale:
 
 
 def from_exposure(exposure: dict | None) -> Scale:
-    """The Scale a photo's EXIF gives ({"time_s", "f_number", "iso"}: ``io.capture.read_exposure``'s), or RELATIVE
-    where it records none or an EV100 beyond EV100_RANGE."""
+    """The Scale a photo's EXIF gives ({"time_s", "f_number", "iso"[, "iso_recorded"]}: ``io.capture.read_exposure``'s),
+    or RELATIVE where it records none or an EV100 beyond EV100_RANGE; an ISO the file did not record (ISO 100
+    taken) is said (``iso_assumed``)."""
     if not exposure:
         return RELATIVE
     try:
-        return from_ev100(ev100(exposure["time_s"], exposure["f_number"], exposure["iso"]), "exif")
+        scale = from_ev100(ev100(exposure["time_s"], exposure["f_number"], exposure["iso"]), "exif")
     except (KeyError, TypeError, ValueError):
         return RELATIVE
+    return replace(scale, iso_assumed=exposure.get("iso_recorded") is False)
 
 
 def from_lux(lux: float, upward_illuminance: float) -> Scale:
@@ -108,9 +112,10 @@ def summary(physical: dict | None) -> str:
         white = float(physical["white_cd_m2"])
         up = physical.get("upward_illuminance_lux")
         lux = f"; {float(up):.3g} lux on an upward surface" if up is not None else ""
+        guess = "; no ISO recorded, 100 assumed" if physical.get("iso_assumed") else ""
         if physical.get("applied"):
-            return f"cd/m^2 and lux (white {white:.3g} cd/m^2, from {origin}{lux})"
-        return f"relative: 1 = the camera's white = {white:.3g} cd/m^2 (from {origin}){lux}"
+            return f"cd/m^2 and lux (white {white:.3g} cd/m^2, from {origin}{guess}{lux})"
+        return f"relative: 1 = the camera's white = {white:.3g} cd/m^2 (from {origin}{guess}){lux}"
     except (TypeError, ValueError, KeyError, AttributeError):
         return "the stored scale cannot be read"
 

@@ -211,9 +211,10 @@ MAX_ISO = 1.0e7
 
 
 def exposure(get) -> dict | None:
-    """{"time_s", "f_number", "iso", "taken_s"} from raw tag values (``get(name)``, None when absent): each a positive
-    finite number, as a number, its text, a rational's text ("1/250") or the first of several values
-    (ISOSpeedRatings); None when the time or the f-number is not one. An ISO that is not one is taken as 100.
+    """{"time_s", "f_number", "iso", "taken_s", "iso_recorded"} from raw tag values (``get(name)``, None when absent):
+    each a positive finite number, as a number, its text, a rational's text ("1/250") or the first of several values
+    (ISOSpeedRatings); None when the time or the f-number is not one. An ISO that is not one is taken as 100
+    (``iso_recorded`` False: an absolute scale from it is a guess, ``camera.units``).
     taken_s: when the shot was taken (DateTimeOriginal and SubSecTimeOriginal, the camera's own clock), seconds
     from year 1, or None: what tells a bracket sequence from shots minutes apart."""
     time_s = positive(get("ExposureTime"), MAX_EXPOSURE_S)
@@ -224,7 +225,7 @@ def exposure(get) -> dict | None:
     taken = exif_datetime(get("Exif:DateTimeOriginal"))
     taken_s = None if taken is None else (taken - datetime(1, 1, 1)).total_seconds() + \
         subseconds(get("Exif:SubsecTimeOriginal"))
-    return {"time_s": time_s, "f_number": f_number, "iso": iso or 100.0, "taken_s": taken_s}
+    return {"time_s": time_s, "f_number": f_number, "iso": iso or 100.0, "taken_s": taken_s, "iso_recorded": bool(iso)}
 
 
 MAX_JSON_DEPTH = 32  # no record PanoLight writes nests deeper

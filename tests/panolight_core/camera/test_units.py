@@ -64,3 +64,11 @@ def test_blender_s_factor_is_watts_per_unit_at_683_lumens():
     assert units.blender_factor({**s.describe(), "applied": True}) == pytest.approx(1.0 / 683.0)
     for none in (None, {"absolute": False}, {"absolute": True}, {"absolute": True, "white_cd_m2": -1.0}):
         assert units.blender_factor(none) is None
+
+
+def test_an_iso_the_file_does_not_record_is_said_to_be_assumed():
+    s = units.from_exposure({"time_s": 1 / 100, "f_number": 8.0, "iso": 100.0, "iso_recorded": False})
+    assert s.iso_assumed and s.describe()["iso_assumed"] is True
+    assert "no ISO recorded, 100 assumed" in units.summary({**s.describe(), "applied": False})
+    kept = units.from_exposure({"time_s": 1 / 100, "f_number": 8.0, "iso": 100.0, "iso_recorded": True})
+    assert not kept.iso_assumed and "iso_assumed" not in kept.describe()

@@ -91,9 +91,11 @@ def test_exposures_in_legal_but_unexpected_shapes_are_read_or_absent(tmp_path):
 
     two = _raw_exif_photo(tmp_path / "iso2.jpg", [(0x829A, IFDRational(1, 250)), (0x829D, IFDRational(8, 1)),
                                                   (0x8827, (400, 800))])
-    assert read_exposure(two) == {"time_s": pytest.approx(0.004), "f_number": 8.0, "iso": 400.0, "taken_s": None}
+    assert read_exposure(two) == {"time_s": pytest.approx(0.004), "f_number": 8.0, "iso": 400.0, "taken_s": None,
+                                  "iso_recorded": True}
     text = _raw_exif_photo(tmp_path / "text.jpg", [(0x829A, "1/250"), (0x829D, "8"), (0x8827, "200")])
-    assert read_exposure(text) == {"time_s": 0.004, "f_number": 8.0, "iso": 200.0, "taken_s": None}
+    assert read_exposure(text) == {"time_s": 0.004, "f_number": 8.0, "iso": 200.0, "taken_s": None,
+                                   "iso_recorded": True}
     assert read_exposure(_raw_exif_photo(tmp_path / "nan.jpg", [(0x829A, IFDRational(0, 0)),
                                                                 (0x829D, IFDRational(8, 1))])) is None
 
