@@ -188,6 +188,37 @@ def test_camera_sees_the_panorama_exactly_and_lamps_turn_with_the_lighting(tmp_p
     s.background_rotation = s.lighting_rotation = 0.0
 
 
+def _white_diffuse(obj) -> None:
+    """Give ``obj`` a white diffuse material (albedo 0.8, one node pair)."""
+    mat = bpy.data.materials.new("white")
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    diff.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    nt.links.new(diff.outputs["BSDF"], out.inputs["Surface"])
+    obj.data.materials.append(mat)
+
+
+def _render_one_bounce(scene, path, size: int, samples: int = 256) -> np.ndarray:
+    """The scene's camera rendered by Cycles on the CPU at size x size, one bounce, no denoiser, a point-like pixel
+    filter, written as a scene-linear 32-bit EXR at ``path`` and read back (H, W, 3)."""
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = samples
+    scene.cycles.use_denoising = False
+    scene.cycles.max_bounces = 1
+    scene.cycles.filter_width = 0.01
+    scene.render.resolution_x = scene.render.resolution_y = size
+    scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
+    scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "OPEN_EXR", "32"
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    return read_image(path, equirect=False)
+
+
 def test_white_sphere_matches_the_analytic_irradiance(tmp_path):
     path = _small_city(tmp_path, 64)
     _estimate_and_build(path)
@@ -199,16 +230,7 @@ def test_white_sphere_matches_the_analytic_irradiance(tmp_path):
     bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0, location=(0, 0, 0))
     ball = bpy.context.active_object
     bpy.ops.object.shade_smooth()
-    mat = bpy.data.materials.new("white")
-    if bpy.app.version < (5, 0, 0):
-        mat.use_nodes = True
-    nt = mat.node_tree
-    nt.nodes.clear()
-    diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
-    diff.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    nt.links.new(diff.outputs["BSDF"], out.inputs["Surface"])
-    ball.data.materials.append(mat)
+    _white_diffuse(ball)
     cam_data = bpy.data.cameras.new("cam")
     cam_data.type = "ORTHO"
     cam_data.ortho_scale = 2.0
@@ -217,18 +239,7 @@ def test_white_sphere_matches_the_analytic_irradiance(tmp_path):
     cam.location = (-5, 0, 0)
     cam.rotation_euler = (math.radians(90), 0, math.radians(-90))  # looking along +X, Z up
     scene.camera = cam
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = 256
-    scene.cycles.use_denoising = False
-    scene.cycles.max_bounces = 1
-    scene.cycles.filter_width = 0.01
-    scene.render.resolution_x = scene.render.resolution_y = 48
-    scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
-    scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "OPEN_EXR", "32"
-    scene.render.filepath = str(tmp_path / "ball.exr")
-    bpy.ops.render.render(write_still=True)
-    img = read_image(tmp_path / "ball.exr", equirect=False)
+    img = _render_one_bounce(scene, tmp_path / "ball.exr", 48)
     t = (np.arange(48) + 0.5) / 48 * 2 - 1
     a, b = np.meshgrid(t, -t)
     inside = a * a + b * b < 0.8
@@ -248,9 +259,7 @@ def test_white_sphere_matches_the_analytic_irradiance(tmp_path):
     bg = next(n for n in ont.nodes if n.bl_idname == "ShaderNodeBackground")
     ont.links.new(env.outputs["Color"], bg.inputs["Color"])
     scene.world = original
-    scene.render.filepath = str(tmp_path / "ball_original.exr")
-    bpy.ops.render.render(write_still=True)
-    ref = read_image(tmp_path / "ball_original.exr", equirect=False)[inside]
+    ref = _render_one_bounce(scene, tmp_path / "ball_original.exr", 48)[inside]
     hdr = read_image(path).astype(np.float64)
     exact = 0.8 / np.pi * sh.irradiance(sh.project(hdr, 24), normals)  # what the original gives analytically
     truncation = np.abs(expect - exact).mean() / exact.mean()
@@ -1208,16 +1217,7 @@ def test_with_physical_units_a_white_plane_gets_lighting_json_s_upward_illuminan
         bpy.data.objects.remove(obj)
     bpy.ops.mesh.primitive_plane_add(size=200.0, location=(0, 0, 0))
     plane = bpy.context.active_object
-    mat = bpy.data.materials.new("white plane")
-    if bpy.app.version < (5, 0, 0):
-        mat.use_nodes = True
-    nt = mat.node_tree
-    nt.nodes.clear()
-    diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
-    diff.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    nt.links.new(diff.outputs["BSDF"], out.inputs["Surface"])
-    plane.data.materials.append(mat)
+    _white_diffuse(plane)
     cam_data = bpy.data.cameras.new("down")
     cam_data.type = "ORTHO"
     cam_data.ortho_scale = 1.0
@@ -1225,21 +1225,11 @@ def test_with_physical_units_a_white_plane_gets_lighting_json_s_upward_illuminan
     scene.collection.objects.link(cam)
     cam.location = (0, 0, 1.0)  # looking straight down at the plane (a camera casts no shadow)
     scene.camera = cam
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = 256
-    scene.cycles.use_denoising = False
-    scene.cycles.max_bounces = 1
-    scene.render.resolution_x = scene.render.resolution_y = 16
-    scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
-    scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "OPEN_EXR", "32"
-    scene.render.filepath = str(tmp_path / "plane.exr")
     try:
-        bpy.ops.render.render(write_still=True)
+        img = _render_one_bounce(scene, tmp_path / "plane.exr", 16).astype(np.float64)
     finally:
         bpy.data.objects.remove(cam)
         bpy.data.objects.remove(plane)
         scene.view_settings.exposure = 0.0
-    img = read_image(tmp_path / "plane.exr", equirect=False).astype(np.float64)
     got = float(img.reshape(-1, 3).mean(0) @ LUMINANCE_WEIGHTS) * math.pi / 0.8  # radiance -> irradiance, W/m^2
     assert got == pytest.approx(want, rel=0.03)
