@@ -56,7 +56,7 @@ def decision_rule(rule: str):
     saved = recovery.choose_shrink, recovery.shrunk, decision.harmless, decision.HARM_RANGE_Z
     name, _, arg = rule.partition(":")
     if name == "expected":
-        decision.harmless = lambda base, regions, mu, sigma, cand_lr: np.ones(len(cand_lr), bool)
+        decision.harmless = lambda m_rmse: np.ones(len(m_rmse), bool)
     elif name == "bounded":
         decision.HARM_RANGE_Z = (-float(arg), 0.0, float(arg))
     elif name == "quantile":

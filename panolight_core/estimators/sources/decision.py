@@ -131,14 +131,15 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
     z = DECISION_CORRELATION * z0 + math.sqrt(1 - DECISION_CORRELATION ** 2) * rng.standard_normal((DECISION_SAMPLES, n))
     true_lr = np.maximum(mu[None, :] + sigma[None, :] * z, 0.0)
     cand_lr = np.stack([shrunk(mu, sigma, c) for c in SHRINK_CANDIDATES])
-    err, healthy = decision_errors(base, regions, cand_lr, true_lr)
-    expected = err.sum(axis=0).mean(axis=1)
+    range_lr = np.stack([np.maximum(mu + z * sigma, 0.0) for z in HARM_RANGE_Z])  # the 68 % range's truths
+    err, healthy = decision_errors(base, regions, cand_lr, np.concatenate([true_lr, range_lr]))
+    expected = err[:, :, :DECISION_SAMPLES].sum(axis=0).mean(axis=1)
 
     def least(allowed):  # the least energy whose expected error is within ``tolerance`` of the best allowed: near-ties
         pool = np.where(allowed, expected, np.inf)  # go to the side where a wrong answer costs least
         return int(np.flatnonzero(pool <= pool.min() * (1.0 + tolerance) + 1e-12).max())
 
-    best = max(least(healthy), least(healthy & harmless(base, regions, mu, sigma, cand_lr)))
+    best = max(least(healthy), least(healthy & harmless(err[0][:, DECISION_SAMPLES:])))
     return SHRINK_CANDIDATES[best], {("none" if math.isinf(c) else f"{c:g}"): round(float(e), 6)
                                      for c, e in zip(SHRINK_CANDIDATES, expected)}
 
@@ -146,12 +147,11 @@ def choose_shrink(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.
 HARM_RANGE_Z = (-1.0, 0.0, 1.0)  # the truths a choice must not harm: the 68 % range's ends and middle
 
 
-def harmless(base: np.ndarray, regions: Regions, mu: np.ndarray, sigma: np.ndarray, cand_lr: np.ndarray) -> np.ndarray:
-    """(C,) whether each candidate report (C, n) harms (``metrics.harmed``: m-RMSE over 2x and + 0.25 the plain
-    map's, the last candidate's) none of the truths of the prediction's 68 % range, every region at mu + z sigma
-    (z in HARM_RANGE_Z) together; the last candidate (the plain map) always."""
-    true_lr = np.stack([np.maximum(mu + z * sigma, 0.0) for z in HARM_RANGE_Z])
-    m = decision_errors(base, regions, cand_lr, true_lr)[0][0]  # (C, Z) m-RMSE
+def harmless(m: np.ndarray) -> np.ndarray:
+    """(C,) whether each candidate harms (``harm.harmed``: m-RMSE over 2x and + 0.25 the plain map's, the last
+    candidate's) none of the truths of the prediction's 68 % range, given their m-RMSE ``m`` (C, Z): every region at
+    mu + z sigma (z in HARM_RANGE_Z) together, as ``choose_shrink`` scores them; the last candidate (the plain map)
+    always."""
     ok = np.array([not any(harmed(m[i, j], m[-1, j]) for j in range(m.shape[1])) for i in range(m.shape[0])])
     ok[-1] = True
     return ok
