@@ -80,6 +80,9 @@ def configure(scene, args, core) -> None:
     s.sun_metadata = args.sun_metadata
     s.sky_sun = args.sky_sun
     s.restore_clipped = args.restore != "none"
+    s.physical_units = args.absolute  # --relative: the relative setup (1 = the camera's white)
+    s.ev100_given, s.ev100 = args.ev100 is not None, args.ev100 if args.ev100 is not None else s.ev100
+    s.meter_lux = args.lux or 0.0
     if args.sun is not None:  # the panel keeps angles: azimuth to the right in the image, elevation up
         x, y, z = args.sun
         s.sun_azimuth, s.sun_elevation = math.atan2(-y, x), math.asin(max(-1.0, min(1.0, z)))

@@ -87,6 +87,16 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                     "and the sun lamps' in W/m^2 (683 lm/W), and the film's exposure set so the plate's white renders "
                     "white. Off, or where nothing gives the scale: the relative setup (1 = the camera's white), the "
                     "exposure untouched")
+    ev100_given: BoolProperty(
+        name="Exposure (EV100)", default=False,
+        description="The photo's exposure as EV100 = log2(N^2/t) - log2(ISO/100), for a photo whose EXIF lost it "
+                    "(f/8, 1/250 s, ISO 100: 13.97); it wins over the EXIF")
+    ev100: FloatProperty(name="EV100", default=10.0, min=-20.0, max=40.0,
+                         description="The photo's EV100 (f/8, 1/250 s, ISO 100: 13.97)")
+    meter_lux: FloatProperty(
+        name="Light meter (lux)", default=0.0, min=0.0, max=1e7,
+        description="A light meter's reading at the camera on an upward surface: the whole estimate is scaled so its "
+                    "upward illuminance is this (wins over the EXIF and EV100); 0: no reading")
     radiance_height: IntProperty(name="SH map height", default=256, min=64, max=1024)
     lighting_source: EnumProperty(
         name="Light with", default="SH",
@@ -107,7 +117,10 @@ class PanoLightSettings(bpy.types.PropertyGroup):
                                   exposure_ev=self.exposure, sun_direction=sun,
                                   sun_contrast=(self.sun_contrast or None) if self.sun_pointed else None,
                                   sun_metadata=self.sun_metadata, sun_strength=self.sun_strength,
-                                  restore="auto" if self.restore_clipped else "none", sky_sun=self.sky_sun)
+                                  restore="auto" if self.restore_clipped else "none", sky_sun=self.sky_sun,
+                                  ev100=self.ev100 if self.ev100_given else None, lux=self.meter_lux or None,
+                                  absolute=False)  # relative values: the build converts to Blender's W/m^2/sr
+        # itself (Physical units), so the relative setup stays what it was
 
 
 def draw_panel(layout, context):
@@ -134,6 +147,11 @@ def draw_panel(layout, context):
         box.prop(s, "sun_metadata")
         box.prop(s, "sky_sun")
     box.prop(s, "restore_clipped")
+    row = box.row(align=True)  # the absolute scale where the EXIF does not give it (docs/units.md)
+    row.prop(s, "ev100_given")
+    if s.ev100_given:
+        row.prop(s, "ev100", text="")
+    box.prop(s, "meter_lux")
     box.operator("panolight.estimate_lighting", icon="LIGHT_SUN")
     box.label(text="Estimated" if store.has_lighting(world) else "Not estimated yet")
     said = store.units_line(world)

@@ -120,6 +120,25 @@ def summary(physical: dict | None) -> str:
         return "the stored scale cannot be read"
 
 
+def document_gain(doc: dict) -> float:
+    """A lighting document's values per unit of its photo's relative units (1 = the camera's white): 2^exposure_ev,
+    times the camera's white in cd/m^2 where the values carry the absolute scale (``physical.applied``). The plate in
+    the document's units is the photo's linear pixels times this. ValueError naming the field where a stored document
+    (one a user edited) gives no usable figure."""
+    ev = doc.get("exposure_ev", 0.0)
+    if not (isinstance(ev, (int, float)) and not isinstance(ev, bool) and math.isfinite(ev) and abs(ev) <= 64):
+        raise ValueError(f"'exposure_ev' must be a number within -64..64, got {ev!r}")
+    physical = doc.get("physical") or {}
+    if not isinstance(physical, dict):
+        raise ValueError("'physical' must be an object")
+    per = 1.0
+    if physical.get("applied"):
+        per = physical.get("white_cd_m2")
+        if not (isinstance(per, (int, float)) and not isinstance(per, bool) and math.isfinite(per) and per > 0):
+            raise ValueError(f"'physical.white_cd_m2' must be a positive number where 'applied' is true, got {per!r}")
+    return 2.0 ** ev * float(per)
+
+
 def blender_factor(physical: dict | None) -> float | None:
     """W/m^2/sr per unit of a lighting document's values (its ``physical`` block), Blender's radiometric units at
     683 lm/W: the camera's white / 683 for relative values, 1 / 683 for values already in cd/m^2 (``applied``); None

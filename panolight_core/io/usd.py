@@ -16,8 +16,14 @@ along its local -Z; its transform points local +Z at the light's direction. It i
 intensity is the irradiance on a surface facing the light (lighting.json's intensity times its largest
 colour channel); colour is normalised to a largest channel of 1, angle is the angular diameter in
 degrees (the UsdLux specification; Blender 5.0's importer reads 4x the strength and twice the angle).
-The stage's root carries lighting.json's units and, where one is known, its absolute scale
-(``panolight:physicalScale``: whether the values are in cd/m^2 and lux, the camera's white in cd/m^2, EV100).
+Units (UsdLux's "Quantities and Units"): a light emits intensity x 2^exposure nits (cd/m^2), and a normalised
+DistantLight's intensity x 2^exposure is the illuminance it gives, in lux. Where the absolute scale is known
+(lighting.json's ``physical``) the stage emits those units: values already in cd/m^2 and lux (``applied``) get
+exposure 0; relative ones (``--relative``) keep their intensities and textures and get exposure = log2 of the
+camera's white in cd/m^2, so the stage renders the same either way. Where no scale is known, exposure stays 0 and
+1 is the camera's white. The root says which (``panolight:physicalScale``: whether the values are in cd/m^2 and lux,
+the camera's white in cd/m^2, EV100, the lights' exposure, and renderExposureEV: the camera exposure at which the
+plate renders as shot).
 Needs usd-core (``pip install usd-core``, the official Pixar bindings), imported only here.
 """
 from __future__ import annotations
@@ -27,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..camera import units
 from ..errors import PanoLightError
 from ..threads import optional_module, signals_held
 from .atomic import atomic_path
@@ -74,6 +81,15 @@ def _transform(Gf, rotation: np.ndarray):
     return m
 
 
+def light_exposure(doc: dict) -> float:
+    """UsdLux ``inputs:exposure`` of every light of the stage of ``doc``: log2 of the camera's white in cd/m^2 where a
+    scale is known and the values are relative, so the stage emits nits and lux (module docstring); else 0."""
+    physical = doc.get("physical") or {}
+    if not physical.get("absolute") or physical.get("applied"):
+        return 0.0
+    return math.log2(float(physical["white_cd_m2"]))
+
+
 def write_usd(path, doc: dict, *, hdri: str | None = "hdr.exr") -> Path:
     """Write the lighting document ``doc`` (io.lighting) as a USD stage at ``path`` (.usda or .usd).
     The dome textures, relative to the stage's folder: radiance.exr, and ``hdri`` (None: no "hdri" variant).
@@ -87,13 +103,14 @@ def write_usd(path, doc: dict, *, hdri: str | None = "hdr.exr") -> Path:
     stage.SetDefaultPrim(root.GetPrim())
     root.GetPrim().SetCustomDataByKey("panolight:units", doc.get("units", ""))
     root.GetPrim().SetCustomDataByKey("panolight:frame", doc.get("frame", ""))
+    exposure = light_exposure(doc)
     physical = doc.get("physical") or {}
-    if physical.get("absolute"):  # the absolute scale (docs/units.md): the stage's values in cd/m^2 and lux, or
-        # relative with what one unit is; a pipeline reading only the stage can scale it
+    if physical.get("absolute"):  # the absolute scale (docs/units.md): what the stage emits, and what gave it
         root.GetPrim().SetCustomDataByKey("panolight:physicalScale", {
             "applied": bool(physical.get("applied")), "whiteCdM2": float(physical["white_cd_m2"]),
             "ev100": float(physical.get("ev100") or 0.0), "from": str(physical.get("from", "")),
-            "lumensPerWatt": 683.0})
+            "lumensPerWatt": 683.0, "emits": "nits (cd/m^2); DistantLight: lux", "lightExposure": exposure,
+            "renderExposureEV": -math.log2(units.document_gain(doc)) - exposure})
     stage.SetMetadata("comment", "PanoLight lighting estimate (lighting.json beside it holds the full record)")
     rigs = root.GetPrim().GetVariantSets().AddVariantSet("lighting")
     for name in VARIANTS if hdri else VARIANTS[:1]:
@@ -104,22 +121,24 @@ def write_usd(path, doc: dict, *, hdri: str | None = "hdr.exr") -> Path:
             dome.CreateTextureFileAttr(Sdf.AssetPath(f"./{'radiance.exr' if name == 'lights' else hdri}"))
             dome.CreateTextureFormatAttr(UsdLux.Tokens.latlong)
             dome.CreateIntensityAttr(1.0)
+            dome.CreateExposureAttr(exposure)
             UsdGeom.Xformable(dome).AddTransformOp().Set(_transform(Gf, DOME_TO_WORLD))
             if name == "lights":
                 for i, light in enumerate(doc.get("lights", [])):
-                    _distant_light(stage, Gf, UsdGeom, UsdLux, f"/PanoLight/Light_{i}", light)
+                    _distant_light(stage, Gf, UsdGeom, UsdLux, f"/PanoLight/Light_{i}", light, exposure)
     rigs.SetVariantSelection("lights")
     with atomic_path(p, p.suffix) as tmp:
         stage.GetRootLayer().Export(str(tmp))
     return p
 
 
-def _distant_light(stage, Gf, UsdGeom, UsdLux, prim_path: str, light: dict) -> None:
+def _distant_light(stage, Gf, UsdGeom, UsdLux, prim_path: str, light: dict, exposure: float = 0.0) -> None:
     color = np.asarray(light["color"], dtype=np.float64)
     peak = float(color.max())
     sun = UsdLux.DistantLight.Define(stage, prim_path)
     sun.CreateNormalizeAttr(True)  # a normalised distant light's intensity is the illuminance it gives
     sun.CreateIntensityAttr(float(light["intensity"]) * peak)
+    sun.CreateExposureAttr(exposure)
     sun.CreateColorAttr(Gf.Vec3f(*(float(c / peak) if peak > 0 else 1.0 for c in color)))
     sun.CreateAngleAttr(math.degrees(float(light.get("angle", 0.0))))
     UsdGeom.Xformable(sun).AddTransformOp().Set(_transform(Gf, light_frame(light["direction"])))
@@ -135,8 +154,9 @@ def _distant_light(stage, Gf, UsdGeom, UsdLux, prim_path: str, light: dict) -> N
 
 def read_usd(path, variant: str = "lights") -> dict:
     """A PanoLight stage back as {"up_axis", "meters_per_unit", "dome": {"texture", "rotation" (3, 3):
-    world = R @ local}, "lights": [{"direction", "angle" (radians), "color" (RGB irradiance per unit
-    intensity), "intensity"}]} for the chosen variant (tests and tools that check what was written)."""
+    world = R @ local, "exposure"}, "lights": [{"direction", "angle" (radians), "color" (RGB irradiance per unit
+    intensity), "intensity", "exposure" (it gives intensity x 2^exposure)}]} for the chosen variant (tests and
+    tools that check what was written)."""
     Gf, Sdf, Usd, UsdGeom, UsdLux = _pxr()
     stage = Usd.Stage.Open(str(path))
     if stage is None:
@@ -150,10 +170,12 @@ def read_usd(path, variant: str = "lights") -> dict:
         rot = np.array(cache.GetLocalToWorldTransform(prim).ExtractRotationMatrix(), dtype=np.float64).T
         if prim.IsA(UsdLux.DomeLight):
             tex = UsdLux.DomeLight(prim).GetTextureFileAttr().Get()
-            out["dome"] = {"texture": tex.path, "rotation": rot}
+            out["dome"] = {"texture": tex.path, "rotation": rot,
+                           "exposure": float(UsdLux.DomeLight(prim).GetExposureAttr().Get())}
         elif prim.IsA(UsdLux.DistantLight):
             lux = UsdLux.DistantLight(prim)
             out["lights"].append({"direction": rot[:, 2], "angle": math.radians(lux.GetAngleAttr().Get()),
                                   "color": np.array(lux.GetColorAttr().Get(), dtype=np.float64),
-                                  "intensity": float(lux.GetIntensityAttr().Get())})
+                                  "intensity": float(lux.GetIntensityAttr().Get()),
+                                  "exposure": float(lux.GetExposureAttr().Get())})
     return out

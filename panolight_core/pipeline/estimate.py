@@ -137,9 +137,8 @@ class Result:
     @property
     def scale(self) -> float:
         """The factor the model (and the HDRI) carry over the estimate's relative units: 2^exposure_ev, times the
-        cd/m^2 of the camera's white where the values are absolute (--absolute: ``physical``)."""
-        physical = self.document.get("physical") or {}
-        return 2.0 ** self.document["exposure_ev"] * (physical["white_cd_m2"] if physical.get("applied") else 1.0)
+        cd/m^2 of the camera's white where the values are absolute (``physical.applied``)."""
+        return units.document_gain(self.document)
 
     def hdr_panorama(self, pixels: np.ndarray) -> np.ndarray:
         """The full-resolution HDR panorama (pipeline.hdri) in the document's units: (H, W, 3) float32."""
@@ -225,8 +224,6 @@ def estimate_lighting(pixels: np.ndarray, settings: Settings = Settings(), captu
                  "model_s": round(time.perf_counter() - t1 - est.info["estimate_s"], 6)},
     )
     warnings = input_warnings(pixels)
-    if settings.absolute and not physical.absolute:
-        warnings.append("--absolute changes nothing: " + physical.describe()["why"] + "; the results stay relative")
     if (narrow := narrow_warning(pixels.shape, est)) is not None:
         warnings.append(narrow)
     if settings.sun_strength != 1.0 and "key_light_strength" not in est.info:
@@ -260,7 +257,7 @@ def physical_scale(model: LightingModel, settings: Settings, exposure: dict | No
 
 def physical_block(model: LightingModel, scale: units.Scale, applied: bool) -> dict:
     """lighting.json's ``physical``: the scale (``units.Scale.describe``), whether the file's values carry it
-    (``applied``: --absolute), and in absolute units the upward illuminance (lux) and each light's illuminance on a
+    (``applied``: the default where a scale is known, not with --relative), and in absolute units the upward illuminance (lux) and each light's illuminance on a
     surface facing it (lux, and W/m^2 at 683 lm/W), in the order of ``lights``."""
     out = {**scale.describe(), "applied": bool(applied)}
     if scale.absolute:

@@ -54,7 +54,7 @@ class Settings:
     does not show and only its sky's gradient suggests is put back there (``estimators.with_sky_sun``; by default
     the run's note says where, as a hazy sky suggests suns that are not there). ev100, lux: the absolute scale where
     the EXIF does not give it (``camera.units``: EV100, or a light meter's upward illuminance, which wins); absolute:
-    the outputs in cd/m^2 and lux instead of relative units where a scale is known. Invalid values raise
+    the outputs in cd/m^2 and lux instead of relative units where a scale is known (False: ``--relative``). Invalid values raise
     PanoLightError naming the setting."""
 
     estimator: str = "auto"
@@ -72,7 +72,7 @@ class Settings:
     sky_sun: bool = False  # a sun only the sky's gradient suggests is put back (the bolder rule; default: noted)
     ev100: float | None = None  # the exposure's EV100 where the file's EXIF lost it (camera/units.py)
     lux: float | None = None  # a light meter's upward illuminance at the camera, lux: the whole model scaled to it
-    absolute: bool = False  # the outputs in cd/m^2 and lux where the scale is known (else relative, and said)
+    absolute: bool = True  # the outputs in cd/m^2 and lux where the scale is known (else relative, and said)
 
     def __post_init__(self):
         from ..estimators import resolve
@@ -281,12 +281,15 @@ def add_arguments(parser, default_estimator: str = "auto", sun_strength: bool = 
                              "hazy sky suggests suns that are not there: the run's note says where the sky puts "
                              "it and how sure that is, and --sun AZ,EL places it")
     units = parser.add_argument_group("physical units (docs/units.md)")
-    units.add_argument("--absolute", action="store_true",
-                       help="write radiance in cd/m^2 and each light's intensity in lux (the illuminance on a surface "
-                            "facing it), where the scale is known: from the photo's EXIF (exposure time, f-number, "
-                            "ISO: white = 1.2 x 2^EV100 cd/m^2), --ev100 or --lux. By default the files stay relative "
-                            "(1 = the camera's white) and lighting.json's 'physical' says the scale and each light in "
-                            "lux and W/m^2")
+    written = units.add_mutually_exclusive_group()
+    written.add_argument("--absolute", dest="absolute", action="store_true", default=True,
+                         help="(default) where the scale is known, write radiance in cd/m^2 and each light's intensity "
+                              "in lux (the illuminance on a surface facing it): from the photo's EXIF (exposure time, "
+                              "f-number, ISO: white = 1.2 x 2^EV100 cd/m^2), --ev100 or --lux. Where nothing gives it "
+                              "the files stay relative (1 = the camera's white) and the run says so")
+    written.add_argument("--relative", dest="absolute", action="store_false",
+                         help="keep the files relative (1 = the camera's white) even where the scale is known; "
+                              "lighting.json's 'physical' still says the scale and each light in lux and W/m^2")
     units.add_argument("--ev100", type=number("--ev100", -20.0, 40.0), default=None, metavar="X",
                        help="the photo's exposure as EV100 = log2(N^2/t) - log2(ISO/100), for a file whose EXIF "
                             "lost it (f/8, 1/250 s, ISO 100: 13.97)")
@@ -313,7 +316,7 @@ def from_args(args) -> Settings:
                     sun_contrast=getattr(args, "sun_contrast", None), sun_metadata=getattr(args, "sun_metadata", True),
                     restore=getattr(args, "restore", "auto"), sky_sun=getattr(args, "sky_sun", False),
                     ev100=getattr(args, "ev100", None), lux=getattr(args, "lux", None),
-                    absolute=getattr(args, "absolute", False))
+                    absolute=getattr(args, "absolute", True))
 
 
 _NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d)[\d.,eE+-]*$")  # -2,0,2 / -40,5 / -1 / -.5 / -1e-3,0,1: never an option

@@ -1157,6 +1157,43 @@ def test_the_panel_shows_the_units_the_photo_s_exif_gives(tmp_path):
     assert store.units_line(world).startswith("relative (1 = the camera's white); no exposure")
 
 
+def test_the_panel_s_ev100_and_light_meter_set_the_scale_and_batch_takes_them(tmp_path):
+    """A photo without exposure EXIF: the panel's EV100 gives its scale (white 1.2 x 2^EV100 cd/m^2) and a light
+    meter's reading wins over it (the model's upward illuminance made that many lux), as --ev100 and --lux do in
+    `panolight estimate`; batch.py's --ev100, --lux and --relative reach the same panel settings."""
+    from blender_addon import batch
+    from panolight_core.camera import hdr_to_ldr, units
+    from panolight_core.io import write_srgb8
+    from tests.panolight_core.pipeline.test_brackets import _city
+
+    path = write_srgb8(tmp_path / "no_exif.png", hdr_to_ldr(_city(64), 0.0))
+    s = bpy.context.scene.panolight
+    assert bpy.ops.panolight.load_panorama(filepath=str(path)) == {"FINISHED"}
+    _configure()
+    try:
+        s.ev100_given, s.ev100 = True, 12.0
+        assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+        physical = store.stored_lighting(bpy.context.scene.world)["physical"]
+        assert physical["from"] == "ev100" and physical["white_cd_m2"] == pytest.approx(units.white_luminance(12.0))
+        assert not physical["applied"]  # the panel keeps relative values and converts at the build
+        s.meter_lux = 5000.0
+        assert bpy.ops.panolight.estimate_lighting() == {"FINISHED"}
+        physical = store.stored_lighting(bpy.context.scene.world)["physical"]
+        assert physical["from"] == "lux" and physical["upward_illuminance_lux"] == pytest.approx(5000.0, rel=1e-6)
+    finally:
+        s.ev100_given, s.meter_lux = False, 0.0
+    core = blender_addon.core.core
+    args = batch.parse(["batch.py", "--", "--input", str(path), "--ev100", "9.5", "--lux", "800", "--relative"], core)
+    scene = bpy.context.scene
+    try:
+        batch.configure(scene, args, core)
+        assert (s.ev100_given, s.ev100, s.meter_lux, s.physical_units) == (True, 9.5, 800.0, False)
+        settings = s.estimate_settings()
+        assert (settings.ev100, settings.lux, settings.absolute) == (9.5, 800.0, False)
+    finally:
+        s.ev100_given, s.meter_lux, s.physical_units = False, 0.0, True
+
+
 def test_physical_units_put_the_world_and_the_lamps_in_watts_and_the_plate_s_white_at_white(tmp_path):
     """Physical units ticked (the default), for a JPEG whose EXIF gives its scale: both Background strengths are the
     panel's times the camera's white in W/m^2/sr (white cd/m^2 / 683), each sun lamp's energy is its intensity times

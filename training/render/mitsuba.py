@@ -24,6 +24,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -336,16 +337,34 @@ def _verified_source(lighting_path: Path, source: dict) -> Path | None:
     return p
 
 
-def load_input(path, lmax="auto", from_ldr=None):
-    """(coeffs, lights, panorama or None, label, truth or None) from a panorama (estimated here with the
-    default adaptive model) or a lighting.json (its source panorama is used as background when it
-    exists). from_ldr: an ev; an HDR input is first turned into the JPEG an auto-exposing camera takes
-    (EVALUATION.md, q90), which is estimated and shown, and ``truth`` is the HDR in that JPEG's units
-    (k x HDR), for the ground-truth row; the figure then estimates from a photograph, as the paper's."""
-    from panolight_core.camera import ldr_to_linear
+class RenderInput(NamedTuple):
+    """One row of the figure. coeffs (K, 3) and lights: the lighting; panorama: (H, W, 3) linear background in the
+    same units, or None; label; truth: the HDR truth in those units (--from-ldr), or None; white: the photo's white
+    (a linear 1 in its own relative units) in these units, so 1 / white is the exposure that shows the plate as shot;
+    units: "cd/m^2" where the photo's scale is known (its EXIF, or lighting.json's physical block), else "relative"."""
+
+    coeffs: np.ndarray
+    lights: list
+    panorama: np.ndarray | None
+    label: str
+    truth: np.ndarray | None
+    white: float = 1.0
+    units: str = "relative"
+
+
+def load_input(path, lmax="auto", from_ldr=None) -> RenderInput:
+    """The RenderInput of a panorama (estimated here with the default adaptive model) or a lighting.json (its
+    source panorama is used as background when it exists). Every part is in the lighting's units: a lighting.json's
+    background is its photo's linear pixels times ``camera.units.document_gain`` (cd/m^2 where its values carry the
+    absolute scale), and a photo whose EXIF records its exposure is rendered in cd/m^2 (docs/units.md). from_ldr: an
+    ev; an HDR input is first turned into the JPEG an auto-exposing camera takes (EVALUATION.md, q90), which is
+    estimated and shown, and ``truth`` is the HDR in that JPEG's units (k x HDR), for the ground-truth row; the
+    figure then estimates from a photograph, as the paper's."""
+    from panolight_core.camera import ldr_to_linear, units
     from panolight_core.estimators import estimate
     from panolight_core.estimators.highlights import CLIP_LEVEL
     from panolight_core.io import read_image
+    from panolight_core.io.capture import read_exposure
     from panolight_core.io.lighting import read_lighting
     from panolight_core.lighting.adaptive import fit_model
 
@@ -356,12 +375,18 @@ def load_input(path, lmax="auto", from_ldr=None):
         if order > MAX_RENDER_ORDER:  # the envmap is the SH sampled per texel: memory grows as lmax^2
             raise PanoLightError(f"{p}: SH order {order} is above the {MAX_RENDER_ORDER} render-mitsuba renders; "
                                  f"re-estimate with a lower --lmax")
+        try:
+            gain = units.document_gain(doc)
+        except ValueError as exc:
+            raise PanoLightError(f"{p}: {exc}") from None
+        applied = bool((doc.get("physical") or {}).get("applied"))
         pano = None
         src = _verified_source(p, doc.get("source") or {})
         if src is not None:
             px = read_image(src, ldr_as_uint8=True)
-            pano = ldr_to_linear(px) if px.dtype == np.uint8 else px
-        return coeffs, doc.get("lights", []), pano, p.parent.name or p.stem, None
+            pano = (ldr_to_linear(px) if px.dtype == np.uint8 else np.asarray(px, dtype=np.float64)) * gain
+        return RenderInput(coeffs, doc.get("lights", []), pano, p.parent.name or p.stem, None, gain,
+                           "cd/m^2" if applied else "relative")
     px = read_image(p, ldr_as_uint8=True)
     hdr = px.dtype != np.uint8
     truth = None
@@ -374,9 +399,14 @@ def load_input(path, lmax="auto", from_ldr=None):
     est = estimate(px, 8, "auto")
     model = fit_model(est.radiance, lmax=lmax, light_threshold=None if hdr else CLIP_LEVEL, known_lights=est.lights,
                       exclude=est.light_exclusions)
-    pano = px if hdr else ldr_to_linear(px)
+    pano = np.asarray(px if hdr else ldr_to_linear(px), dtype=np.float64)
     label = p.stem if truth is None else f"{p.stem} JPEG ev {from_ldr:+g}"
-    return model.coeffs, model.lights, np.asarray(pano, dtype=np.float64), label, truth
+    scale = units.from_exposure(read_exposure(p)) if truth is None else units.RELATIVE
+    if not scale.absolute:
+        return RenderInput(model.coeffs, model.lights, pano, label, truth)
+    white = scale.cd_m2  # the photo's own exposure: everything in cd/m^2
+    lights = [dict(light, intensity=light["intensity"] * white) for light in model.lights]
+    return RenderInput(model.coeffs * white, lights, pano * white, label, None, white, "cd/m^2")
 
 
 def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320, 240), yaw: float = 0.0,
@@ -385,7 +415,8 @@ def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320,
                   from_ldr: float | None = None, log=print) -> dict:
     """Render every input x material (perspective view, and optionally the in-panorama view), write an
     EXR per render and figure.png (rows: inputs, columns: materials). from_ldr: estimate HDR inputs
-    from their camera JPEG at that ev (see load_input). Returns the paths and timings."""
+    from their camera JPEG at that ev (see load_input). Each row is shown at its photo's exposure (1 / white) where
+    it is in cd/m^2, else with its median at 0.18. Returns the paths, timings and each row's display exposure."""
     from panolight_core.io import read_image, write_image
     from panolight_core.pipeline.preview import exposure_for, tonemap
 
@@ -399,10 +430,14 @@ def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320,
     total = len(materials) * sum(1 + int(compare_hdr and hdr) for hdr in is_hdr)
     done = 0
     for inp in inputs:
-        coeffs, lights, pano, label, truth = load_input(inp, from_ldr=from_ldr)
+        coeffs, lights, pano, label, truth, white, in_units = load_input(inp, from_ldr=from_ldr)
         if pano is None:
-            pano = np.full((64, 128, 3), 0.5)
+            pano = np.full((64, 128, 3), 0.5 * white)
         bg = sample_equirect(pano, perspective_rays(w, h, fov, yaw, pitch))
+        # shown as shot where the photo's scale is known (its white at white), else median grey at 0.18
+        shown = 1.0 / white if in_units == "cd/m^2" else exposure_for(bg)
+        if in_units == "cd/m^2":
+            log(f"{label}: rendered in cd/m^2 (the photo's white {white:.4g} cd/m^2), shown at the photo's exposure")
         variants = [("estimated", scene_emitters(coeffs, lights, env_height))]
         if compare_hdr and truth is not None:
             variants.append(("ground truth", hdr_emitter(truth)))
@@ -424,13 +459,14 @@ def render_figure(inputs, out_dir, meshes=None, spp: int = 512, resolution=(320,
                 done += 1
                 log(f"[{done}/{total}] {label} {vname} {mat}: {time.perf_counter() - t:.1f} s")
                 row.append((mat, res["composite"]))
-            rows.append((f"{label} ({vname})", row, exposure_for(bg)))
+            rows.append((f"{label} ({vname})", row, shown))
     grid = _grid_png(rows, tonemap)
     from panolight_core.io import write_srgb8
 
     write_srgb8(out / "figure.png", grid)
     return {"figure": str(out / "figure.png"), "renders": [str(f) for f in files], "variant": mi.variant(),
-            "seconds": time.perf_counter() - t0, "spp": spp, "resolution": list(resolution)}
+            "seconds": time.perf_counter() - t0, "spp": spp, "resolution": list(resolution),
+            "exposures": {label: exposure for label, _, exposure in rows}}
 
 
 def _grid_png(rows, tonemap) -> np.ndarray:

@@ -139,3 +139,31 @@ def test_the_stage_carries_the_absolute_scale_where_one_is_known(tmp_path):
     write_usd(tmp_path / "b.usda", {"lights": [], "physical": {"absolute": False, "applied": False}})
     other = Usd.Stage.Open(str(tmp_path / "b.usda"))
     assert "physicalScale" not in other.GetDefaultPrim().GetCustomData()["panolight"]
+    assert read_usd(tmp_path / "b.usda")["dome"]["exposure"] == 0.0  # no scale: 1 is the camera's white
+
+
+def test_the_stage_emits_nits_and_lux_whether_the_files_are_absolute_or_relative(tmp_path):
+    """UsdLux's units: a light emits intensity x 2^exposure nits, a normalised distant light gives that many lux. A
+    relative estimate (--relative) gets exposure log2(white cd/m^2) on every light, an absolute one (the default where
+    EXIF gives the scale) exposure 0 on values already in cd/m^2 and lux: both stages emit the same. renderExposureEV
+    is the camera exposure that shows the plate as shot: -log2 of its white in the stage's units."""
+    white, ev = 29.04, 1.0  # the tunnel's camera white; --exposure 1 doubles the estimate
+    sun = {"type": "sun", "direction": [0.0, 0.6, 0.8], "color": [1.0, 0.5, 0.25], "intensity": 0.5, "angle": 0.01}
+    physical = {"absolute": True, "from": "exif", "ev100": 4.5969, "white_cd_m2": white}
+    relative = {"lights": [sun], "exposure_ev": ev, "physical": {**physical, "applied": False}}
+    absolute = {"lights": [dict(sun, intensity=0.5 * white)], "exposure_ev": ev, "physical": {**physical, "applied": True}}
+    got = {}
+    for name, doc in (("relative", relative), ("absolute", absolute)):
+        write_usd(tmp_path / f"{name}.usda", doc)
+        stage = read_usd(tmp_path / f"{name}.usda")
+        (light,) = stage["lights"]
+        got[name] = (stage["dome"]["exposure"], light["intensity"] * 2.0 ** light["exposure"])
+        from pxr import Usd
+
+        held = Usd.Stage.Open(str(tmp_path / f"{name}.usda"))  # held: a prim of a dropped stage expires
+        scale = held.GetDefaultPrim().GetCustomData()["panolight"]["physicalScale"]
+        assert scale["renderExposureEV"] == pytest.approx(-math.log2(white * 2.0 ** ev), abs=1e-6)
+        assert scale["lightExposure"] == pytest.approx(stage["dome"]["exposure"], abs=1e-6)  # a float attribute
+    assert got["relative"][0] == pytest.approx(math.log2(white)) and got["absolute"][0] == 0.0
+    assert got["relative"][1] == pytest.approx(got["absolute"][1], rel=1e-6)  # the same lux either way
+    assert got["absolute"][1] == pytest.approx(0.5 * white * 1.0, rel=1e-6)  # the colour's peak is 1

@@ -42,7 +42,8 @@ def test_a_camera_made_to_the_convention_gives_its_scene_s_luminance():
     assert float(got.model.coeffs[0] @ LUMINANCE_WEIGHTS) == pytest.approx(float(want[0] @ LUMINANCE_WEIGHTS), rel=0.02)
     up = got.document["physical"]["upward_illuminance_lux"]  # the upper hemisphere's cosine-weighted integral
     assert up == pytest.approx(math.pi * (1000.0 + 2000.0 * 2.0 / 3.0), rel=0.03)
-    relative = estimate_lighting(ldr, Settings(estimator="naive", model="sh", lmax=2), exposure=EXIF)
+    assert Settings().absolute  # the default where a scale is known; --relative keeps the files relative
+    relative = estimate_lighting(ldr, Settings(estimator="naive", model="sh", lmax=2, absolute=False), exposure=EXIF)
     assert not relative.document["physical"]["applied"] and relative.document["units"].startswith("relative")
     assert relative.document["physical"]["upward_illuminance_lux"] == pytest.approx(up, rel=1e-9)
     assert got.scale == pytest.approx(white)  # hdr.exr carries the same scale
@@ -67,10 +68,14 @@ def test_a_scale_out_of_range_is_refused_in_one_line(bad):
         Settings(**bad)
 
 
-def test_without_a_scale_absolute_says_so_and_stays_relative():
+def test_without_a_scale_the_files_stay_relative_and_say_how_to_set_one():
+    """No EXIF, --ev100 or --lux: the default (absolute where a scale is known) writes relative values, with no
+    warning (the common case), and lighting.json's physical block and the units line say how to set the scale."""
     res = estimate_lighting(hdr_to_ldr(_city(32), 0.0), Settings(absolute=True))
     assert not res.document["physical"]["absolute"] and res.document["units"].startswith("relative")
-    assert any(w.startswith("--absolute changes nothing") for w in res.warnings)
+    assert not any("relative" in w or "scale" in w for w in res.warnings) and res.scale == 1.0
+    assert "--ev100 or --lux" in res.document["physical"]["why"]
+    assert "--ev100 or --lux" in units.summary(res.document["physical"])
 
 
 def test_a_bracket_set_and_its_frames_agree_on_the_absolute_scale(tmp_path):

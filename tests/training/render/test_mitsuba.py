@@ -175,7 +175,8 @@ def test_figure_from_the_camera_jpeg_has_truth_in_the_jpeg_units(tmp_path):
     hdr = load_studio_hdri("city")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        coeffs, lights, pano, label, truth = mr.load_input(studio_hdri("city"), from_ldr=0.0)
+        coeffs, lights, pano, label, truth, white, units = mr.load_input(studio_hdri("city"), from_ldr=0.0)
+    assert (white, units) == (1.0, "relative")  # a made JPEG records no exposure
     np.testing.assert_allclose(truth, hdr * auto_exposure(hdr, 0.0, robust=True))
     assert pano.max() <= 1.0 + 1e-6 and "JPEG ev +0" in label  # the background is the photograph
     from panolight_core import sh
@@ -223,6 +224,41 @@ def test_a_lighting_file_cannot_point_the_renderer_at_any_file(tmp_path):
         path = write_lighting(tmp_path / "lighting.json", doc)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            _, _, bg, _, _ = mr.load_input(path)
+            bg = mr.load_input(path).panorama
         assert (bg is not None) == expect_bg
         assert expect_bg or any(isinstance(w.message, PanoLightWarning) for w in caught)
+
+
+def test_renders_are_in_cd_m2_where_the_photo_s_exif_gives_the_scale_and_shown_as_shot(tmp_path):
+    """A JPEG whose EXIF gives its exposure (f/8, 1/100 s, ISO 200): the default estimate writes cd/m^2, --relative
+    keeps relative values; render-mitsuba renders both in the lighting's own units, with the plate at its photo's
+    white (cd/m^2 or 1), so the absolute render is the relative one times the camera's white. The photo itself
+    renders in cd/m^2 too."""
+    import warnings
+
+    from panolight_core.apps.cli import main
+    from panolight_core.camera import hdr_to_ldr, units
+    from panolight_core.io import read_image
+    from tests.panolight_core.pipeline.test_brackets import _city, _frame
+
+    photo = _frame(tmp_path / "exif.jpg", hdr_to_ldr(_city(32), 0.0), 1 / 100, 8.0, 200)
+    white = units.white_luminance(units.ev100(1 / 100, 8.0, 200.0))
+    renders = {}
+    for name, extra in (("absolute", []), ("relative", ["--relative"])):
+        assert main(["estimate", photo, "-o", str(tmp_path / name), "-q", "--outputs", "lighting"] + extra) == 0
+        inp = mr.load_input(tmp_path / name / "lighting.json")
+        assert inp.units == ("cd/m^2" if name == "absolute" else "relative")
+        assert inp.white == pytest.approx(white if name == "absolute" else 1.0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = mr.render_figure([str(tmp_path / name / "lighting.json")], tmp_path / f"fig_{name}", spp=2,
+                                   resolution=(24, 18), in_panorama=False, materials=("plastic",),
+                                   log=lambda m: None)
+        renders[name] = read_image(res["renders"][0], equirect=False).astype(np.float64)
+        (shown,) = res["exposures"].values()
+        if name == "absolute":  # the figure shows the plate as shot: its white at white
+            assert shown == pytest.approx(1.0 / white)
+    np.testing.assert_allclose(renders["absolute"], renders["relative"] * white, rtol=2e-3, atol=1e-6 * white)
+    shot = mr.load_input(photo)  # the photo itself, estimated here
+    assert shot.units == "cd/m^2" and shot.white == pytest.approx(white)
+    assert shot.panorama.max() == pytest.approx(white, rel=1e-6)  # its clipped white is the camera's white
