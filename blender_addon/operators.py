@@ -29,6 +29,7 @@ from .core import (
     checks,
     core_images,
     errors,
+    hdri,
     keylight,
     lighting_file,
     ownership,
@@ -120,7 +121,16 @@ def _make_hdri(world, pixels, result):
     """The reconstructed HDRI as PanoLight's float image, filled by row blocks (the CLI's hdr.exr: its key lights
     at the estimate's sun strength), and marked with the estimate and the strength it belongs to (made only when a
     world is lit with it: at 16K it is 2 GB in Blender)."""
-    image = images.radiance_image(result.hdr_blocks(pixels), images.HDRI_IMAGE_NAME, shape=pixels.shape[:2])
+    blocks = result.hdr_blocks(pixels)
+    key = _brightest_light(result.document.get("lights", []))
+    if key is not None:  # its brightest luminance beside that light, found as the blocks go by (_eevee_sun)
+        blocks = hdri.PeakBeside(blocks, pixels.shape[:2], key["direction"],
+                                 max(float(key.get("angle", 0.0)), EEVEE_KEY_CONE))
+    image = images.radiance_image(blocks, images.HDRI_IMAGE_NAME, shape=pixels.shape[:2])
+    if key is not None:
+        image[store.PEAK_BESIDE_KEY] = blocks.peak
+    elif store.PEAK_BESIDE_KEY in image:
+        del image[store.PEAK_BESIDE_KEY]
     image[store.ESTIMATE_KEY] = world.get(store.ESTIMATE_KEY, "")
     image[store.SUN_STRENGTH_KEY] = float(result.document.get("sun_strength", 1.0))
     return image
@@ -341,7 +351,8 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
         build_world(panorama, image, **kwargs)
         # the key lights at Sun lamp strength, in W/m^2 where the units are physical
         set_lights(lights, context.scene, s.lighting_strength * factor, s.lighting_rotation)
-        _eevee_sun(world, bool(lights), factor)
+        beside = image.get(store.PEAK_BESIDE_KEY) if s.lighting_source == "HDRI" else None
+        _eevee_sun(world, bool(lights), kwargs["lighting_strength"], beside)
         context.scene.world = world
         what = "the reconstructed HDRI" if s.lighting_source == "HDRI" else \
             f"SH order {doc['lmax']}, {len(lights)} sun lamp(s)"
@@ -392,16 +403,29 @@ class PANOLIGHT_OT_build_environment(bpy.types.Operator):
 
 
 EEVEE_SUN_THRESHOLD = 10.0  # EEVEE's default: world radiance above it (relative units here) becomes EEVEE's own sun
+EEVEE_KEY_CONE = math.radians(5.0)  # the brightest light's pixels: a restored sun's fill and glare lie within it
+EEVEE_ABOVE_BESIDE = 1.05  # the threshold's margin over the brightest pixel beside that light
 
 
-def _eevee_sun(world, lamps: bool, factor: float) -> None:
-    """No light counted twice in EEVEE (4.2+), which turns world radiance above ``World.sun_threshold`` into a sun of
-    its own: where PanoLight's Sun lamps carry the key lights (SH lighting + sun lamps), none (0: the whole world goes
-    to the light probe); where the world's HDRI carries them (no lamps), EEVEE's default threshold in the estimate's
-    units (``factor``: W/m^2/sr per unit with Physical units), so the restored sun, hundreds of times the sky, is the
-    one EEVEE makes a sun of, as it would be without PanoLight's units."""
+def _brightest_light(lights):
+    """The light of a lighting document that is brightest on a surface facing it (intensity x its colour's largest
+    channel), or None."""
+    return max(lights, key=lambda light: float(light["intensity"]) * max(light["color"]), default=None)
+
+
+def _eevee_sun(world, lamps: bool, strength: float, beside: float | None = None) -> None:
+    """No light counted twice or moved in EEVEE (4.2+), which takes world radiance above ``World.sun_threshold`` out
+    of its light probe into one sun of its own, at the excess's mean direction: where PanoLight's Sun lamps carry the
+    key lights (SH lighting + sun lamps), none (0: the whole world goes to the light probe); where the world's HDRI
+    carries them (no lamps), a threshold above everything beside the brightest light (``beside``: the HDRI's
+    brightest luminance outside EEVEE_KEY_CONE round it, in the image's units), and at least EEVEE's default 10, so
+    that light alone becomes EEVEE's sun. (With EEVEE's default alone, a street's row of lamps at the horizon was
+    merged with the lamp overhead into one sun from above: an upward plane got 1.33x its light;
+    docs/studies/eevee_units.md.) ``strength``: W/m^2/sr of the world per unit of the image (the Background strength,
+    with Physical units the factor)."""
     if hasattr(world, "sun_threshold"):
-        world.sun_threshold = 0.0 if lamps else EEVEE_SUN_THRESHOLD * factor
+        level = max(EEVEE_SUN_THRESHOLD, EEVEE_ABOVE_BESIDE * beside) if beside is not None else EEVEE_SUN_THRESHOLD
+        world.sun_threshold = 0.0 if lamps else level * strength
 
 
 def _estimate_again(panorama, settings):

@@ -21,6 +21,7 @@ ESTIMATE_KEY = "panolight_estimate"  # world and HDRI image ID property: which e
 LIGHTING_MAX_BYTES = 1 << 26  # a lighting document of SH order 100 is about 0.6 MB
 SETTINGS_KEY = "panolight_settings"  # world ID property: the core Settings the estimate was made with (JSON)
 SUN_STRENGTH_KEY = "panolight_sun_strength"  # HDRI image ID property: the Sun lamp strength its key lights carry
+PEAK_BESIDE_KEY = "panolight_peak_beside"  # HDRI image ID property: its brightest luminance beside its brightest light
 
 
 def ours(collection, name: str):

@@ -84,6 +84,8 @@ TOOLS = {
     "do-no-harm": ("training.experiments.do_no_harm", "the default's decisions priced for harm (issue 58): the fill's "
                    "guard over the 68 % range and the sky-alone sun, against the rules they replaced, harmed scenes "
                    "first"),
+    "eevee-units": ("training.experiments.eevee_units", "Blender's physical build rendered by Cycles and EEVEE: a "
+                    "white plane's irradiance against lighting.json's, per build (SH + sun lamps, HDRI)"),
     "key-variants": ("training.experiments.key_variants", "experiment: what a key light carries (one account of its "
                      "region, a sure sun at its belief; issue 46), scored by the key-light cross-validation"),
     "digests": ("training.digests", "digests of the shipped estimates over the real HDRs: prove a refactoring "

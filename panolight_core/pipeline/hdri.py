@@ -124,3 +124,37 @@ class HdrRows:
 def hdr_blocks(pixels: np.ndarray, est):
     """``HdrRows(pixels, est)``'s (first row, block) pairs (unscaled)."""
     return iter(HdrRows(pixels, est))
+
+
+class PeakBeside:
+    """(first row, (n, W, 3) block) pairs passed through, as ``HdrRows`` yields them, while ``peak`` records the largest
+    Rec.709 luminance of any pixel farther than ``radius`` (radians) from the unit ``direction`` (CONVENTIONS.md frame)
+    in the image of ``shape`` (H, W): how bright the panorama is beside a light (Blender's EEVEE keeps the light alone
+    above its sun threshold with it). Only the rows the cone crosses get pixel directions, so a 16K panorama costs a
+    luminance per pixel. NaN and infinities are passed over. ``peak`` is 0 until the blocks are consumed."""
+
+    def __init__(self, blocks, shape, direction, radius: float):
+        self.blocks, (self.height, self.width) = blocks, shape[:2]
+        d = np.asarray(direction, dtype=np.float64)
+        self.direction, self.cos_radius = d / np.linalg.norm(d), float(np.cos(radius))
+        theta = float(np.arccos(np.clip(self.direction[2], -1.0, 1.0)))  # rows centred at pi (r + 0.5) / H
+        self.band = (int(np.floor((theta - radius) / np.pi * self.height - 0.5)),
+                     int(np.ceil((theta + radius) / np.pi * self.height - 0.5)) + 1)  # rows the cone may cross
+        self.peak = 0.0
+
+    def __iter__(self):
+        from ..camera.color import LUMINANCE_WEIGHTS
+        from ..sh.grid import directions_at
+
+        weights = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float32)
+        for r0, block in self.blocks:
+            with np.errstate(invalid="ignore", over="ignore"):
+                lum = block @ weights
+                lum[~np.isfinite(lum)] = 0.0
+            b0, b1 = max(self.band[0] - r0, 0), min(self.band[1] - r0, len(block))
+            if b0 < b1:  # rows the cone crosses: only their pixels inside it are left out
+                rows, cols = np.nonzero(lum[b0:b1] > self.peak)
+                inside = directions_at(rows + r0 + b0, cols, self.height, self.width) @ self.direction >= self.cos_radius
+                lum[b0:b1][rows[inside], cols[inside]] = 0.0
+            self.peak = max(self.peak, float(lum.max(initial=0.0)))
+            yield r0, block

@@ -1232,6 +1232,42 @@ def test_physical_units_put_the_world_and_the_lamps_in_watts_and_the_plate_s_whi
         scene.view_settings.exposure = 0.0
 
 
+def test_eevee_s_sun_threshold_keeps_the_brightest_light_alone_above_it(tmp_path):
+    """Reconstructed HDRI: EEVEE takes the world above World.sun_threshold into one sun at the excess's mean direction,
+    so the threshold stands above every HDRI pixel beside the brightest light (outside its 5 degree cone, recomputed
+    here from the image Blender holds): in a street of lamps the lamp overhead is EEVEE's sun, the row at the horizon
+    stays in the world (with EEVEE's default 10 it was merged into a sun from above: 1.33x the light on the ground,
+    docs/studies/eevee_units.md)."""
+    from panolight_core.camera import units
+    from panolight_core.camera.color import LUMINANCE_WEIGHTS
+
+    photo = ROOT.parent / "shared" / "data" / "ldr" / "tunnel.jpg"
+    if not photo.is_file():
+        pytest.skip("../shared/data/ldr is not beside this checkout")
+    path = photo
+    scene = bpy.context.scene
+    s = scene.panolight
+    s.lighting_source, s.create_lights, s.lighting_strength = "HDRI", True, 1.0
+    try:
+        _estimate_and_build(path)
+        doc = store.stored_lighting(scene.world)
+        factor = units.blender_factor(doc["physical"])
+        image = images.own_image(images.HDRI_IMAGE_NAME)
+        h, w = image.size[1], image.size[0]
+        rgba = np.empty(h * w * 4, np.float32)
+        image.pixels.foreach_get(rgba)
+        lum = (rgba.reshape(h, w, 4)[::-1, :, :3].astype(np.float64) @ LUMINANCE_WEIGHTS)
+        key = max(doc["lights"], key=lambda light: light["intensity"] * max(light["color"]))
+        inside = sh.pixel_directions(h, w) @ np.asarray(key["direction"]) >= math.cos(math.radians(5.0))
+        beside = float(lum[~inside].max())
+        assert image[store.PEAK_BESIDE_KEY] == pytest.approx(beside, rel=1e-5)
+        assert beside > 10.0 * 3  # lamps beside the key, far above EEVEE's default
+        assert scene.world.sun_threshold == pytest.approx(1.05 * beside * factor, rel=1e-5)
+        assert float(lum[inside].max()) > 1.05 * beside  # the key light is above it
+    finally:
+        s.lighting_source = "SH"
+
+
 def test_with_physical_units_a_white_plane_gets_lighting_json_s_upward_illuminance_in_watts(tmp_path):
     """Physical units, for a JPEG whose EXIF gives its scale: a white diffuse plane facing up, rendered by Cycles (the
     EXR is scene-linear: the film exposure is the view's, not the file's), gets the irradiance lighting.json states,

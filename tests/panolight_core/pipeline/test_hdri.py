@@ -132,3 +132,29 @@ def test_a_lone_clipped_pixel_of_a_large_panorama_is_no_firefly(rng):
     assert specks.sum() > 150
     np.testing.assert_array_equal(hdr[ys[specks], xs[specks]], 1.0)  # as shot: the clip level, no more
     assert float(hdr[r < 50].mean()) > 2.0  # the lamp's core holds its recovered energy
+
+
+@pytest.mark.parametrize("direction", [(0.3, -0.2, 0.93), (-1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.05, 0.0, -0.999)])
+def test_peak_beside_a_light_is_the_brightest_pixel_outside_its_cone(direction):
+    """PeakBeside passes the blocks through unchanged and finds the brightest luminance farther than the radius from
+    the light (a light on the seam, at a pole and below the horizon too), against every pixel's direction in float64;
+    NaN is passed over."""
+    from panolight_core.camera.color import LUMINANCE_WEIGHTS
+    from panolight_core.pipeline.hdri import PeakBeside
+
+    h, w = 64, 128
+    d = sh.pixel_directions(h, w)
+    key = np.asarray(direction) / np.linalg.norm(direction)
+    rng = np.random.default_rng(3)
+    img = rng.uniform(0.0, 1.0, (h, w, 3)).astype(np.float32)
+    near = d @ key > np.cos(np.radians(5.0))
+    img[near] = 500.0  # the light, and a pixel just beside it a little less bright
+    beside = np.argmax(np.where(near, -2.0, d @ key))
+    img.reshape(-1, 3)[beside] = 40.0
+    img[3, 7] = np.nan
+    blocks = [(r0, img[r0:r0 + 10]) for r0 in range(0, h, 10)]
+    tap = PeakBeside(iter(blocks), (h, w), key, np.radians(5.0))
+    passed = list(tap)
+    assert [r for r, _ in passed] == [r for r, _ in blocks] and all(a is b for (_, a), (_, b) in zip(passed, blocks))
+    lum = np.where(np.isfinite(img @ LUMINANCE_WEIGHTS), img @ LUMINANCE_WEIGHTS, 0.0)
+    assert tap.peak == pytest.approx(float(lum[~near].max()), rel=1e-6) and tap.peak == pytest.approx(40.0, rel=1e-6)
