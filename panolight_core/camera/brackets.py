@@ -3,16 +3,22 @@ only: Blender runs it too).
 
 Each frame is decoded through the set's own camera curve where it explains the frames better than sRGB
 (``camera.response``: Debevec and Malik's, recovered from three or more 8-bit frames), else through sRGB
-(EVALUATION.md's camera), and divided by its relative exposure; the frames are averaged with Debevec's hat weight
-of the pixel's **worst** channel, so a pixel clipped in one channel of a frame takes nothing from that frame (a
-clipped channel averaged in makes a dark sun or a magenta halo). A pixel clipped in every frame is clipped: it takes
+(EVALUATION.md's camera), and divided by its relative exposure; the frames' logarithms are averaged (Debevec and
+Malik's ln E = sum w (g(Z) - ln t) / sum w: a short frame's noisy dark code, hundreds of times the others' reading,
+moves a log average by its small weight's share, where a linear average made it a firefly) with the noise weight
+(``camera.weights``) of the pixel's **worst**
+channel, so a pixel clipped in one channel of a frame takes nothing from that frame (a clipped channel averaged in
+makes a dark sun or a magenta halo). A pixel clipped in every frame is clipped: it takes
 the darkest frame's channels, those it clipped at that frame's white (a lower bound), which makes the merged file an
 HDR that clips its own sun at exactly its ceiling (``camera.ceiling``), channel by channel as a file clipped there
 does, and the restoration weighs it as for any such file. (Every channel at the white made a sunset's red-clipped
 aureole part of a white plateau wider than the sun's, and drew the key light off the sun.)
 
 What moves between the frames (a person, a leaf, a wave) is the reference frame's alone: a frame gives nothing to a
-pixel whose radiance it sees GHOST_RATIO off the reference's where both see it well exposed.
+pixel whose radiance it sees GHOST_RATIO off the reference's where both see it well exposed. Nor to one where it sees
+it well exposed GHOST_RATIO off the weighted median of the frames that do (``weights.outlying_frames``): a speck of
+dust or a hot pixel on one frame, where the reference is too dark to judge (a speck on the darkest of five frames
+came out at 63x the wall round it, now 1.0x).
 
 Hand-held frames are aligned first (``align_shift``: Ward's median threshold bitmaps, the panorama's columns
 turned round and its rows shifted: a 360 camera turned or tipped a little between frames; a tilt that bends the
@@ -34,7 +40,7 @@ from .. import threads
 from ..errors import PanoLightError
 from .color import SRGB8_TO_LINEAR, gray8
 from .response import SRGB, recover_response
-from .weights import CLIPPED_CODE, GHOST_RATIO, noise_weights, sure_codes
+from .weights import CLIPPED_CODE, GHOST_RATIO, noise_weights, outlying_frames, sure_codes
 
 RING_CODE = 230  # a JPEG rings 10-20 codes round a clipped patch (codes 230-249 beside a clipped edge) ...
 RING_BLOCK = 16  # ... inside the compression's blocks that hold the edge (8 x 8 luma, 16 x 16 with 4:2:0 chroma): a
@@ -366,6 +372,8 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     dark = int(np.argmin(rel))
     weight = noise_weights(curve.table)  # by code: a table lookup per pixel, not arithmetic
     radiance = [(curve.table / np.float32(k)).astype(np.float32) for k in rel]  # each frame's code -> radiance
+    floor = np.float32(0.5 * curve.table[1])  # half the first code's light: a code 0 reads no light, not -inf in log
+    logs = [np.log(np.maximum(r, floor / np.float32(k))).astype(np.float32) for r, k in zip(radiance, rel)]
     # each frame's weight by (the reference's code, its own code) of a pixel's brightest channel: the noise weight,
     # and 0 where the two differ by GHOST_RATIO in radiance though both are well exposed (``sure_codes``): one table
     # lookup per pixel
@@ -388,16 +396,28 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
         top = [np.maximum(np.maximum(f[r0:r1, :, 0], f[r0:r1, :, 1]), f[r0:r1, :, 2]) for f in frames]
         row = top[ref].astype(np.uint16) << 8
         lost = [clipped_or_ringing(t) for t in top]  # RAWs too (by their nearest codes): one rule for every set
-        for i, (frame, lut) in enumerate(zip(frames, radiance)):
+
+        def frame_weight(i):
             w = weights[i][row | top[i]]
             w[lost[i]] = 0.0  # a JPEG's ringing round a clipped edge is no measure of the light there
-            seen = lut[frame[r0:r1]] if linear is None else linear[i][r0:r1] * np.float32(1.0 / rel[i])
+            return w
+
+        dropped = outlying_frames(frame_weight, top, radiance, sure, ref) if ghosts else None
+        for i, frame in enumerate(frames):
+            w = frame_weight(i)
+            if dropped is not None and dropped[i] is not None:
+                w[dropped[i]] = 0.0
+            if linear is None:
+                seen = logs[i][frame[r0:r1]]
+            else:
+                seen = np.log(np.maximum(linear[i][r0:r1], floor) * np.float32(1.0 / rel[i]))
             seen *= w[..., None]  # in place: a fresh array either way
             num += seen
             den += w
         none = den == 0  # clipped in every frame by its brightest channel: the darkest frame's channels, those it
         # clipped at its white (a lower bound, which the restoration weighs as an HDR file's clipped channels)
         num /= np.where(none, np.float32(1.0), den)[..., None]
+        np.exp(num, out=num)  # Debevec and Malik's ln E = sum w (g(Z) - ln t) / sum w
         if none.any():
             codes = frames[dark][r0:r1][none]
             held = radiance[dark][codes] if linear is None else linear[dark][r0:r1][none] * np.float32(1.0 / rel[dark])

@@ -47,3 +47,50 @@ def sure_codes(table: np.ndarray) -> np.ndarray:
     n = GHOST_NOISE_CODES
     spread = lt[np.minimum(z + n, 255)] - lt[np.maximum(z - n, 0)]
     return (z >= GHOST_CODES[0]) & (z <= GHOST_CODES[1]) & (spread < np.log(GHOST_RATIO))
+
+
+def weighted_median(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """(k,) the weighted median of each column of (n, k) ``values`` under non-negative (n, k) ``weights`` (each column
+    holding some weight): the smallest value with at least half the column's weight at or below it."""
+    order = np.argsort(values, axis=0, kind="stable")
+    v = np.take_along_axis(values, order, axis=0)
+    cum = np.cumsum(np.take_along_axis(weights, order, axis=0), axis=0)
+    first = np.argmax(cum >= 0.5 * cum[-1:], axis=0)
+    return v[first, np.arange(values.shape[1])]
+
+
+def outlying_frames(frame_weight, top, radiance, sure, ref: int):
+    """Per frame, None or the (n, W) bool pixels of a ``merge_brackets`` block where the frame's reading is an outlier:
+    well exposed there (``sure``) yet GHOST_RATIO off the weighted median of the readings of every frame that sees the
+    pixel well exposed (each frame's brightest-channel radiance, ``radiance[i][top[i]]``, weighed by its merge weight
+    ``frame_weight(i)``). A speck of dust, a scanner's edge or a hot pixel is one frame's reading against its
+    neighbours' in exposure, which the ghost test (each frame against the reference alone) cannot see where the
+    reference is in its toe. The reference frame is never dropped (what moved is the reference's), nor the median's
+    own frame, so every pixel keeps a frame. Only pixels whose sure readings spread over GHOST_RATIO are looked at
+    closely (a few per set)."""
+    n = len(top)
+    low = high = None
+    readings = []
+    for i in range(n):
+        level = radiance[i][top[i]]  # the brightest channel's radiance (one curve table for all channels)
+        ok = sure[top[i]] & (frame_weight(i) > 0)
+        readings.append((level, ok))
+        low = np.where(ok, level, np.inf) if low is None else np.where(ok, np.minimum(low, level), low)
+        high = np.where(ok, level, 0.0) if high is None else np.where(ok, np.maximum(high, level), high)
+    spread = high > GHOST_RATIO * low  # two sure readings that disagree
+    if not spread.any():
+        return None
+    values = np.stack([level[spread] for level, _ in readings]).astype(np.float64)
+    weight = np.stack([np.where(ok[spread], frame_weight(i)[spread], 0.0) for i, (_, ok) in enumerate(readings)])
+    median = weighted_median(values, weight.astype(np.float64))
+    off = (weight > 0) & ((values > GHOST_RATIO * median) | (values < median / GHOST_RATIO))
+    off[ref] = False
+    out = []
+    for i in range(n):
+        if not off[i].any():
+            out.append(None)
+            continue
+        mask = np.zeros(spread.shape, bool)
+        mask[spread] = off[i]
+        out.append(mask)
+    return out

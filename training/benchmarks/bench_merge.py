@@ -15,8 +15,9 @@ Scores (``score``):
 - agreement: the median |ln(ours / OpenCV's)| of luminance over the pixels the reference frame (the median
   exposure) sees well exposed (its brightest channel's code 20-235), after one scale (the two merges' units differ);
 - fireflies: pixels whose luminance is over FIREFLY_RATIO x the median of their 5 x 5 neighbourhood (and above a
-  thousandth of the reference white: no flicker in black counts); for a simulated set also those that are no
-  bright point of the truth's own (spurious: a night scene's lamps are points a merge must keep);
+  thousandth of the reference white: no flicker in black counts); also those that are no bright point of the
+  scene's own (spurious: a night scene's lamps are points a merge must keep): for a simulated set, none of the
+  truth's; for a real set, none that two frames show themselves where they expose it well (``shown_by_a_frame``);
 - truth (simulated): the median |ln(merged / true)| of luminance where the truth is 0.01-0.9 of the reference
   frame's white, after one scale;
 - time: the median of ``--repeats`` runs, in this process;
@@ -95,12 +96,12 @@ def merge_opencv(frames, exposures):
     return cv2.createMergeDebevec().process(bgr, times, curve)[..., ::-1].astype(np.float64)
 
 
-def firefly_mask(img: np.ndarray, floor: float) -> np.ndarray:
-    """Pixels whose luminance is over FIREFLY_RATIO x their 5 x 5 neighbourhood's median, and over ``floor``."""
+def firefly_mask(img: np.ndarray, floor: float, ratio: float = FIREFLY_RATIO) -> np.ndarray:
+    """Pixels whose luminance is over ``ratio`` x their 5 x 5 neighbourhood's median, and over ``floor``."""
     from scipy.ndimage import median_filter
 
     lum = np.asarray(img, dtype=np.float64) @ LUMINANCE_WEIGHTS
-    return (lum > FIREFLY_RATIO * median_filter(lum, size=5, mode="nearest")) & (lum > floor)
+    return (lum > ratio * median_filter(lum, size=5, mode="nearest")) & (lum > floor)
 
 
 CURVE_CODES = (30, 230)  # the codes the curves are compared on (both solves' reliable part)
@@ -139,13 +140,33 @@ def curves(frames, exposures) -> dict:
 
 def fireflies(img: np.ndarray, floor: float, truth: np.ndarray | None = None) -> int:
     """``firefly_mask``'s count; with ``truth`` (the same units) only those that are no bright point of the truth's
-    own (none within a pixel): a night scene's lamps are points a merge must keep."""
+    own (none within a pixel over FIREFLY_RATIO / 2 x its neighbourhood, as ``shown_by_a_frame`` asks of a real
+    set's frames: a truth point at 9.5x that the merge puts at 10.2x is the truth's): a night scene's lamps are
+    points a merge must keep."""
     from scipy.ndimage import binary_dilation
 
     found = firefly_mask(img, floor)
     if truth is not None:
-        found &= ~binary_dilation(firefly_mask(truth, floor), iterations=1)
+        found &= ~binary_dilation(firefly_mask(truth, floor, 0.5 * FIREFLY_RATIO), iterations=1)
     return int(found.sum())
+
+
+def shown_by_a_frame(frames, exposures, table: np.ndarray) -> np.ndarray:
+    """(H, W) bool: pixels that two or more frames show as a bright point themselves: well exposed there (brightest
+    channel's code within WELL_EXPOSED) and over FIREFLY_RATIO / 2 x the median of its 5 x 5 neighbourhood, decoded
+    through the set's camera curve ``table`` (code -> linear). A merge's firefly there is the scene's own (a lit speck
+    of a window), not the merge's: the real sets' "spurious" count leaves them out. (One frame alone is no evidence:
+    a speck of dust on one scan is a bright point of that frame.)"""
+    from scipy.ndimage import median_filter
+
+    shown = np.zeros(frames[0].shape[:2], np.uint8)
+    lut = np.asarray(table, dtype=np.float64)
+    for f in frames:
+        top = f.max(axis=-1)
+        lum = lut[f] @ LUMINANCE_WEIGHTS
+        point = lum > 0.5 * FIREFLY_RATIO * median_filter(lum, size=5, mode="nearest")  # firefly_mask's test
+        shown += point & (top >= WELL_EXPOSED[0]) & (top <= WELL_EXPOSED[1])
+    return shown >= 2
 
 
 def _scaled_log_error(a: np.ndarray, b: np.ndarray) -> float:
@@ -174,8 +195,15 @@ def score(frames, exposures, repeats: int = 3, truth: np.ndarray | None = None) 
     out["agreement"] = _scaled_log_error(lum["panolight"][well], lum["opencv"][well])
     white = {n: float(np.median(lum[n][well])) / max(float(np.median(merged["panolight"][well] @ LUMINANCE_WEIGHTS)),
                                                       1e-30) for n in merged}  # each merge's reference white
+    shown = None
+    if truth is None:  # a real set: the points its frames show themselves are the scene's
+        from panolight_core.camera import response
+
+        shown = shown_by_a_frame(frames, e, response.recover_response(frames, e / e[ref], ref).table)
     for n in merged:
         out[n]["fireflies"] = fireflies(merged[n], 1e-3 * white[n])
+        if shown is not None:
+            out[n]["spurious_fireflies"] = int((firefly_mask(merged[n], 1e-3 * white[n]) & ~shown).sum())
         if truth is not None:
             scale = float(np.median(lum[n][well])) / max(float(np.median((truth @ LUMINANCE_WEIGHTS)[well])), 1e-30)
             out[n]["spurious_fireflies"] = fireflies(merged[n], 1e-3 * white[n], truth * scale)

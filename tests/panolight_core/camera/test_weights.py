@@ -23,3 +23,43 @@ def test_the_noise_weight_trusts_a_code_as_its_curve_reads_it():
     film = SRGB.table.astype(np.float64).copy()
     film[:22] = film[22] * 1.4 ** (np.arange(22) - 22.0)  # each code of the fog 1.4x the last
     assert not sure_codes(film)[20] and sure_codes(film)[40]
+
+
+def test_weighted_median_against_a_plain_reference():
+    """Each column's smallest value with half its weight at or below it, against a loop over sorted values; equal
+    weights give the lower median."""
+    from panolight_core.camera.weights import weighted_median
+
+    rng = np.random.default_rng(2)
+    values, weights = rng.uniform(0, 10, (7, 50)), rng.uniform(0, 1, (7, 50))
+    weights[:, 0] = 0.0
+    weights[3, 0] = 1.0  # one frame holds all the weight
+    got = weighted_median(values, weights)
+    for k in range(values.shape[1]):
+        order = np.argsort(values[:, k])
+        cum = np.cumsum(weights[order, k])
+        assert got[k] == values[order, k][np.searchsorted(cum, 0.5 * cum[-1])]
+    assert got[0] == values[3, 0]
+    assert weighted_median(np.array([[1.0], [2.0], [3.0], [4.0]]), np.ones((4, 1)))[0] == 2.0
+
+
+def test_outlying_frames_drop_one_frame_s_odd_reading_never_the_reference_s():
+    """Four frames read one pixel well exposed: three agree, one reads 8x; that one is dropped. Where the odd one is
+    the reference, nothing is (what moved is the reference's). A pixel whose readings agree is not looked at."""
+    from panolight_core.camera.weights import outlying_frames
+
+    table = SRGB.table
+    rel = np.array([0.25, 1.0, 4.0, 16.0])
+    radiance = [(table / np.float32(k)).astype(np.float32) for k in rel]
+    level = 0.01  # in the reference's units: codes 60 (0.25x)... well exposed in all four
+    codes = [np.searchsorted(table, level * k) for k in rel]
+    top = [np.array([[c, c]], np.uint8) for c in codes]
+    top[0][0, 0] = np.searchsorted(table, 8 * level * rel[0])  # frame 0 reads 8x at the first pixel
+    weight = noise_weights(table)
+    dropped = outlying_frames(lambda i: weight[top[i]], top, radiance, sure_codes(table), ref=1)
+    assert dropped[0] is not None and dropped[0].tolist() == [[True, False]]
+    assert all(d is None for d in dropped[1:])
+    top[1][0, 0] = np.searchsorted(table, 8 * level)  # now the reference is the odd one
+    top[0][0, 0] = codes[0]
+    dropped = outlying_frames(lambda i: weight[top[i]], top, radiance, sure_codes(table), ref=1)
+    assert dropped is None or all(d is None or not d[0, 0] for d in dropped)
