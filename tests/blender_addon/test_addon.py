@@ -189,17 +189,10 @@ def test_camera_sees_the_panorama_exactly_and_lamps_turn_with_the_lighting(tmp_p
 
 
 def _white_diffuse(obj) -> None:
-    """Give ``obj`` a white diffuse material (albedo 0.8, one node pair)."""
-    mat = bpy.data.materials.new("white")
-    if bpy.app.version < (5, 0, 0):
-        mat.use_nodes = True
-    nt = mat.node_tree
-    nt.nodes.clear()
-    diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
-    diff.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    nt.links.new(diff.outputs["BSDF"], out.inputs["Surface"])
-    obj.data.materials.append(mat)
+    """Give ``obj`` a white diffuse material (albedo 0.8, one node pair: the eevee-units study's)."""
+    from training.experiments.eevee_units import white_diffuse
+
+    white_diffuse(bpy, obj, 0.8)
 
 
 def _render_one_bounce(scene, path, size: int, samples: int = 256) -> np.ndarray:

@@ -47,20 +47,24 @@ def _city_with_exif(folder: Path) -> Path:
     return path
 
 
-def _plane_and_camera(bpy, scene):
-    """A 200 m white diffuse plane at z = 0 and an orthographic camera 1 m above looking down (casts no shadow)."""
-    bpy.ops.mesh.primitive_plane_add(size=200.0, location=(0, 0, 0))
-    plane = bpy.context.active_object
+def white_diffuse(bpy, obj, albedo: float = ALBEDO) -> None:
+    """Give ``obj`` a white diffuse material (``albedo``, one node pair); the bpy tests' white sphere and plane too."""
     mat = bpy.data.materials.new("white")
     if bpy.app.version < (5, 0, 0):
         mat.use_nodes = True
     nt = mat.node_tree
     nt.nodes.clear()
     diffuse = nt.nodes.new("ShaderNodeBsdfDiffuse")
-    diffuse.inputs["Color"].default_value = (ALBEDO, ALBEDO, ALBEDO, 1)
+    diffuse.inputs["Color"].default_value = (albedo, albedo, albedo, 1)
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     nt.links.new(diffuse.outputs["BSDF"], out.inputs["Surface"])
-    plane.data.materials.append(mat)
+    obj.data.materials.append(mat)
+
+
+def _plane_and_camera(bpy, scene):
+    """A 200 m white diffuse plane at z = 0 and an orthographic camera 1 m above looking down (casts no shadow)."""
+    bpy.ops.mesh.primitive_plane_add(size=200.0, location=(0, 0, 0))
+    white_diffuse(bpy, bpy.context.active_object)
     cam_data = bpy.data.cameras.new("down")
     cam_data.type, cam_data.ortho_scale = "ORTHO", 1.0
     cam = bpy.data.objects.new("down", cam_data)
