@@ -4,7 +4,8 @@ Sets, each merged by PanoLight (``camera.brackets.merge_brackets``: its own came
 than sRGB; no alignment, the sets are still) and by OpenCV (``CalibrateDebevec``, then ``MergeDebevec`` with that
 curve) on the same frames and exposures:
 
-- **simulated** (default): real HDRs of ../shared/data/hdri (``--scenes``), each taken as a camera takes a bracket:
+- **simulated** (default): real HDRs of ../shared/data/hdri (``--scenes``; ``--public``: the eight the bpy package
+  ships, real scenes the project never trained on), each taken as a camera takes a bracket:
   the EVALUATION.md ev-0 exposure times 2^s for each s of ``--stops``, photon and read noise
   (``camera.sensor_noise``: a small sensor's), the sRGB curve, JPEG q90;
 - **real**: ``--frames DIR``, a folder of a real set's frames (8-bit, one scene) with their exposure times: from
@@ -238,6 +239,9 @@ def main(argv=None) -> int:
     ap.add_argument("--width", type=int, default=1024, help="the simulated sets' width (default 1024)")
     ap.add_argument("--frames", type=Path, action="append", default=[], metavar="DIR",
                     help="a real set's folder (repeatable): frames and their times (EXIF or shutter_times.txt)")
+    ap.add_argument("--public", action="store_true",
+                    help="simulated sets of the eight HDRIs the bpy package ships (real scenes not in ../shared) "
+                         "instead of --scenes")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--out", type=Path, default=None, help="write the rows as JSON here")
     args = ap.parse_args(argv)
@@ -247,10 +251,13 @@ def main(argv=None) -> int:
         rows.append({"set": folder.name, "frames": len(frames), **score(frames, times, args.repeats)})
         print("\n".join(table(rows[-1:])[2:]), flush=True)
     if not args.frames:
+        from panolight_core.data import STUDIO_HDRIS, load_studio_hdri
         from training.common.real_hdri import DEFAULT_HDRI, load_hdr
 
-        for scene in args.scenes:
-            hdr = area_downsample(load_hdr(next(DEFAULT_HDRI.glob(f"{scene}.*"))), args.width // 2)
+        for scene in STUDIO_HDRIS if args.public else args.scenes:
+            full = (np.maximum(np.asarray(load_studio_hdri(scene), dtype=np.float64), 0.0) if args.public
+                    else load_hdr(next(DEFAULT_HDRI.glob(f"{scene}.*"))))
+            hdr = area_downsample(full, min(args.width // 2, full.shape[0]))
             frames, exposures = camera_set(hdr, args.stops)
             truth = hdr * auto_exposure(hdr, 0.0, robust=True)
             rows.append({"set": scene, "frames": len(frames), **score(frames, exposures, args.repeats, truth)})
