@@ -41,3 +41,17 @@ def test_the_ring_rule_clears_a_sun_sets_dark_ring():
     row = bracket_merge.ring_row(forest)
     assert row["without"] > 40 and row["with"] == 0  # 92 pixels to none here
     assert bracket_merge.srgb_share(forest, (-2, 0, 2)) > response.RESPONSE_GAIN  # an sRGB set stays on sRGB (0.96)
+
+
+def test_the_gain_study_counts_sets_made_worse_first():
+    """gain_summary: a set whose error passes 1.1x + 0.002 of the other gate's is worse; a curve change is counted
+    as moved whatever its error; errors within the margin are neither."""
+    def row(camera, a, b, curve_b="sRGB"):
+        return {"camera": camera, "0.7": {"curve": "sRGB", "error": a}, "1": {"curve": curve_b, "error": b}}
+
+    rows = {"x": [row("sRGB -2..+2", 0.010, 0.020, "recovered"), row("gamma 2.25", 0.010, 0.0105)],
+            "y": [row("sRGB -2..+2", 0.030, 0.010, "recovered")]}
+    s = bracket_merge.gain_summary(rows, (0.7, 1.0))
+    assert (s["sets"], s["worse"], s["better"], s["moved"]) == (3, 1, 1, 2)
+    assert s["worse_sets"] == ["x: sRGB -2..+2"]
+    assert s["median_error_by_camera"]["sRGB -2..+2"] == {"sets": 2, "moved": 2, "0.7": 0.02, "1": 0.015}
