@@ -23,6 +23,8 @@ as a ratio to the naive map's; harmed: EVALUATION.md's "Harm", ``metrics.harmed`
     python -m training.experiments.do_no_harm --fold-models 'runs/folds/sources_{k}.safetensors' --out runs/harm.json \
         [--variants expected+sky-sun expected shipped bounded:1.5 quantile:0.2]
     python -m training.experiments.do_no_harm --clipped 4 --variants expected+as-before shipped   # an HDR clipped 4 stops over
+    python -m training.experiments.do_no_harm --clipped 4 --variants shipped --fold-models 'runs/folds/sources_{k}.safetensors' \
+        --hdr-fold-models 'runs/hdr/all8/sources_{k}.safetensors'   # ... out of fold
 """
 from __future__ import annotations
 
@@ -43,7 +45,14 @@ from panolight_core.estimators.sources import decision, recovery
 from panolight_core.estimators.sources.fill import cap_log_ratios, fill_with_keys
 from panolight_core.pipeline import fit_radiance
 from training.common.real_hdri import clipped_truth, load_hdr, scene_files
-from training.common.study import fold_models_option, real_hdri_parser, save_study, scene_models
+from training.common.study import (
+    fold_model_paths,
+    fold_of,
+    real_hdri_parser,
+    restoring_fold_models_option,
+    save_study,
+    scene_models,
+)
 
 VARIANTS = ("expected+sky-sun", "expected", "shipped", "bounded:1.5", "bounded:2", "quantile:0.16", "quantile:0.3")
 
@@ -136,11 +145,11 @@ def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
     return row
 
 
-def score_clipped(hdr: np.ndarray, stops: float, variants=VARIANTS) -> dict:
+def score_clipped(hdr: np.ndarray, stops: float, variants=VARIANTS, estimator: str = "auto") -> dict:
     """An HDR file clipped 2^``stops`` over the ev-0 exposure's white (as a merge without an ND filter clips its sun),
-    estimated whole as ``panolight estimate`` does (restored, by the shipped HDR model) under each variant's decision
-    and key-light rule: the model's [m-RMSE, irr-RMSE] at lmax 2 against the truth, and the file's own as "naive"
-    (harm is against the file as it is)."""
+    estimated whole as ``panolight estimate`` does (restored: by the shipped HDR model, or ``estimator``, a fold's
+    registered one) under each variant's decision and key-light rule: the model's [m-RMSE, irr-RMSE] at lmax 2
+    against the truth, and the file's own as "naive" (harm is against the file as it is)."""
     from panolight_core.pipeline.estimate import estimate_lighting
     from panolight_core.pipeline.settings import Settings
 
@@ -154,7 +163,7 @@ def score_clipped(hdr: np.ndarray, stops: float, variants=VARIANTS) -> dict:
     for variant in variants:
         rule, *extras = variant.split("+")
         with decision_rule(rule), disagreement("as-before" not in extras):
-            res = estimate_lighting(pixels, Settings(sky_sun="sky-sun" in extras))
+            res = estimate_lighting(pixels, Settings(estimator=estimator, sky_sun="sky-sun" in extras))
         q = res.model.project(2)
         row["variants"][variant] = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
         row["keys"][variant] = [str(light.get("source", "exact")).split(":")[0].split(" (")[0]
@@ -163,9 +172,14 @@ def score_clipped(hdr: np.ndarray, stops: float, variants=VARIANTS) -> dict:
 
 
 def _scene_job(args):
-    path, evs, model_path, variants, clipped = args
+    path, evs, model_path, variants, clipped, hdr_model_path = args
     if clipped is not None:
-        return [dict(score_clipped(load_hdr(Path(path)), clipped, variants), scene=Path(path).stem)]
+        estimator = "auto"
+        if hdr_model_path:  # the scene's fold: its photo model and the HDR model that restores (never saw it)
+            from panolight_core.estimators import register_source_model
+
+            estimator = register_source_model("keylight-fold", model_path, key_lights=True, hdr_path=hdr_model_path)
+        return [dict(score_clipped(load_hdr(Path(path)), clipped, variants, estimator), scene=Path(path).stem)]
     from panolight_core.estimators.sources import load_source_model
 
     model = load_source_model(model_path) if model_path else load_source_model()
@@ -190,20 +204,25 @@ def summary(rows: list[dict], variants) -> dict:
 
 def main(argv=None) -> int:
     ap = real_hdri_parser("python -m training.experiments.do_no_harm", __doc__)
-    fold_models_option(ap)
+    restoring_fold_models_option(ap)
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), metavar="VARIANT",
                     help="the variants to score (module doc; default: %(default)s)")
     ap.add_argument("--clipped", type=float, default=None, metavar="STOPS",
                     help="instead of camera JPEGs, each HDR clipped this many stops over its ev-0 white and restored "
-                         "as panolight estimate does (the shipped HDR model: in sample), harm against the file as it is")
+                         "as panolight estimate does, harm against the file as it is: by the shipped HDR model (in "
+                         "sample), or out of fold with --fold-models and --hdr-fold-models")
     ap.add_argument("--workers", type=int, default=2, help="processes, one scene each at a time (default 2)")
     ap.add_argument("--out", type=Path, default=None, help="write the rows and summary as JSON here")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
     clipped = clipped_truth(args.hdri)
     model_of = scene_models(args.fold_models, files)
-    jobs = [(str(p), list(args.evs), str(model_of[p].path) if args.fold_models else None, args.variants, args.clipped)
-            for p in files if p.name not in clipped]
+    if args.hdr_fold_models and not (args.fold_models and args.clipped is not None):
+        ap.error("--hdr-fold-models restores the --clipped files out of fold: give --clipped and --fold-models too")
+    hdr_paths = fold_model_paths(args.hdr_fold_models) if args.hdr_fold_models else {}
+    hdr_of = {p: str(hdr_paths[k]) for p, k in fold_of(files).items()} if hdr_paths else {}
+    jobs = [(str(p), list(args.evs), str(model_of[p].path) if args.fold_models else None, args.variants, args.clipped,
+             hdr_of.get(p)) for p in files if p.name not in clipped]
     rows = []
     with ProcessPoolExecutor(args.workers, mp_context=threads.process_context()) as pool:
         for i, got in enumerate(pool.map(_scene_job, jobs), 1):
