@@ -3,13 +3,12 @@ only: Blender runs it too).
 
 Each frame is decoded through the set's own camera curve where it explains the frames better than sRGB
 (``camera.response``: Debevec and Malik's, recovered from three or more 8-bit frames), else through sRGB
-(EVALUATION.md's camera), and divided by its relative exposure; the frames' logarithms are averaged (Debevec and
+(EVALUATION.md's camera), and divided by its relative exposure. The frames' logarithms are averaged (Debevec and
 Malik's ln E = sum w (g(Z) - ln t) / sum w: a short frame's noisy dark code, hundreds of times the others' reading,
-moves a log average by its small weight's share, where a linear average made it a firefly) with the noise weight
-(``camera.weights``) of the pixel's **worst**
-channel, so a pixel clipped in one channel of a frame takes nothing from that frame (a clipped channel averaged in
-makes a dark sun or a magenta halo). A pixel clipped in every frame is clipped: it takes
-the darkest frame's channels, those it clipped at that frame's white (a lower bound), which makes the merged file an
+moves a log average by its small weight's share, where a linear average made it a firefly), each weighed by the
+noise weight (``camera.weights``) of the pixel's **worst** channel, so a pixel clipped in one channel of a frame
+takes nothing from that frame (a clipped channel averaged in makes a dark sun or a magenta halo). A pixel clipped in
+every frame is clipped: it takes the darkest frame's channels, those it clipped at that frame's white (a lower bound), which makes the merged file an
 HDR that clips its own sun at exactly its ceiling (``camera.ceiling``), channel by channel as a file clipped there
 does, and the restoration weighs it as for any such file. (Every channel at the white made a sunset's red-clipped
 aureole part of a white plateau wider than the sun's, and drew the key light off the sun.)
