@@ -8,9 +8,9 @@ Malik's ln E = sum w (g(Z) - ln t) / sum w: a short frame's noisy dark code, hun
 moves a log average by its small weight's share, where a linear average made it a firefly), each weighed by the
 noise weight (``camera.weights``) of the pixel's **worst** channel, so a pixel clipped in one channel of a frame
 takes nothing from that frame (a clipped channel averaged in makes a dark sun or a magenta halo). A pixel clipped in
-every frame is clipped: it takes the darkest frame's channels, those it clipped at that frame's white (a lower bound), which makes the merged file an
-HDR that clips its own sun at exactly its ceiling (``camera.ceiling``), channel by channel as a file clipped there
-does, and the restoration weighs it as for any such file. (Every channel at the white made a sunset's red-clipped
+every frame is clipped: it takes the darkest frame's channels, those it clipped at that frame's white (a lower
+bound), which makes the merged file an HDR that clips its own sun at exactly its ceiling (``camera.ceiling``),
+channel by channel as a file clipped there does, and the restoration weighs it as for any such file. (Every channel at the white made a sunset's red-clipped
 aureole part of a white plateau wider than the sun's, and drew the key light off the sun.)
 
 What moves between the frames (a person, a leaf, a wave) is the reference frame's alone: a frame gives nothing to a
