@@ -43,6 +43,7 @@ examples:
   panolight estimate studio.exr --model sh --lmax 8       # a fixed recipe: 81 SH coefficients, no lights
   panolight estimate room.jpg --tolerance 0.005           # stricter: a higher order if the scene needs it
   panolight estimate sky.hdr --model sh --window auto     # SH only, deringed just enough
+  panolight estimate pano.jpg --lux 32000                 # calibrated: a light meter read 32,000 lux facing up
 
 {OUTPUTS_HELP}
 models: auto finds compact bright sources (sun, lamps, windows) and stores them as explicit lights (direction,
@@ -55,7 +56,9 @@ of, and a 'note:' line gives its 68 % range and the setting that raises it (--su
 not show is not invented from the sky's gradient alone: the note says where the sky puts one and the --sun AZ,EL
 that places it (--sky-sun places it by itself). The files and the note say what was done: check the key light
 against the photo's own shadows.
-LDR results are relative to the camera's clip level (1 = white); --exposure EV scales them by 2^EV.
+units: where the photo's EXIF (exposure time, f-number, ISO), --ev100 or --lux gives the scale, radiance is in cd/m^2
+and each light in lux (lighting.json's 'physical' also gives W/m^2); else LDR results are relative to the camera's
+clip level (1 = white); --relative keeps them relative; --exposure EV scales them by 2^EV (docs/units.md).
 """
 
 NO_ALIGN_HELP = ("a bracket set shot on a tripod: merge its frames as they are. By default a hand-held set's frames "
