@@ -18,7 +18,9 @@ as a ratio to the naive map's; harmed: EVALUATION.md's "Harm", ``metrics.harmed`
   regions' decided energy; by ``+as-before``: a clear-sky sun whose evidence disagrees weighed as before the shipped
   rule (``keylight.weighing.when_disagreeing``); with it, ``+key-agree``: any clear-sky sun whose fit's 68 % range lies
   wholly above the trees' carries no more than its regions' decided energy, ``+trusted-agree``: only a trusted one
-  (the fit's floor), ``+trusted-untrust``: a trusted one weighed as untrusted (no floor, no cap).
+  (the fit's floor), ``+trusted-untrust``: a trusted one weighed as untrusted (no floor, no cap); with
+  ``--clipped``, ``+lamps-decided``: a restored plateau's key light with no clear-sky fit takes the decided fill's
+  energy, not the trees' mean (``lamps_decided``).
 
     python -m training.experiments.do_no_harm --fold-models 'runs/folds/sources_{k}.safetensors' --out runs/harm.json \
         [--variants expected+sky-sun expected shipped bounded:1.5 quantile:0.2]
@@ -93,6 +95,25 @@ def disagreement(shipped: bool):
         weighing.when_disagreeing = saved
 
 
+@contextlib.contextmanager
+def lamps_decided(on: bool):
+    """Within it (``on``: the variant ``+lamps-decided``), a restored plateau's key light without a clear-sky fit (a
+    lamp, a window, a fixture) takes the decided fill's energy, as a photo's does, and only a clear-sky sun its
+    belief (``weighing.key_energy`` with ``belief``: the trees' mean for a lamp)."""
+    saved = weighing.key_energy
+    if on:
+        def key_energy(physical, learned, decided, trusted, params=keylight.PARAMS):
+            if params.belief and physical is None:
+                return decided
+            return saved(physical, learned, decided, trusted, params)
+
+        weighing.key_energy = key_energy
+    try:
+        yield
+    finally:
+        weighing.key_energy = saved
+
+
 def agreeing(k, rec):
     """``+key-agree``: a clear-sky sun whose fit's 68 % range lies wholly above the trees' (their high end under the
     fit's low end) carries at most its regions' decided energy; any other light as it is."""
@@ -162,7 +183,7 @@ def score_clipped(hdr: np.ndarray, stops: float, variants=VARIANTS, estimator: s
            "variants": {}, "keys": {}}
     for variant in variants:
         rule, *extras = variant.split("+")
-        with decision_rule(rule), disagreement("as-before" not in extras):
+        with decision_rule(rule), disagreement("as-before" not in extras), lamps_decided("lamps-decided" in extras):
             res = estimate_lighting(pixels, Settings(estimator=estimator, sky_sun="sky-sun" in extras))
         q = res.model.project(2)
         row["variants"][variant] = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
