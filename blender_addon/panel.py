@@ -83,10 +83,10 @@ class PanoLightSettings(bpy.types.PropertyGroup):
     create_lights: BoolProperty(name="Sun lamps for explicit lights", default=True)
     physical_units: BoolProperty(
         name="Physical units", default=True,
-        description="Where the estimate knows its absolute scale (the photo's EXIF): the world's strengths in W/m^2/sr "
-                    "and the sun lamps' in W/m^2 (683 lm/W), and the film's exposure set so the plate's white renders "
-                    "white. Off, or where nothing gives the scale: the relative setup (1 = the camera's white), the "
-                    "exposure untouched")
+        description="Where the estimate knows its absolute scale (the photo's EXIF, or the panel's EV100 or light "
+                    "meter): the world's strengths in W/m^2/sr and the sun lamps' in W/m^2 (683 lm/W), and the film's "
+                    "exposure set so the plate's white renders white. Off, or where nothing gives the scale: the "
+                    "relative setup (1 = the camera's white), the exposure untouched")
     ev100_given: BoolProperty(
         name="Exposure (EV100)", default=False,
         description="The photo's exposure as EV100 = log2(N^2/t) - log2(ISO/100), for a photo whose EXIF lost it "
