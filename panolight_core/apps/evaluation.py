@@ -81,7 +81,7 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                              "sun_share": share, "true_sun_share": true_share if scene in SUN_SCENES else None,
                              "dominant": bool(dominant), "energy_ratio": ratio,
                              "contrast": contrast if dominant else None, "true_contrast": true_contrast,
-                             "spheres": _sphere_scores(true_spheres, coeffs_all if lights else coeffs, lights, unit),
+                             "spheres": spheres.model_scores(true_spheres, coeffs_all if lights else coeffs, lights, unit),
                              "ms": 1e3 * statistics.median(times)})
             logger.info(f"{scene} ev {ev:+g}: " + ", ".join(
                 f"{r['estimator']} {r['m_rmse']:.3f}" for r in rows if r["scene"] == scene and r["ev"] == ev))
@@ -104,26 +104,11 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                 "wins_vs_naive": (sum(r["m_rmse"] < naive[r["scene"]]["m_rmse"] for r in sel if r["scene"] in naive)
                                   if naive else None),
                 "mean_sun_angle_deg": float(np.mean(angles)) if angles else None,
-                **_dominant_summary(sel), "spheres": _sphere_summary(sel),
+                **_dominant_summary(sel), "spheres": spheres.score_medians([r["spheres"] for r in sel]),
                 "median_ms": float(statistics.median([r["ms"] for r in sel]))}
     return {"rows": rows, "summary": summary,
             "settings": {"scenes": list(scenes), "evs": list(evs), "estimators": estimators, "lmax": lmax,
                          "jpeg_quality": jpeg_quality, "repeats": repeats}}
-
-
-def _sphere_scores(truth: dict, coeffs, lights, unit: float) -> dict:
-    """The three-sphere protocol (``lighting.spheres``) of an estimate (SH ``coeffs`` and ``lights`` in the camera's
-    clip units, ``unit`` of them in the truth's) against the truth's spheres."""
-    scaled = [dict(light, intensity=float(light["intensity"]) * unit) for light in lights]
-    return metrics.sphere_scores(truth, spheres.render_spheres(spheres.environment_from_model(
-        np.asarray(coeffs, dtype=np.float64) * unit, scaled)))
-
-
-def _sphere_summary(rows: list[dict]) -> dict:
-    """Per sphere, the medians of each score over ``rows``."""
-    return {name: {k: float(np.median([r["spheres"][name][k] for r in rows])) for k in ("rmse", "si_rmse",
-                                                                                         "angular_deg")}
-            for name in spheres.SPHERES} if rows else {}
 
 
 def _dominant_summary(rows: list[dict]) -> dict:

@@ -77,3 +77,20 @@ def render_spheres(env: np.ndarray, size: int = SPHERE_SIZE) -> dict:
     return {"diffuse": sh.irradiance(coeffs, normals) / math.pi,
             "matte": sh.basis(mirror, EXACT_ORDER) @ (coeffs * per_coeff[:, None]),
             "mirror": env[row, col]}
+
+
+def model_scores(truth: dict, coeffs, lights, unit: float = 1.0) -> dict:
+    """The protocol's scores (``metrics.sphere_scores``) of an estimate, SH ``coeffs`` (K, 3) and explicit ``lights``
+    (lighting-file dicts) in units of which ``unit`` is one of the truth's, against the truth's spheres ``truth``
+    (``render_spheres`` of ``environment_from_panorama``)."""
+    from ..metrics import sphere_scores
+
+    scaled = [dict(light, intensity=float(light["intensity"]) * unit) for light in lights]
+    return sphere_scores(truth, render_spheres(environment_from_model(np.asarray(coeffs, dtype=np.float64) * unit,
+                                                                       scaled)))
+
+
+def score_medians(scores: list[dict]) -> dict:
+    """Per sphere, the median of each score (rmse, si_rmse, angular_deg) over a list of ``model_scores``; {} for none."""
+    return {name: {k: float(np.median([s[name][k] for s in scores])) for k in ("rmse", "si_rmse", "angular_deg")}
+            for name in SPHERES} if scores else {}

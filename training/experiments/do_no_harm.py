@@ -45,6 +45,7 @@ from panolight_core.estimators import keylight, sources
 from panolight_core.estimators.keylight import weighing
 from panolight_core.estimators.sources import decision, recovery
 from panolight_core.estimators.sources.fill import cap_log_ratios, fill_with_keys
+from panolight_core.lighting import spheres
 from panolight_core.pipeline import fit_radiance
 from training.common.real_hdri import clipped_truth, load_hdr, scene_files
 from training.common.study import (
@@ -136,13 +137,18 @@ def untrusting(k, rec):
 
 
 def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
-    """One scene at one ev: naive's and each variant's [m-RMSE, irr-RMSE], and the key lights' sources."""
+    """One scene at one ev: naive's and each variant's [m-RMSE, irr-RMSE], the key lights' sources, and the
+    three-sphere protocol of the published tables (``lighting.spheres``: diffuse, matte-silver and mirror spheres
+    under the estimate and the truth; naive's and each variant's model, lights and SH)."""
     ds = metrics.dominant_source(hdr)
     gt = sh.project(hdr, 2)
     ldr = hdr_to_ldr(hdr, ev, 90, robust=True)
+    unit = 1.0 / auto_exposure(hdr, ev, robust=True)  # the camera's clip units in the HDR's
+    true_spheres = spheres.render_spheres(spheres.environment_from_panorama(hdr))
     naive = sh.project(ldr_to_linear(ldr), 2)
     maps = sources.work_maps(ldr)
-    row = {"ev": ev, "dominant": bool(ds["dominant"]), "naive": [metrics.m_rmse(gt, naive), metrics.irr_rmse(gt, naive)], "variants": {}, "keys": {}}
+    row = {"ev": ev, "dominant": bool(ds["dominant"]), "naive": [metrics.m_rmse(gt, naive), metrics.irr_rmse(gt, naive)],
+           "variants": {}, "keys": {}, "spheres": {"naive": spheres.model_scores(true_spheres, naive, [], unit)}}
     for variant in variants:
         rule, *extras = variant.split("+")
         with decision_rule(rule):
@@ -160,8 +166,10 @@ def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
             keys = [replace(k, energy=min(k.energy, k.decided)) if k.region >= 0 else k for k in keys]
             keys = [k for k in keys if k.energy > 0]
         work = fill_with_keys(maps[0], rec.regions, cap_log_ratios(rec.regions, rec.log_ratio, keys), keys)[1]
-        q = fit_radiance(work, hdr_input=False).project(2)
+        fitted = fit_radiance(work, hdr_input=False)
+        q = fitted.project(2)
         row["variants"][variant] = [metrics.m_rmse(gt, q), metrics.irr_rmse(gt, q)]
+        row["spheres"][variant] = spheres.model_scores(true_spheres, fitted.coeffs, fitted.lights, unit)
         row["keys"][variant] = [k.method.split(":")[0].split(" (")[0] for k in keys]
     return row
 
@@ -219,8 +227,22 @@ def summary(rows: list[dict], variants) -> dict:
         out[v] = {"harmed": len(harmed), "scenes": len(rows), "m_rmse_median": statistics.median(ratio),
                   "m_rmse_mean": statistics.mean(ratio), "dominant": len(dom),
                   "dominant_median": statistics.median(dom) if dom else None,
-                  "dominant_mean": statistics.mean(dom) if dom else None, "harmed_scenes": harmed}
+                  "dominant_mean": statistics.mean(dom) if dom else None, "harmed_scenes": harmed,
+                  "spheres": spheres.score_medians([r["spheres"][v] for r in rows if v in r.get("spheres", {})])}
+    if rows and all("naive" in r.get("spheres", {}) for r in rows):  # the scale: the naive projection's row
+        out["naive"] = {"spheres": spheres.score_medians([r["spheres"]["naive"] for r in rows])}
     return out
+
+
+def sphere_table(summ: dict) -> str:
+    """Markdown: per variant and the naive projection, the spheres' median RMSE, si-RMSE and RGB angular error."""
+    lines = ["| estimate | diffuse RMSE / si-RMSE / angle | matte silver | mirror |", "|---|---|---|---|"]
+    for name, x in summ.items():
+        sp = x.get("spheres") or {}
+        if sp:
+            lines.append(f"| {name} | " + " | ".join(f"{sp[k]['rmse']:.3f} / {sp[k]['si_rmse']:.3f} / "
+                                                     f"{sp[k]['angular_deg']:.1f} deg" for k in spheres.SPHERES) + " |")
+    return "\n".join(lines)
 
 
 def main(argv=None) -> int:
@@ -258,8 +280,14 @@ def main(argv=None) -> int:
         s = summary([r for r in rows if r["ev"] == ev], args.variants)
         result["summary"][f"{ev:+g}"] = s
         for v, x in s.items():
-            print(f"| {ev:+g} | `{v}` | {x['harmed']} | {x['scenes']} | {x['m_rmse_median']:.3f} / {x['m_rmse_mean']:.3f} "
-                  f"| {x['dominant_median']:.3f} / {x['dominant_mean']:.3f} | {', '.join(x['harmed_scenes'])} |")
+            if "harmed" in x:  # the naive projection's entry holds its spheres alone
+                print(f"| {ev:+g} | `{v}` | {x['harmed']} | {x['scenes']} | {x['m_rmse_median']:.3f} / "
+                      f"{x['m_rmse_mean']:.3f} | {x['dominant_median']:.3f} / {x['dominant_mean']:.3f} | "
+                      f"{', '.join(x['harmed_scenes'])} |")
+    if args.clipped is None:  # the three-sphere protocol, beside the published tables' (a different data set)
+        for ev in args.evs:
+            print(f"\nthe three spheres at ev {ev:+g} (medians; RMSE and si-RMSE over the truth sphere's RMS):")
+            print(sphere_table(result["summary"][f"{ev:+g}"]))
     save_study(dict(result, rows=rows), args.out)
     return 0
 

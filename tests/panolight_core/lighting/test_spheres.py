@@ -42,3 +42,18 @@ def test_scores_are_zero_for_the_truth_and_scale_invariant_where_they_say():
         assert s["rmse"] == pytest.approx(1.0, rel=1e-9)  # (2g - g) over g's RMS
     grey = metrics.sphere_scores({"diffuse": np.array([[1.0, 0.0, 0.0]])}, {"diffuse": np.array([[1.0, 1.0, 0.0]])})
     assert grey["diffuse"]["angular_deg"] == pytest.approx(45.0)
+
+
+def test_a_model_in_camera_units_is_scored_in_the_truth_s():
+    """model_scores scales an estimate's SH and lights by ``unit`` into the truth's units: a constant environment's
+    own SH at half the level, unit 2, scores as the truth; unit 1 is 50 % off (RMSE) and scale-invariantly right;
+    score_medians takes each score's median over the list."""
+    truth = spheres.render_spheres(np.full((64, 128, 3), 0.8))
+    half = sh.project(np.full((16, 32, 3), 0.4), 2)
+    right = spheres.model_scores(truth, half, [], 2.0)
+    off = spheres.model_scores(truth, half, [], 1.0)
+    for name in spheres.SPHERES:
+        assert right[name]["rmse"] == pytest.approx(0.0, abs=5e-3)
+        assert off[name]["rmse"] == pytest.approx(0.5, abs=5e-3) and off[name]["si_rmse"] == pytest.approx(0.0, abs=5e-3)
+    med = spheres.score_medians([right, off, off])
+    assert med["diffuse"]["rmse"] == pytest.approx(off["diffuse"]["rmse"]) and spheres.score_medians([]) == {}
