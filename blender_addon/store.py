@@ -93,11 +93,17 @@ def has_lighting(world) -> bool:
     return bool(world is not None and world.get(LIGHTING_KEY))
 
 
+def _panel_document(world) -> dict | None:
+    """The stored estimate as a JSON object, unvalidated (the panel's lines read it on every redraw and never
+    raise), or None without one."""
+    raw = world.get(LIGHTING_KEY) if world is not None else None
+    return metadata.json_object(raw, LIGHTING_MAX_BYTES) if raw else None
+
+
 def units_line(world) -> str | None:
     """The stored estimate's units in one line (``camera.units.summary``: relative, or cd/m^2 and lux, and what one
     unit is), for the panel; None without an estimate. Never raises."""
-    raw = world.get(LIGHTING_KEY) if world is not None else None
-    doc = metadata.json_object(raw, LIGHTING_MAX_BYTES) if raw else None
+    doc = _panel_document(world)
     return None if doc is None else units.summary(doc.get("physical"))
 
 
@@ -105,8 +111,7 @@ def key_light_range(world) -> dict | None:
     """The stored estimate's key light and its 68 % energy range over the strength it was given
     (``keylight.key_light_range``), for the panel; None without an estimate or a key light. Never raises:
     the panel draws it on every redraw."""
-    raw = world.get(LIGHTING_KEY) if world is not None else None
-    doc = metadata.json_object(raw, LIGHTING_MAX_BYTES) if raw else None
+    doc = _panel_document(world)
     try:
         return keylight.key_light_range(doc) if doc is not None else None
     except (TypeError, ValueError, KeyError, IndexError, AttributeError):
