@@ -158,14 +158,11 @@ def shown_by_a_frame(frames, exposures, table: np.ndarray) -> np.ndarray:
     through the set's camera curve ``table`` (code -> linear). A merge's firefly there is the scene's own (a lit speck
     of a window), not the merge's: the real sets' "spurious" count leaves them out. (One frame alone is no evidence:
     a speck of dust on one scan is a bright point of that frame.)"""
-    from scipy.ndimage import median_filter
-
     shown = np.zeros(frames[0].shape[:2], np.uint8)
     lut = np.asarray(table, dtype=np.float64)
     for f in frames:
         top = f.max(axis=-1)
-        lum = lut[f] @ LUMINANCE_WEIGHTS
-        point = lum > 0.5 * FIREFLY_RATIO * median_filter(lum, size=5, mode="nearest")  # firefly_mask's test
+        point = firefly_mask(lut[f], 0.0, 0.5 * FIREFLY_RATIO)
         shown += point & (top >= WELL_EXPOSED[0]) & (top <= WELL_EXPOSED[1])
     return shown >= 2
 
