@@ -1267,8 +1267,8 @@ def test_with_physical_units_a_white_plane_gets_lighting_json_s_upward_illuminan
     physical.upward_illuminance_lux / 683 W/m^2, within 3 %: the world and the sun lamps are in Blender's units. (The
     factory scene's own point light is removed first: it had added 25 %.)"""
     from panolight_core.camera import hdr_to_ldr
-    from panolight_core.camera.color import LUMINANCE_WEIGHTS
     from tests.panolight_core.pipeline.test_brackets import _city, _frame
+    from training.experiments.eevee_units import plane_and_camera, plane_irradiance
 
     path = _frame(tmp_path / "exif.jpg", hdr_to_ldr(_city(64), 0.0), 1 / 100, 8.0, 200)
     scene = bpy.context.scene
@@ -1281,21 +1281,12 @@ def test_with_physical_units_a_white_plane_gets_lighting_json_s_upward_illuminan
     want = doc["physical"]["upward_illuminance_lux"] / 683.0  # W/m^2, luminance-weighted
     for obj in [o for o in scene.objects if o.type == "MESH" or (o.type == "LIGHT" and not o.get(store.TAG))]:
         bpy.data.objects.remove(obj)
-    bpy.ops.mesh.primitive_plane_add(size=200.0, location=(0, 0, 0))
-    plane = bpy.context.active_object
-    _white_diffuse(plane)
-    cam_data = bpy.data.cameras.new("down")
-    cam_data.type = "ORTHO"
-    cam_data.ortho_scale = 1.0
-    cam = bpy.data.objects.new("down", cam_data)
-    scene.collection.objects.link(cam)
-    cam.location = (0, 0, 1.0)  # looking straight down at the plane (a camera casts no shadow)
-    scene.camera = cam
+    plane, cam = plane_and_camera(bpy, scene)  # a white plane (albedo 0.8), a camera looking straight down at it
     try:
-        img = _render_one_bounce(scene, tmp_path / "plane.exr", 16).astype(np.float64)
+        img = _render_one_bounce(scene, tmp_path / "plane.exr", 16)
     finally:
         bpy.data.objects.remove(cam)
         bpy.data.objects.remove(plane)
         scene.view_settings.exposure = 0.0
-    got = float(img.reshape(-1, 3).mean(0) @ LUMINANCE_WEIGHTS) * math.pi / 0.8  # radiance -> irradiance, W/m^2
+    got = plane_irradiance(img, 0.8)  # pi x radiance / albedo: W/m^2, luminance-weighted
     assert got == pytest.approx(want, rel=0.03)

@@ -61,21 +61,31 @@ def white_diffuse(bpy, obj, albedo: float = ALBEDO) -> None:
     obj.data.materials.append(mat)
 
 
-def _plane_and_camera(bpy, scene):
-    """A 200 m white diffuse plane at z = 0 and an orthographic camera 1 m above looking down (casts no shadow)."""
+def plane_and_camera(bpy, scene):
+    """(plane, camera): a 200 m white diffuse plane at z = 0 and an orthographic camera 1 m above looking down (a
+    camera casts no shadow), made the scene's camera; the bpy tests' white plane too."""
     bpy.ops.mesh.primitive_plane_add(size=200.0, location=(0, 0, 0))
-    white_diffuse(bpy, bpy.context.active_object)
+    plane = bpy.context.active_object
+    white_diffuse(bpy, plane)
     cam_data = bpy.data.cameras.new("down")
     cam_data.type, cam_data.ortho_scale = "ORTHO", 1.0
     cam = bpy.data.objects.new("down", cam_data)
     scene.collection.objects.link(cam)
     cam.location = (0, 0, 1.0)
     scene.camera = cam
+    return plane, cam
+
+
+def plane_irradiance(img: np.ndarray, albedo: float = ALBEDO) -> float:
+    """The luminance-weighted irradiance (W/m^2) on a diffuse plane of ``albedo`` from a render of it (H, W, 3):
+    pi x its mean radiance / albedo."""
+    from panolight_core.camera.color import LUMINANCE_WEIGHTS
+
+    return float(np.asarray(img, dtype=np.float64).reshape(-1, 3).mean(0) @ LUMINANCE_WEIGHTS) * math.pi / albedo
 
 
 def _irradiance(bpy, scene, engine: str, path: Path, samples: int) -> float:
     """The plane's luminance-weighted irradiance (W/m^2) in a render by ``engine``."""
-    from panolight_core.camera.color import LUMINANCE_WEIGHTS
     from panolight_core.io import read_image
 
     scene.render.engine = engine
@@ -93,8 +103,8 @@ def _irradiance(bpy, scene, engine: str, path: Path, samples: int) -> float:
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the render's alpha channel
-        img = read_image(path, equirect=False).astype(np.float64)
-    return float(img.reshape(-1, 3).mean(0) @ LUMINANCE_WEIGHTS) * math.pi / ALBEDO
+        img = read_image(path, equirect=False)
+    return plane_irradiance(img)
 
 
 def photo_rows(photo: Path, work: Path, samples: int, engines: list[str], log=print) -> list[dict]:
@@ -118,7 +128,7 @@ def photo_rows(photo: Path, work: Path, samples: int, engines: list[str], log=pr
             raise SystemExit(f"{photo}: the add-on could not estimate it")
         for obj in [o for o in scene.objects if o.type == "MESH" or (o.type == "LIGHT" and not o.get(store.TAG))]:
             bpy.data.objects.remove(obj)
-        _plane_and_camera(bpy, scene)
+        plane_and_camera(bpy, scene)
         doc = store.stored_lighting(scene.world)
         if not (doc.get("physical") or {}).get("absolute"):
             raise SystemExit(f"{photo}: its EXIF gives no exposure, so there are no physical units to check")
