@@ -46,7 +46,10 @@ RING_BLOCK = 16  # ... inside the compression's blocks that hold the edge (8 x 8
 # code from RING_CODE up in a block of this size that holds a clipped code is taken as clipped, never as the light
 # there (a brighter frame's ringing pixel, trusted where every darker frame clipped, came out at 0.2 where the truth
 # was over 100)
-MIN_EXPOSURE_STEP = 2.0 ** (1.0 / 3.0)  # two frames whose exposures differ less than a third of a stop are one
+MIN_EXPOSURE_STEP = 2.0 ** (1.0 / 8.0)  # two frames whose exposures differ less than an eighth of a stop are one
+# exposure: a camera's nominal third-stop steps are 1.25-1.28x (1/250 to 1/200 s: a third of a stop at 1.26 had
+# refused them), a phone's exposure-compensation series steps a quarter or a sixth, and EXIF rounds one exposure
+# by under 3 %
 BLOCK_ROWS = 256
 
 
@@ -66,9 +69,11 @@ def check_exposures(exposures) -> np.ndarray:
         raise PanoLightError(f"a bracket set needs two or more positive exposures, got {list(exposures)}")
     s = np.sort(e)
     if np.any(s[1:] / s[:-1] < MIN_EXPOSURE_STEP):
-        raise PanoLightError("two frames of the set have exposures less than a third of a stop apart "
+        raise PanoLightError("two frames of the set have exposures less than an eighth of a stop apart "
                              f"(relative exposures {', '.join(f'{v:.4g}' for v in e)}): a bracket set's exposures "
-                             f"must differ (give them with --evs if the files' EXIF is wrong)")
+                             f"must differ (give them with --evs if the files' EXIF is wrong: a phone compensating "
+                             f"beyond its shutter and ISO records one exposure for frames its exposure bias set "
+                             f"apart)")
     return e
 
 

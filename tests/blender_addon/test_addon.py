@@ -1044,7 +1044,7 @@ def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp
     image = bpy.context.scene.world[store.PANORAMA_KEY]
     assert image.name.startswith("shot_1 (3 brackets)") and image.is_float
     _restored_as_on_the_command_line(want, s)
-    with pytest.raises(RuntimeError, match="less than a third of a stop apart"):
+    with pytest.raises(RuntimeError, match="less than an eighth of a stop apart"):
         bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="0,0.1,2")
     with pytest.raises(RuntimeError, match=r"shot_1.png \(exposed 2 stops more than shot_2.png\) is darker"):
         bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="2,0,-2")  # told the other way

@@ -126,7 +126,7 @@ def test_a_warm_sun_keeps_the_channels_its_darkest_frame_holds():
 
 
 @pytest.mark.parametrize("frames, exposures, match", [
-    ([np.zeros((4, 8, 3), np.uint8)] * 2, [1.0, 1.1], "less than a third of a stop apart"),
+    ([np.zeros((4, 8, 3), np.uint8)] * 2, [1.0, 1.05], "less than an eighth of a stop apart"),
     ([np.zeros((4, 8, 3), np.uint8)], [1.0], "two or more positive exposures"),
     ([np.zeros((4, 8, 3), np.uint8), np.zeros((4, 6, 3), np.uint8)], [1.0, 4.0], "frames of one size"),
     ([np.zeros((4, 8, 3), np.uint8)] * 2, [1.0, -4.0], "positive exposures"),
@@ -273,3 +273,18 @@ def test_a_speck_on_one_frame_where_the_reference_is_in_its_toe_makes_no_bright_
     lum = merged @ np.array([0.2126, 0.7152, 0.0722])
     assert np.median(lum[:, 4:28]) == pytest.approx(0.004, rel=0.1)  # the wall itself
     assert np.all(lum[specks] < 1.5 * 0.004) and np.all(lum[specks] > 0.004 / 1.5)
+
+
+def test_a_camera_s_third_stop_steps_merge(day):
+    """A camera's nominal third-stop steps are 1.25x (1/250, 1/200, 1/160 s), under a third of a stop: they are a
+    set, merged to the truth like any other (a third of a stop had refused them); the same exposure twice is not."""
+    truth, _, _ = day
+    times = [1 / 250, 1 / 200, 1 / 160]
+    frames = [hdr_to_ldr(truth, scale=t * 200.0) for t in times]  # 1/200 s: the ev-0 camera's exposure
+    merged, info = merge_brackets(frames, times)
+    assert info["reference"] == 1 and info["stops"] == pytest.approx([-0.3219, 0.0, 0.3219], abs=1e-4)
+    held = truth.max(axis=-1) < 0.8
+    rel = np.abs(merged[held] - truth[held]) / np.maximum(truth[held], 1e-3)
+    assert np.median(rel) < 0.01
+    with pytest.raises(PanoLightError, match="less than an eighth of a stop apart"):
+        merge_brackets(frames[:2], [1 / 200, 1 / 200])

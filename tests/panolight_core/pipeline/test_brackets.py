@@ -71,7 +71,7 @@ def test_evs_give_the_exposures_where_the_files_have_none(tmp_path, day):
     ("no exif", r"g0.jpg: records no exposure .*--evs"),
     ("one with evs", r"g0.jpg: --evs gives a bracket set's exposures; one file"),
     ("evs count", r"--evs gives 2 exposure\(s\) for 3 file\(s\)"),
-    ("same exposures", r"less than a third of a stop apart"),
+    ("same exposures", r"less than an eighth of a stop apart"),
     ("sizes", r"small.jpg: 32x16, but g0.jpg is .*one size"),
     ("hdr frame", r"frame.exr: a bracket frame must be an 8-bit picture"),
     ("listed out of order", r"g1.jpg \(exposed 2 stops more than g2.jpg\) is darker than g2.jpg over 100 % .*--evs"),
