@@ -228,11 +228,14 @@ class Agreement:
     scene's pixel is never darker in the frame exposed more, and the two frames rank their blocks alike:
     ``contradicting`` is the share that runs against the order (frames listed in another order than their
     exposures), ``rank_correlation`` Spearman's of their block means (another scene: near 0; None where either frame
-    holds fewer than MIN_RANK_LEVELS distinct means there, too few to rank: a flat wall)."""
+    holds fewer than MIN_RANK_LEVELS distinct means there, too few to rank: a flat wall), and ``crossing`` the share
+    of neighbouring blocks whose step both frames resolve (ORDER_NOISE_CODES each) that the two take opposite ways
+    (unrelated pictures: half; None where fewer than CROSSING_MIN_STEPS steps are resolved in both)."""
 
     contradicting: float
     rank_correlation: float | None
     compared: int
+    crossing: float | None = None
 
 
 def _ranks(values: np.ndarray) -> tuple[np.ndarray, int]:
@@ -260,20 +263,36 @@ def frame_agreement(reference: np.ndarray, frame: np.ndarray, ratio: float) -> A
     return block_agreement(block_codes(reference), block_codes(frame), ratio)
 
 
+def _crossing(a: np.ndarray, b: np.ndarray, both: np.ndarray) -> float | None:
+    """``Agreement.crossing`` of two frames' (h, w) block codes ``a`` and ``b`` over the blocks ``both`` compare: the
+    steps between neighbouring blocks (across and down) that both frames resolve, and the share they take opposite
+    ways. Whatever curve bends each frame, a still scene's step keeps its sign; where the darker frame's toe or the
+    brighter one's shoulder flattens it, the step is not resolved and says nothing (the rank test is blind to that)."""
+    seen = crossed = 0
+    for axis in (0, 1):
+        da, db = np.diff(a, axis=axis), np.diff(b, axis=axis)
+        pair = (both[:-1] & both[1:]) if axis == 0 else (both[:, :-1] & both[:, 1:])
+        sure = pair & (np.abs(da) >= ORDER_NOISE_CODES) & (np.abs(db) >= ORDER_NOISE_CODES)
+        seen += int(sure.sum())
+        crossed += int((sure & ((da > 0) != (db > 0))).sum())
+    return crossed / seen if seen >= CROSSING_MIN_STEPS else None
+
+
 def block_agreement(a: np.ndarray, b: np.ndarray, ratio: float) -> Agreement:
     """``frame_agreement`` of two frames' ``block_codes`` ``a`` and ``b`` (``b`` exposed ``ratio`` times as much)."""
     lo, hi = AGREE_CODES
     both = (a >= lo) & (a <= hi) & (b >= lo) & (b <= hi)
+    crossing = _crossing(a, b, both)
     a, b = a[both], b[both]
     if a.size == 0:
         return Agreement(0.0, None, 0)
     contra = float(((b < a - ORDER_NOISE_CODES) if ratio > 1.0 else (b > a + ORDER_NOISE_CODES)).mean())
     (ra, na), (rb, nb) = _ranks(a), _ranks(b)
     if min(na, nb) < MIN_RANK_LEVELS:
-        return Agreement(contra, None, int(a.size))
+        return Agreement(contra, None, int(a.size), crossing)
     ra -= ra.mean()
     rb -= rb.mean()
-    return Agreement(contra, float(ra @ rb) / float(np.sqrt((ra @ ra) * (rb @ rb))), int(a.size))
+    return Agreement(contra, float(ra @ rb) / float(np.sqrt((ra @ ra) * (rb @ rb))), int(a.size), crossing)
 
 
 MIN_AGREE_BLOCKS = 150  # fewer blocks than this seen well exposed in both frames: no agreement test
@@ -281,15 +300,34 @@ BAD_SET_CONTRADICTING = 0.25  # two frames neighbours in exposure whose blocks r
 # this share (a still pair's most: 0.07, two pixels off; a reversed one's 1.00) ...
 BAD_SET_RANK = 0.4  # ... or whose blocks rank correlate less than this are refused. Measured over the real HDRs'
 # sets, right and wrong, through four camera curves (training/experiments/bracket_agreement.py): a still pair's
-# lowest is 0.65, 0.51 a pixel off, 0.42 two off (0.5 refused two of those 1,776), another scene's median 0.05
+# lowest is 0.65, 0.51 a pixel off, 0.42 two off (0.5 refused two of those 1,776), another scene's median 0.05 ...
+BAD_SET_CROSSING = 0.25  # ... unless their resolved neighbouring steps (``Agreement.crossing``) keep their sign
+# (a share this small crossing: halfway from a still set's 0.00-0.04 on real tripod and phone sets, 0.17 beside a
+# moving fountain, to unrelated pictures' 0.5) and STILL_CONTRADICTING at most of their blocks runs against the
+# exposures' order. Such a pair is one still scene whose blocks rank unlike only because the darker frame's toe and
+# the brighter one's shoulder squeeze what both expose "well" into a few codes (a night set 3.3 stops apart: 0.40).
+STILL_CONTRADICTING = 0.01  # a still pair, aligned, has no block darker in the frame exposed more (0.000 in 1,936
+# pairs through four curves; 0.0009 in the night set); a studio relit between two frames darkens 1.8-17 % of them
+CROSSING_MIN_STEPS = 40  # fewer resolved steps: no verdict from them. At 40, unrelated pictures' 0.5 lies 3.2
+# standard deviations (binomial) above BAD_SET_CROSSING
+
+
+def other_scene(agree: Agreement) -> bool:
+    """Whether a pair's ``Agreement`` says the two frames show two scenes (or one whose light changed between
+    them): their blocks rank unlike (BAD_SET_RANK), and they are not a still pair squeezed by its curve (steps that
+    keep their sign, BAD_SET_CROSSING, and no block against the order, STILL_CONTRADICTING)."""
+    squeezed = (agree.crossing is not None and agree.crossing <= BAD_SET_CROSSING
+                and agree.contradicting <= STILL_CONTRADICTING)
+    return (agree.compared >= MIN_AGREE_BLOCKS and agree.rank_correlation is not None
+            and agree.rank_correlation < BAD_SET_RANK and not squeezed)
 
 
 def check_agreement(frames, rel: np.ndarray, names=None) -> list[Agreement]:
     """The ``Agreement`` of each pair of (aligned) 8-bit ``frames`` neighbours in exposure (``rel``: relative
     exposures), darker first. PanoLightError in one line naming the pair (``names``, else the frames' numbers)
     whose blocks run against their exposures' order (BAD_SET_CONTRADICTING: listed in another order than their
-    exposures) or do not rank alike (BAD_SET_RANK: not one scene) where at least MIN_AGREE_BLOCKS compare: merged,
-    either makes a wrong HDR with no sign of it."""
+    exposures) or show two scenes (``other_scene``: their blocks rank unlike and their steps cross) where at least
+    MIN_AGREE_BLOCKS compare: merged, either makes a wrong HDR with no sign of it."""
     names = [f"frame {i + 1}" for i in range(len(frames))] if names is None else [str(n) for n in names]
     order = np.argsort(rel, kind="stable")
     codes = [block_codes(f) for f in frames]
@@ -304,10 +342,17 @@ def check_agreement(frames, rel: np.ndarray, names=None) -> list[Agreement]:
             raise PanoLightError(f"{pair} is darker than {names[i]} over {100 * agree.contradicting:.0f} % of what "
                                  f"both expose well: the exposures are not the frames' (give them in the files' order "
                                  f"with --evs, or check the EXIF)")
-        if agree.rank_correlation is not None and agree.rank_correlation < BAD_SET_RANK:
+        if other_scene(agree):
+            if agree.crossing is not None and agree.crossing <= BAD_SET_CROSSING:  # a still place, its light changed
+                why = (f", and {100 * agree.contradicting:.0f} % of its patches darker in the frame exposed more): the "
+                       f"light changed between the two (a studio relit, a lamp switched)")
+            else:
+                steps = "" if agree.crossing is None else (f", and {100 * agree.crossing:.0f} % of the steps both "
+                                                            f"resolve between neighbouring patches run opposite ways")
+                why = (f"{steps}): a set grouped across two scenes, or a camera moved further than the alignment "
+                       f"reaches")
             raise PanoLightError(f"{pair} does not show the scene {names[i]} shows (the two rank their pixels alike "
-                                 f"with {agree.rank_correlation:.2f} correlation, a still set's 0.9 or more): a set "
-                                 f"grouped across two scenes, or a camera moved further than the alignment reaches")
+                                 f"with {agree.rank_correlation:.2f} correlation, a still set's 0.9 or more{why}")
     return found
 
 
@@ -434,6 +479,7 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
                  **({"response": curve.describe()} if linear is None else {}),
                  "clipped_in_every_frame": clipped / float(out.shape[0] * out.shape[1]),
                  "agreement": [{"contradicting": round(a.contradicting, 4), "compared": a.compared,
-                                "rank_correlation": None if a.rank_correlation is None else round(a.rank_correlation, 4)}
+                                "rank_correlation": None if a.rank_correlation is None else round(a.rank_correlation, 4),
+                                "crossing": None if a.crossing is None else round(a.crossing, 4)}
                                for a in agreement],
                  **({"shifts": [[int(dy), int(dx)] for dy, dx in shifts]} if align else {})}

@@ -10,9 +10,10 @@ as a set is taken and as a set goes wrong:
 - one stop off: the +2 frame shot at +3;
 - another scene: the ev -2 and +2 frames of the next scene of the same size (a set grouped across two scenes).
 
-Prints, by case and curve, the pairs ``check_agreement`` refuses, and the share of contradicting blocks and the rank
-correlation (median, and the worst for the check: the right sets' largest and smallest, the wrong ones' opposite),
-where the refusal's thresholds (``BAD_SET_CONTRADICTING``, ``BAD_SET_RANK``) stand between them; and the stops off
+Prints, by case and curve, the pairs ``check_agreement`` refuses, and the share of contradicting blocks, the rank
+correlation and the share of crossing steps (median, and the worst for the check: the right sets' largest and
+smallest, the wrong ones' opposite), where the refusal's thresholds (``BAD_SET_CONTRADICTING``, ``BAD_SET_RANK``,
+``BAD_SET_CROSSING``) stand between them; and the stops off
 through sRGB, which a test of the exposures' values would read: a camera's own curve moves it as far as a wrong
 exposure does (the exponential ambiguity of a response curve), so no such test ships.
 
@@ -30,9 +31,12 @@ from panolight_core.camera import hdr_to_ldr
 from panolight_core.camera.brackets import (
     AGREE_CODES,
     BAD_SET_CONTRADICTING,
+    BAD_SET_CROSSING,
     BAD_SET_RANK,
     MIN_AGREE_BLOCKS,
+    Agreement,
     frame_agreement,
+    other_scene,
     shift_frame,
 )
 from panolight_core.camera.color import SRGB8_TO_LINEAR
@@ -71,7 +75,8 @@ def scene_rows(hdr, other, scene: str) -> list[dict]:
             agree = frame_agreement(darker, brighter, 2.0 ** (b - a))
             rows.append({"scene": scene, "case": case, "curve": name, "set": kind, "evs": [a, b],
                          "contradicting": agree.contradicting, "stops_off": srgb_stops_off(darker, brighter, b - a),
-                         "compared": agree.compared, "rank_correlation": agree.rank_correlation})
+                         "compared": agree.compared, "rank_correlation": agree.rank_correlation,
+                         "crossing": agree.crossing})
     return rows
 
 
@@ -90,6 +95,12 @@ def srgb_stops_off(darker: np.ndarray, brighter: np.ndarray, stops: float) -> fl
 
 def refused(row: dict) -> bool:
     """Whether ``check_agreement`` refuses the pair of ``row`` (the shipped thresholds)."""
+    agree = Agreement(row["contradicting"], row["rank_correlation"], row["compared"], row.get("crossing"))
+    return row["compared"] >= MIN_AGREE_BLOCKS and (row["contradicting"] > BAD_SET_CONTRADICTING or other_scene(agree))
+
+
+def refused_by_rank(row: dict) -> bool:
+    """Whether the check before session 54 refused the pair (the rank alone said "another scene")."""
     rho = row["rank_correlation"]
     return row["compared"] >= MIN_AGREE_BLOCKS and (row["contradicting"] > BAD_SET_CONTRADICTING
                                                     or (rho is not None and rho < BAD_SET_RANK))
@@ -98,19 +109,24 @@ def refused(row: dict) -> bool:
 def summary(rows: list[dict]) -> list[str]:
     """The table: by case and curve, the pairs refused, and each measure's median and worst case for the check
     (the right sets' largest contradicting share and smallest correlation, the wrong ones' opposite)."""
-    lines = ["| case | curve | pairs | refused | contradicting: median, worst | rank correlation: median, worst "
-             "| stops off through sRGB: median, worst |", "|---|---|---:|---:|---:|---:|---:|"]
+    lines = ["| case | curve | pairs | refused (by the rank alone) | contradicting: median, worst | rank correlation: median, worst "
+             "| crossing steps: median, worst | stops off through sRGB: median, worst |",
+             "|---|---|---:|---:|---:|---:|---:|---:|"]
     for case in dict.fromkeys(r["case"] for r in rows):
         for curve in dict.fromkeys(r["curve"] for r in rows):
             sel = [r for r in rows if r["case"] == case and r["curve"] == curve]
             c = np.array([r["contradicting"] for r in sel if r["compared"] >= MIN_AGREE_BLOCKS])
             rho = np.array([r["rank_correlation"] for r in sel
                             if r["compared"] >= MIN_AGREE_BLOCKS and r["rank_correlation"] is not None])
+            cross = np.array([r["crossing"] for r in sel
+                              if r["compared"] >= MIN_AGREE_BLOCKS and r.get("crossing") is not None])
             off = np.abs([r["stops_off"] for r in sel])
             right = case.startswith("right")
-            lines.append(f"| {case} | {curve} | {len(sel)} | {sum(map(refused, sel))} | "
+            lines.append(f"| {case} | {curve} | {len(sel)} | {sum(map(refused, sel))} ({sum(map(refused_by_rank, sel))}) | "
                          f"{np.median(c):.3f}, {(c.max() if right else c.min()):.3f} | "
                          f"{np.median(rho):.3f}, {(rho.min() if right else rho.max()):.3f} | "
+                         + (f"{np.median(cross):.3f}, {(cross.max() if right else cross.min()):.3f} | " if cross.size
+                            else "n/a | ") +
                          f"{np.median(off):.2f}, {(off.max() if right else off.min()):.2f} |")
     return lines
 
@@ -124,6 +140,7 @@ def evidence(rows: list[dict], table: list[str]) -> dict:
     right = [r for r in rows if r["case"].startswith("right") and r["compared"] >= MIN_AGREE_BLOCKS]
     ranked = [r for r in right if r["rank_correlation"] is not None]
     return {"table": table, "thresholds": {"contradicting": BAD_SET_CONTRADICTING, "rank": BAD_SET_RANK,
+                                           "crossing": BAD_SET_CROSSING,
                                            "min_blocks": MIN_AGREE_BLOCKS},
             "right_most_contradicting": [short(r) for r in sorted(right, key=lambda r: -r["contradicting"])[:10]],
             "right_least_alike": [short(r) for r in sorted(ranked, key=lambda r: r["rank_correlation"])[:10]],

@@ -288,3 +288,40 @@ def test_a_camera_s_third_stop_steps_merge(day):
     assert np.median(rel) < 0.01
     with pytest.raises(PanoLightError, match="less than an eighth of a stop apart"):
         merge_brackets(frames[:2], [1 / 200, 1 / 200])
+
+
+def test_a_still_pair_far_apart_through_an_s_curve_is_one_scene_and_a_studio_relit_is_not():
+    """A still pair 3.5 stops apart through a camera's S-curve, with photon noise and JPEG q90 (Blender's sunset): the
+    darker frame's toe and the brighter one's shoulder squeeze what both expose well into a few codes, and their
+    blocks rank at 0.32-0.39, under BAD_SET_RANK (what refused a real night set, St. Louis 3.3 stops apart). But
+    their resolved steps keep their sign and no block runs against the exposures: one scene, merged. The same studio
+    from the same tripod with its lights set another way (two real HDRs of ../shared) keeps its edges' steps too,
+    but 2 % of its blocks darken in the frame exposed more: refused as another scene."""
+    from panolight_core.camera.brackets import (
+        BAD_SET_CROSSING,
+        BAD_SET_RANK,
+        STILL_CONTRADICTING,
+        check_agreement,
+        frame_agreement,
+    )
+    from panolight_core.data import load_studio_hdri
+    from panolight_core.io import read_image
+    from training.common.real_hdri import DEFAULT_HDRI
+
+    sunset = load_studio_hdri("sunset")
+    k = auto_exposure(sunset, 0.0, robust=True)
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        pair = [hdr_to_ldr(sunset, scale=k * 2.0 ** s, jpeg_quality=90, noise=rng, curve="contrast") for s in (0, 3.5)]
+        agree = check_agreement(pair, np.array([1.0, 2.0 ** 3.5]))[0]  # no refusal
+        assert agree.rank_correlation < BAD_SET_RANK and agree.crossing < 0.2 and agree.contradicting == 0.0
+    merged, _ = merge_brackets(pair, [1.0, 2.0 ** 3.5])
+    assert np.isfinite(merged).all()
+    studio = [np.maximum(read_image(DEFAULT_HDRI / f"ferndale_studio_0{n}.hdr"), 0.0) for n in (4, 2)]
+    darker, brighter = hdr_to_ldr(studio[0], -2, 90), hdr_to_ldr(studio[1], 0, 90)
+    agree = frame_agreement(darker, brighter, 4.0)
+    assert agree.crossing < BAD_SET_CROSSING and agree.rank_correlation < BAD_SET_RANK
+    assert agree.contradicting > 2 * STILL_CONTRADICTING
+    with pytest.raises(PanoLightError, match=r"^frame 2 \(exposed 2 stops more than frame 1\) does not show the "
+                                             r"scene frame 1 shows .* 2 % of its patches darker .* light changed"):
+        merge_brackets([darker, brighter], [1.0, 4.0])
