@@ -18,9 +18,13 @@ Scores (``score``):
 - fireflies: pixels whose luminance is over FIREFLY_RATIO x the median of their 5 x 5 neighbourhood (and above a
   thousandth of the reference white: no flicker in black counts); also those that are no bright point of the
   scene's own (spurious: a night scene's lamps are points a merge must keep): for a simulated set, none of the
-  truth's; for a real set, none that two frames show themselves where they expose it well (``shown_by_a_frame``);
+  truth's; for a real set, none that two frames show themselves where they expose it well, nor a lamp only the
+  darkest frame can hold (``shown_by_a_frame``);
 - truth (simulated): the median |ln(merged / true)| of luminance where the truth is 0.01-0.9 of the reference
   frame's white, after one scale;
+- held out (a real set of three or more frames, which has no truth): each frame between the darkest and the
+  brightest left out, the others merged, and it taken again through the merge's own curve (``held_out``): the median
+  and mean |code error|;
 - time: the median of ``--repeats`` runs, in this process;
 - the camera curve (``curves``): PanoLight's recovered curve against OpenCV's CalibrateDebevec, and each against
   sRGB (the simulated cameras' own), in log over codes 30-230 after one scale; and which curve the merge used.
@@ -155,16 +159,67 @@ def fireflies(img: np.ndarray, floor: float, truth: np.ndarray | None = None) ->
 def shown_by_a_frame(frames, exposures, table: np.ndarray) -> np.ndarray:
     """(H, W) bool: pixels that two or more frames show as a bright point themselves: well exposed there (brightest
     channel's code within WELL_EXPOSED) and over FIREFLY_RATIO / 2 x the median of its 5 x 5 neighbourhood, decoded
-    through the set's camera curve ``table`` (code -> linear). A merge's firefly there is the scene's own (a lit speck
-    of a window), not the merge's: the real sets' "spurious" count leaves them out. (One frame alone is no evidence:
-    a speck of dust on one scan is a bright point of that frame.)"""
+    through the set's camera curve ``table`` (code -> linear); and lamps only the darkest frame can hold: pixels it
+    holds over its well-exposed codes (which a merge can only put near its white or above), or shows as such a point
+    where every other frame clips (brightest channel over WELL_EXPOSED: the brighter frames agree it is bright). A merge's firefly there is the scene's own (a lit speck of a window), not the merge's: the
+    real sets' "spurious" count leaves them out. (One frame alone is no evidence: a speck of dust on one scan is a
+    bright point of that frame.)"""
     shown = np.zeros(frames[0].shape[:2], np.uint8)
     lut = np.asarray(table, dtype=np.float64)
-    for f in frames:
+    dark = int(np.argmin(exposures))
+    others_clip = np.ones(frames[0].shape[:2], bool)
+    for i, f in enumerate(frames):
         top = f.max(axis=-1)
-        point = firefly_mask(lut[f], 0.0, 0.5 * FIREFLY_RATIO)
-        shown += point & (top >= WELL_EXPOSED[0]) & (top <= WELL_EXPOSED[1])
-    return shown >= 2
+        point = firefly_mask(lut[f], 0.0, 0.5 * FIREFLY_RATIO) & (top >= WELL_EXPOSED[0]) & (top <= WELL_EXPOSED[1])
+        shown += point
+        if i == dark:
+            lamp = point | (top > WELL_EXPOSED[1])
+        else:
+            others_clip &= top > WELL_EXPOSED[1]
+    return (shown >= 2) | (lamp & (others_clip | (frames[dark].max(axis=-1) > WELL_EXPOSED[1])))
+
+
+def _codes_of(values: np.ndarray, curve: np.ndarray) -> np.ndarray:
+    """The 8-bit codes a camera whose curve is ``curve`` ((256,) or (256, 3): code -> light, made monotone here)
+    writes for ``values`` (..., 3) of light in the curve's units: the nearest code, per channel."""
+    curve = np.asarray(curve, dtype=np.float64)
+    curve = np.broadcast_to(curve.reshape(256, -1), (256, 3))
+    out = np.empty(values.shape, np.int16)
+    for c in range(3):
+        table = np.maximum.accumulate(curve[:, c])
+        edges = (table[1:] + table[:-1]) / 2.0
+        out[..., c] = np.searchsorted(edges, values[..., c])
+    return out
+
+
+def held_out(frames, exposures) -> dict:
+    """Each merge's accuracy where no truth exists: every frame between the darkest and the brightest left out in
+    turn, the others merged (each merge with its own curve, recovered from them), and the left-out frame taken again
+    from that HDR through that curve at its own exposure. The median |code error| over the channels the frame holds
+    well exposed (WELL_EXPOSED), and its mean, pooled over the frames left out: what each merge's HDR and curve predict
+    of a photo they never saw (a moving flag or a flickering lamp is in both merges' error alike)."""
+    import cv2
+
+    from panolight_core.camera import response
+
+    e = np.asarray(exposures, dtype=np.float64)
+    order = np.argsort(e)
+    errors = {"panolight": [], "opencv": []}
+    for k in order[1:-1]:
+        keep = [i for i in range(len(frames)) if i != k]
+        rest, t = [frames[i] for i in keep], e[keep]
+        ref = int(np.argsort(t)[(t.size - 1) // 2])
+        actual = frames[k].astype(np.int16)
+        well = (actual >= WELL_EXPOSED[0]) & (actual <= WELL_EXPOSED[1])
+        ours = merge_panolight(rest, t)  # the reference's units: a code z of frame i reads table[z] / (t_i / t_ref)
+        table = response.recover_response(rest, t / t[ref], ref).table
+        errors["panolight"].append(np.abs(_codes_of(ours * (e[k] / t[ref]), table) - actual)[well])
+        bgr = [np.ascontiguousarray(f[..., ::-1]) for f in rest]
+        curve = cv2.createCalibrateDebevec().process(bgr, t.astype(np.float32))  # (256, 1, 3), BGR
+        theirs = cv2.createMergeDebevec().process(bgr, t.astype(np.float32), curve)[..., ::-1].astype(np.float64)
+        errors["opencv"].append(np.abs(_codes_of(theirs * e[k], curve[:, 0, ::-1]) - actual)[well])
+    pooled = {n: np.concatenate(v) for n, v in errors.items() if v}
+    return {n: {"median": float(np.median(v)), "mean": float(np.mean(v))} for n, v in pooled.items()}
 
 
 def _scaled_log_error(a: np.ndarray, b: np.ndarray) -> float:
@@ -210,6 +265,8 @@ def score(frames, exposures, repeats: int = 3, truth: np.ndarray | None = None) 
             out[n]["truth_error"] = _scaled_log_error(lum[n][mid], lt[mid])
     out["pixels"] = int(top.size)
     out["curve"] = curves(frames, e)
+    if truth is None and len(frames) >= 3:  # a real set: how well each merge predicts a frame it never saw
+        out["held_out"] = held_out(frames, e)
     return out
 
 
@@ -260,6 +317,13 @@ def main(argv=None) -> int:
             rows.append({"set": scene, "frames": len(frames), **score(frames, exposures, args.repeats, truth)})
             print("\n".join(table(rows[-1:])[2:]), flush=True)
     print("\n".join(table(rows)))
+    held = [r for r in rows if r.get("held_out")]
+    if held:
+        print("\n| set | a frame left out, taken again from the others' merge: code error, median / mean: PanoLight "
+              "| OpenCV |\n|---|---:|---:|")
+        for r in held:
+            p, o = r["held_out"]["panolight"], r["held_out"]["opencv"]
+            print(f"| {r['set']} | {p['median']:.0f} / {p['mean']:.2f} | {o['median']:.0f} / {o['mean']:.2f} |")
     print("\n| set | curve used | recovered vs OpenCV's | recovered vs sRGB | OpenCV's vs sRGB |\n|---|---|---:|---:|---:|")
     for r in rows:
         c = r["curve"]

@@ -41,3 +41,31 @@ def test_a_real_set_is_read_with_its_shutter_times_and_refused_without_them(tmp_
     (tmp_path / "shutter_times.txt").unlink()
     with pytest.raises(SystemExit, match="records no exposure"):
         bench_merge.read_set(tmp_path)
+
+
+def test_a_left_out_frame_is_taken_again_through_each_merge_s_own_curve():
+    """_codes_of inverts a curve (sRGB's codes come back exactly); a noise-free sRGB set's middle frame, left out, is
+    predicted from the other two within a code or two by PanoLight's merge, and OpenCV's is scored the same way."""
+    from panolight_core.camera.color import SRGB8_TO_LINEAR
+
+    codes = np.arange(256)
+    values = np.repeat(SRGB8_TO_LINEAR.astype(np.float64)[:, None], 3, axis=1)
+    assert np.array_equal(bench_merge._codes_of(values, SRGB8_TO_LINEAR), np.repeat(codes[:, None], 3, axis=1))
+    scene = _scene(64)
+    frames = [bench_merge.hdr_to_ldr(scene, ev) for ev in (-2, 0, 2)]
+    got = bench_merge.held_out(frames, np.array([0.25, 1.0, 4.0]))
+    assert got["panolight"]["median"] <= 1.0 and got["panolight"]["mean"] < 2.0
+    assert got["opencv"]["median"] >= 0.0 and np.isfinite(got["opencv"]["mean"])
+
+
+def test_a_lamp_only_the_darkest_frame_holds_is_the_scene_s_own():
+    """shown_by_a_frame: a point the darkest frame holds over its neighbours where every brighter frame clips, or
+    holds over its well-exposed codes, is the scene's; a point one middle frame alone shows is not."""
+    dark = np.full((16, 16, 3), 30, np.uint8)
+    bright = np.full((16, 16, 3), 120, np.uint8)
+    dark[4, 4], bright[4, 4] = 200, 255  # a lamp: the darkest frame holds it, the brighter one clips
+    dark[8, 8], bright[8, 8] = 250, 255  # a lamp over the darkest frame's well-exposed codes
+    bright[12, 12] = 250  # a bright point of the brighter frame alone (its darker frame reads the wall)
+    table = np.linspace(0.0, 1.0, 256) ** 2.2
+    shown = bench_merge.shown_by_a_frame([dark, bright], np.array([1.0, 4.0]), table)
+    assert shown[4, 4] and shown[8, 8] and not shown[12, 12] and shown.sum() == 2
