@@ -208,13 +208,15 @@ def heading(raw) -> float | None:
 MAX_EXPOSURE_S = 3600.0 * 24  # a day: longer is no exposure a camera records
 MAX_F_NUMBER = 1024.0
 MAX_ISO = 1.0e7
+MAX_BIAS_EV = 30.0  # an exposure bias beyond +-30 stops is no camera's (--evs takes the same range)
 
 
 def exposure(get) -> dict | None:
-    """{"time_s", "f_number", "iso", "taken_s", "iso_recorded"} from raw tag values (``get(name)``, None when absent):
-    each a positive finite number, as a number, its text, a rational's text ("1/250") or the first of several values
-    (ISOSpeedRatings); None when the time or the f-number is not one. An ISO that is not one is taken as 100
-    (``iso_recorded`` False: an absolute scale from it is a guess, ``camera.units``).
+    """{"time_s", "f_number", "iso", "taken_s", "iso_recorded", "bias_ev"} from raw tag values (``get(name)``, None when
+    absent): each a positive finite number, as a number, its text, a rational's text ("1/250") or the first of several
+    values (ISOSpeedRatings); None when the time or the f-number is not one. An ISO that is not one is taken as 100
+    (``iso_recorded`` False: an absolute scale from it is a guess, ``camera.units``). bias_ev: the exposure bias the
+    shot was compensated by (ExposureBiasValue, stops within +-MAX_BIAS_EV), or None.
     taken_s: when the shot was taken (DateTimeOriginal and SubSecTimeOriginal, the camera's own clock), seconds
     from year 1, or None: what tells a bracket sequence from shots minutes apart."""
     time_s = positive(get("ExposureTime"), MAX_EXPOSURE_S)
@@ -225,7 +227,8 @@ def exposure(get) -> dict | None:
     taken = exif_datetime(get("Exif:DateTimeOriginal"))
     taken_s = None if taken is None else (taken - datetime(1, 1, 1)).total_seconds() + \
         subseconds(get("Exif:SubsecTimeOriginal"))
-    return {"time_s": time_s, "f_number": f_number, "iso": iso or 100.0, "taken_s": taken_s, "iso_recorded": bool(iso)}
+    return {"time_s": time_s, "f_number": f_number, "iso": iso or 100.0, "taken_s": taken_s, "iso_recorded": bool(iso),
+            "bias_ev": number(get("Exif:ExposureBiasValue"), -MAX_BIAS_EV, MAX_BIAS_EV)}
 
 
 MAX_JSON_DEPTH = 32  # no record PanoLight writes nests deeper

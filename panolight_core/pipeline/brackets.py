@@ -130,8 +130,9 @@ def parse_evs(text: str) -> tuple[float, ...]:
 
 def bracket_exposures(paths, evs=None) -> tuple[list[float], str]:
     """(relative exposures, where they came from) of the frames ``paths``: 2^ev of ``evs`` (one per file), else
-    each file's EXIF (ExposureTime x ISO / FNumber^2). PanoLightError naming the file that records none, or when
-    the count of ``evs`` is not the count of files, or the exposures cannot be told apart."""
+    each file's EXIF (ExposureTime x ISO / FNumber^2; where those repeat, the exposure bias, ``_by_bias``).
+    PanoLightError naming the file that records none, or when the count of ``evs`` is not the count of files, or the
+    exposures cannot be told apart."""
     paths = [Path(p) for p in paths]
     if evs is not None:
         if len(evs) != len(paths):
@@ -140,8 +141,36 @@ def bracket_exposures(paths, evs=None) -> tuple[list[float], str]:
     else:
         found = [exif_exposure(p, "; give every frame's exposure with --evs (e.g. --evs -2,0,2)") for p in paths]
         origin = "EXIF (ExposureTime x ISO / FNumber^2)"
+        biased = None if _told_apart(found) else _by_bias(paths, found)
+        if biased is not None:
+            found, origin = biased, BIAS_ORIGIN
     check_exposures(found)
     return found, origin
+
+
+BIAS_ORIGIN = "EXIF exposure bias (ExposureBiasValue; its ExposureTime x ISO / FNumber^2 repeat)"
+
+
+def _told_apart(exposures) -> bool:
+    s = np.sort(np.asarray(exposures, dtype=np.float64))
+    return bool(np.all(s[1:] / s[:-1] >= MIN_EXPOSURE_STEP))
+
+
+def _by_bias(paths, exposures) -> list[float] | None:
+    """2^bias of each frame where the frames' recorded exposures repeat but every one records an exposure bias and
+    the biases tell them apart: a phone compensating past its shortest shutter and lowest ISO records one exposure
+    for frames its bias set apart (a gain it does not record). Said in a warning naming two such files; None where
+    the biases cannot stand in (one missing, or two alike: the set is refused as it was)."""
+    biases = [(read_exposure(p) or {}).get("bias_ev") for p in paths]
+    if any(b is None for b in biases) or not _told_apart([2.0 ** b for b in biases]):
+        return None
+    i, j = next((i, j) for i in range(len(paths)) for j in range(i + 1, len(paths))
+                if max(exposures[i], exposures[j]) / min(exposures[i], exposures[j]) < MIN_EXPOSURE_STEP)
+    warnings.warn(PanoLightWarning(f"{paths[j]}: records the exposure of {paths[i].name} though its exposure bias is "
+                                   f"{biases[j]:+.3g} EV and that one's {biases[i]:+.3g} EV (a phone compensating past "
+                                   f"its shutter and ISO): the set is timed by its exposure bias (--evs sets it "
+                                   f"otherwise)"), stacklevel=3)
+    return [2.0 ** b for b in biases]
 
 
 def read_brackets(paths, evs=None, align: bool = True, **read_options) -> tuple[np.ndarray, dict]:

@@ -14,8 +14,8 @@ from panolight_core.io import write_image
 from tests.panolight_core.estimators.sources.test_restore import _clear_day
 
 
-def _frame(path, ldr, time_s=None, f_number=None, iso=None):
-    """A JPEG with the exposure EXIF a camera writes (ExposureTime, FNumber, ISO)."""
+def _frame(path, ldr, time_s=None, f_number=None, iso=None, bias=None):
+    """A JPEG with the exposure EXIF a camera writes (ExposureTime, FNumber, ISO, ExposureBiasValue)."""
     exif = Image.Exif()
     ifd = exif.get_ifd(0x8769)
     if time_s is not None:
@@ -24,6 +24,8 @@ def _frame(path, ldr, time_s=None, f_number=None, iso=None):
         ifd[0x829D] = IFDRational(round(10 * f_number), 10)
     if iso is not None:
         ifd[0x8827] = iso
+    if bias is not None:
+        ifd[0x9204] = IFDRational(round(6 * bias), 6)
     Image.fromarray(ldr).save(path, quality=95, exif=exif)
     return str(path)
 
@@ -298,3 +300,21 @@ def test_a_set_writes_what_it_clipped_in_every_frame_as_a_mask(tmp_path, day):
     assert np.degrees(np.arccos(np.clip(d @ s, -1, 1))).max() < 10.0  # the sun, nothing else
     assert main(["estimate", files[1], "-o", str(tmp_path / "out"), "-q"]) == 0
     assert not (tmp_path / "out" / "clipped.png").exists()  # an earlier run's output this run does not write
+
+
+def test_a_phone_s_compensation_series_is_timed_by_its_exposure_bias(tmp_path, day, capsys):
+    """A phone's exposure-compensation series at -2, -1, 0 and +1 EV: past its shortest shutter and lowest ISO it
+    records 1/1000 s at ISO 100 for both -2 and -1 (a gain it does not record). The EXIF's exposures repeat, its
+    biases tell the frames apart: the set is timed by its bias, said in a warning naming the file, and recorded.
+    Without the bias tags the same set is refused as before."""
+    truth, _, _ = day
+    shots = ((-2, 1 / 1000), (-1, 1 / 1000), (0, 1 / 500), (1, 1 / 250))
+    files = [_frame(tmp_path / f"p{i}.jpg", hdr_to_ldr(truth, ev), t, 1.8, 100, bias=ev)
+             for i, (ev, t) in enumerate(shots)]
+    assert main(["estimate", *files, "-o", str(tmp_path / "out"), "-q"]) == 0
+    assert "p1.jpg: records the exposure of p0.jpg though its exposure bias is -1 EV" in capsys.readouterr().err
+    b = json.loads((tmp_path / "out" / "lighting.json").read_text())["source"]["brackets"]
+    assert b["exposures_from"].startswith("EXIF exposure bias") and b["stops"] == pytest.approx([-1, 0, 1, 2], abs=0.01)  # about the -1 EV frame
+    bare = [_frame(tmp_path / f"q{i}.jpg", hdr_to_ldr(truth, ev), t, 1.8, 100) for i, (ev, t) in enumerate(shots)]
+    assert main(["estimate", *bare, "-o", str(tmp_path / "bare"), "-q"]) != 0
+    assert "less than an eighth of a stop apart" in capsys.readouterr().err
