@@ -31,12 +31,13 @@ recovered curve puts its code 250 where sRGB does, ``camera.response``).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from .. import threads
-from ..errors import PanoLightError
+from ..errors import PanoLightError, PanoLightWarning
 from .color import SRGB8_TO_LINEAR, gray8
 from .response import SRGB, recover_response
 from .weights import CLIPPED_CODE, GHOST_RATIO, noise_weights, outlying_frames, sure_codes
@@ -322,12 +323,83 @@ def other_scene(agree: Agreement) -> bool:
             and agree.rank_correlation < BAD_SET_RANK and not squeezed)
 
 
+def _verdict(agree: Agreement, darker: str, brighter: str, stops: float) -> str | None:
+    """Why a pair of neighbours in exposure (``brighter`` exposed ``stops`` more than ``darker``) cannot be merged, in
+    one line, or None: its blocks run against the exposures' order (BAD_SET_CONTRADICTING: listed in another order
+    than their exposures), or it shows two scenes (``other_scene``), where at least MIN_AGREE_BLOCKS compare."""
+    if agree.compared < MIN_AGREE_BLOCKS:
+        return None
+    pair = f"{brighter} (exposed {stops:.3g} stops more than {darker})"
+    if agree.contradicting > BAD_SET_CONTRADICTING:
+        return (f"{pair} is darker than {darker} over {100 * agree.contradicting:.0f} % of what both expose well: the "
+                f"exposures are not the frames' (give them in the files' order with --evs, or check the EXIF)")
+    if not other_scene(agree):
+        return None
+    if agree.crossing is not None and agree.crossing <= BAD_SET_CROSSING:  # a still place, its light changed
+        why = (f", and {100 * agree.contradicting:.0f} % of its patches darker in the frame exposed more): the light "
+               f"changed between the two (a studio relit, a lamp switched)")
+    else:
+        steps = "" if agree.crossing is None else (f", and {100 * agree.crossing:.0f} % of the steps both resolve "
+                                                    f"between neighbouring patches run opposite ways")
+        why = f"{steps}): a set grouped across two scenes, or a camera moved further than the alignment reaches"
+    return (f"{pair} does not show the scene {darker} shows (the two rank their pixels alike with "
+            f"{agree.rank_correlation:.2f} correlation, a still set's 0.9 or more{why}")
+
+
+def consistent_frames(frames, rel: np.ndarray, names=None) -> tuple[list[int], list[Agreement], list[dict]]:
+    """Which of the (aligned) 8-bit ``frames`` (``rel``: relative exposures) make one set: (the kept frames'
+    indices in exposure order, the ``Agreement`` of each pair of kept neighbours, darker first, and the frames left
+    out: [{"frame": index, "why": one line}]). A frame is left out where the set holds without it: its removal
+    mends the pairs it was in and breaks none (``_verdict``), and of a failing pair it is the frame that mends alone,
+    or the one whose removal leaves more pairs shown to agree (a wrong frame amid right ones, or at an end). Fewer
+    than half the frames can be left out. PanoLightError with the set's first failing pair where that does not make
+    it hold (frames listed in reverse, a set of two, two consistent halves alike)."""
+    names = [f"frame {i + 1}" for i in range(len(frames))] if names is None else [str(n) for n in names]
+    codes = [block_codes(f) for f in frames]
+    cache = {}
+
+    def agreement(i, j):
+        if (i, j) not in cache:
+            cache[i, j] = block_agreement(codes[i], codes[j], float(rel[j] / rel[i]))
+        return cache[i, j]
+
+    def failing(chain) -> dict:
+        """{(i, j): why} of the chain's neighbours that cannot be merged."""
+        out = {}
+        for i, j in zip(chain[:-1], chain[1:]):
+            why = _verdict(agreement(i, j), names[i], names[j], math.log2(float(rel[j] / rel[i])))
+            if why is not None:
+                out[i, j] = why
+        return out
+
+    def shown_agreeing(chain) -> int:
+        wrong = failing(chain)
+        return sum(agreement(i, j).compared >= MIN_AGREE_BLOCKS and (i, j) not in wrong
+                   for i, j in zip(chain[:-1], chain[1:]))
+
+    kept, dropped = [int(i) for i in np.argsort(rel, kind="stable")], []
+    first = next(iter(failing(kept).values()), None)  # what a refusal says: the set's first failing pair
+    while bad := failing(kept):
+        (i, j), why = next(iter(bad.items()))
+        if 2 * (len(dropped) + 1) >= len(frames):  # a set holds without a few of its frames, not without half
+            raise PanoLightError(first)
+        # a frame mends the set when, left out, the pairs it was in fail no more and none fails anew; of two that
+        # do, the one whose set is left with more pairs shown to agree (compared, and passing)
+        mends = [k for k in (j, i) if set(failing([x for x in kept if x != k])) < set(bad)]
+        shown = {k: shown_agreeing([x for x in kept if x != k]) for k in mends}
+        pick = [k for k in mends if shown[k] == max(shown.values())]
+        if len(pick) != 1:
+            raise PanoLightError(first)
+        kept.remove(pick[0])
+        dropped.append({"frame": pick[0], "why": why})
+    return kept, [agreement(i, j) for i, j in zip(kept[:-1], kept[1:])], dropped
+
+
 def check_agreement(frames, rel: np.ndarray, names=None) -> list[Agreement]:
     """The ``Agreement`` of each pair of (aligned) 8-bit ``frames`` neighbours in exposure (``rel``: relative
-    exposures), darker first. PanoLightError in one line naming the pair (``names``, else the frames' numbers)
-    whose blocks run against their exposures' order (BAD_SET_CONTRADICTING: listed in another order than their
-    exposures) or show two scenes (``other_scene``: their blocks rank unlike and their steps cross) where at least
-    MIN_AGREE_BLOCKS compare: merged, either makes a wrong HDR with no sign of it."""
+    exposures), darker first. PanoLightError in one line naming the first pair that cannot be merged (``_verdict``):
+    merged, it makes a wrong HDR with no sign of it. ``consistent_frames`` leaves such a frame out instead where it
+    can."""
     names = [f"frame {i + 1}" for i in range(len(frames))] if names is None else [str(n) for n in names]
     order = np.argsort(rel, kind="stable")
     codes = [block_codes(f) for f in frames]
@@ -335,25 +407,30 @@ def check_agreement(frames, rel: np.ndarray, names=None) -> list[Agreement]:
     for i, j in zip(order[:-1], order[1:]):
         agree = block_agreement(codes[i], codes[j], float(rel[j] / rel[i]))
         found.append(agree)
-        if agree.compared < MIN_AGREE_BLOCKS:
-            continue
-        pair = f"{names[j]} (exposed {math.log2(float(rel[j] / rel[i])):.3g} stops more than {names[i]})"
-        if agree.contradicting > BAD_SET_CONTRADICTING:
-            raise PanoLightError(f"{pair} is darker than {names[i]} over {100 * agree.contradicting:.0f} % of what "
-                                 f"both expose well: the exposures are not the frames' (give them in the files' order "
-                                 f"with --evs, or check the EXIF)")
-        if other_scene(agree):
-            if agree.crossing is not None and agree.crossing <= BAD_SET_CROSSING:  # a still place, its light changed
-                why = (f", and {100 * agree.contradicting:.0f} % of its patches darker in the frame exposed more): the "
-                       f"light changed between the two (a studio relit, a lamp switched)")
-            else:
-                steps = "" if agree.crossing is None else (f", and {100 * agree.crossing:.0f} % of the steps both "
-                                                            f"resolve between neighbouring patches run opposite ways")
-                why = (f"{steps}): a set grouped across two scenes, or a camera moved further than the alignment "
-                       f"reaches")
-            raise PanoLightError(f"{pair} does not show the scene {names[i]} shows (the two rank their pixels alike "
-                                 f"with {agree.rank_correlation:.2f} correlation, a still set's 0.9 or more{why}")
+        why = _verdict(agree, names[i], names[j], math.log2(float(rel[j] / rel[i])))
+        if why is not None:
+            raise PanoLightError(why)
     return found
+
+
+def _without(left_out: list[dict], frames, e: np.ndarray, names, **options) -> tuple[np.ndarray, dict]:
+    """``merge_brackets`` of ``frames`` (at exposures ``e``) less those ``left_out`` (``consistent_frames``), each
+    said in a warning; its record speaks of every frame given: the reference's index, each one's stops, each left out
+    (``left_out``: frame index and why) and a shift of None for it."""
+    out = {d["frame"] for d in left_out}
+    keep = [i for i in range(len(frames)) if i not in out]
+    label = [f"frame {i + 1}" for i in range(len(frames))] if names is None else [str(n) for n in names]
+    for d in left_out:
+        warnings.warn(PanoLightWarning(f"{label[d['frame']]}: left out of the merge, the set holding without it: "
+                                       f"{d['why']}"), stacklevel=3)
+    merged, info = merge_brackets([frames[i] for i in keep], e[keep], names=[label[i] for i in keep], **options)
+    ref = keep[info["reference"]]
+    info.update(reference=ref, stops=[round(math.log2(float(v / e[ref])), 4) for v in e],
+                left_out=[{"frame": d["frame"], "why": d["why"]} for d in left_out])
+    if "shifts" in info:
+        shifts = dict(zip(keep, info["shifts"]))
+        info["shifts"] = [shifts.get(i) for i in range(len(frames))]
+    return merged, info
 
 
 SAME_PICTURE_CODES = 1.0  # two frames whose blocks differ by less than this (median, in codes) are one picture: a
@@ -392,10 +469,12 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     ``ghosts`` a frame gives nothing to a pixel it sees GHOST_RATIO brighter or darker than the reference frame does
     where both see it well exposed (``sure_codes``): what moved between the frames is the reference frame's alone.
     With ``response`` 8-bit frames are decoded through their own camera curve where it explains them better than
-    sRGB (``camera.response.recover_response``; the record's ``response`` says which and why), else sRGB. Frames
-    that contradict their exposures' order or show another scene are refused, named by ``names`` (file names; else
-    their numbers), before anything is merged (``check_agreement``; the record's ``agreement``)."""
+    sRGB (``camera.response.recover_response``; the record's ``response`` says which and why), else sRGB. A frame
+    that contradicts its set (its exposures' order, or another scene) is left out where the set holds without it,
+    said in a warning and the record's ``left_out``; where none can be, the set is refused, named by ``names`` (file
+    names; else their numbers), before anything is merged (``consistent_frames``; the record's ``agreement``)."""
     e = check_exposures(exposures)
+    given = list(frames)
     shapes = {np.asarray(f).shape for f in frames}
     kinds = {np.asarray(f).dtype for f in frames}
     if len(frames) != e.size or len(shapes) != 1 or kinds not in ({np.dtype(np.uint8)}, {np.dtype(np.float32)}):
@@ -415,7 +494,9 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     if linear is not None:
         linear = [f if (dy, dx) == (0, 0) else shift_frame(f, dy, dx) for f, (dy, dx) in zip(linear, shifts)]
     rel = e / e[ref]
-    agreement = check_agreement(frames, rel, names)
+    _, agreement, left_out = consistent_frames(frames, rel, names)
+    if left_out:  # merged again without them: the reference and the alignment may have been theirs
+        return _without(left_out, given, e, names, align=align, ghosts=ghosts, response=response)
     curve = recover_response(frames, rel, ref) if response and linear is None else SRGB
     ceiling = float(curve.table[255] / rel.min())  # the darkest frame's white: above every value a frame holds
     dark = int(np.argmin(rel))

@@ -202,6 +202,8 @@ def read_brackets(paths, evs=None, align: bool = True, **read_options) -> tuple[
         frames.append(frame)
     kept, frames, kept_exposures, dropped = _distinct(paths, frames, exposures)
     merged, info = merge_brackets(frames, kept_exposures, align=align, names=[p.name for p in kept])
+    if "left_out" in info:  # frames that contradicted their set, by file
+        info["left_out"] = [{"file": str(kept[d["frame"]]), "why": d["why"]} for d in info["left_out"]]
     if dropped:  # the record speaks of every file given: the reference's index and each one's stops among them
         ref = paths.index(kept[info["reference"]])
         info.update(reference=ref, stops=[round(math.log2(e / exposures[ref]), 4) for e in exposures])

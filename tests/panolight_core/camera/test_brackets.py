@@ -7,7 +7,7 @@ from panolight_core.camera.brackets import exposure, linear_codes, merge_bracket
 from panolight_core.camera.ceiling import find_ceiling
 from panolight_core.camera.color import SRGB8_TO_LINEAR, linear_to_srgb
 from panolight_core.camera.weights import hat
-from panolight_core.errors import PanoLightError
+from panolight_core.errors import PanoLightError, PanoLightWarning
 from tests.panolight_core.estimators.sources.test_restore import _clear_day
 
 
@@ -41,11 +41,13 @@ def test_three_exposures_merge_to_the_truth_and_the_sun_clips_at_the_darkest_whi
     assert ceiling is not None and ceiling.rgb == (4.0, 4.0, 4.0)
 
 
-def test_frames_that_contradict_their_exposures_or_show_another_scene_are_refused_before_the_merge():
+def test_frames_that_contradict_their_exposures_or_show_another_scene_are_left_out_or_refused():
     """Blender's city at -2, 0, +2 (a camera's S-curve too): a still set's neighbours in exposure agree (none of
-    their pixels darker in the frame exposed more, ranked alike), recorded; listed the other way round, or with
-    the forest's frame in it (a set grouped across two scenes), it is refused naming the frames, nothing merged.
-    A wrong step (a 1-stop set told 2) is not caught: a camera's steeper curve reads the same."""
+    their pixels darker in the frame exposed more, ranked alike), recorded; listed the other way round it is refused
+    naming the frames, nothing merged. With the forest's frame in it (a set grouped across two scenes) that frame is
+    left out, said in a warning and the record, and the rest merged as a set of their own; a pair with the forest's
+    frame is refused (no set holds without it). A wrong step (a 1-stop set told 2) is not caught: a camera's steeper
+    curve reads the same."""
     from panolight_core.camera.brackets import check_agreement
     from panolight_core.camera.resample import area_downsample
     from panolight_core.data import load_studio_hdri
@@ -61,9 +63,15 @@ def test_frames_that_contradict_their_exposures_or_show_another_scene_are_refuse
                                              r"bright.jpg over 100 % of what both expose well"):
         merge_brackets(frames[::-1], [0.25, 1.0, 4.0], names=names[::-1])
     forest = area_downsample(load_studio_hdri("forest"), city.shape[0]).astype(np.float32)
-    with pytest.raises(PanoLightError, match=r"^frame 3 \(exposed 2 stops more than frame 2\) does not show the "
-                                             r"scene frame 2 shows"):
-        merge_brackets([frames[0], frames[1], hdr_to_ldr(forest, 2, 90)], [0.25, 1.0, 4.0])
+    mixed = [frames[0], frames[1], hdr_to_ldr(forest, 2, 90)]
+    with pytest.warns(PanoLightWarning, match=r"^frame 3: left out of the merge, the set holding without it: frame 3 "
+                                              r"\(exposed 2 stops more than frame 2\) does not show the scene"):
+        merged, info = merge_brackets(mixed, [0.25, 1.0, 4.0])
+    assert [d["frame"] for d in info["left_out"]] == [2] and info["reference"] == 0 and info["stops"] == [0.0, 2.0, 4.0]
+    np.testing.assert_array_equal(merged, merge_brackets(frames[:2], [0.25, 1.0])[0])
+    with pytest.raises(PanoLightError, match=r"^frame 2 \(exposed 2 stops more than frame 1\) does not show the "
+                                             r"scene frame 1 shows"):
+        merge_brackets(mixed[1:], [1.0, 4.0])
     one_stop = [hdr_to_ldr(city, ev, 90) for ev in (-1, 0, 1)]
     assert len(check_agreement(one_stop, np.array([0.25, 1.0, 4.0]))) == 2  # passes: see the docstring
     flat = np.full((16, 32, 3), 120, np.uint8)  # too few pixels to compare, or codes to rank: no test, no refusal
@@ -154,8 +162,10 @@ def test_a_hand_held_set_is_aligned_round_the_panorama_and_merges_as_the_still_o
     assert info["shifts"] == [[-3, 40], [0, 0], [2, w - 25]]
     assert np.array_equal(merged[4:-4], still[4:-4])
     far = [frames[0], frames[1], shift_frame(frames[2], 0, 300)]  # turned 105 degrees: beyond the alignment's reach
-    with pytest.raises(PanoLightError, match=r"frame 3 .* does not show the scene .* moved further than the alignment"):
-        merge_brackets(far, [0.25, 1.0, 4.0])
+    with pytest.warns(PanoLightWarning, match=r"frame 3: left out .* does not show the scene .* moved further than "
+                                              r"the alignment"):
+        _, info = merge_brackets(far, [0.25, 1.0, 4.0])
+    assert [d["frame"] for d in info["left_out"]] == [2] and info["shifts"][2] is None
 
 
 def test_a_shift_that_makes_a_still_pair_agree_worse_is_not_made(monkeypatch):

@@ -88,7 +88,7 @@ def test_bad_sets_are_refused_in_one_line(tmp_path, day, capsys, case, match):
             "hdr frame": [files[0], str(write_image(tmp_path / "frame.exr", truth)), "--evs=-2,0"],
             "listed out of order": [files[2], files[1], files[0], "--evs=-2,0,2"],  # the files' order, not theirs
             "another scene": [files[0], _frame(tmp_path / "city.jpg", hdr_to_ldr(_city(truth.shape[0]), 0)),
-                              files[2], "--evs=-2,0,2"]}[case]
+                              "--evs=-2,0"]}[case]  # a pair: no set holds without one of them
     assert main(["estimate", *args, "-o", str(tmp_path / "out"), "-q"]) != 0
     err = capsys.readouterr().err
     assert len([line for line in err.splitlines() if line.startswith("panolight: error")]) == 1
@@ -318,3 +318,18 @@ def test_a_phone_s_compensation_series_is_timed_by_its_exposure_bias(tmp_path, d
     bare = [_frame(tmp_path / f"q{i}.jpg", hdr_to_ldr(truth, ev), t, 1.8, 100) for i, (ev, t) in enumerate(shots)]
     assert main(["estimate", *bare, "-o", str(tmp_path / "bare"), "-q"]) != 0
     assert "less than an eighth of a stop apart" in capsys.readouterr().err
+
+
+def test_a_frame_of_another_scene_amid_a_set_is_left_out_named_and_recorded(tmp_path, day, capsys):
+    """The clear day at -2 and +2 with Blender's city at 0 between them (a set grouped across two scenes): the city's
+    frame contradicts both neighbours and the set holds without it, so it is left out, named in a warning and in
+    lighting.json (``source.brackets.left_out``), and the day's two frames are merged and estimated."""
+    truth, _, _ = day
+    files = [_frame(tmp_path / "g0.jpg", hdr_to_ldr(truth, -2)),
+             _frame(tmp_path / "city.jpg", hdr_to_ldr(_city(truth.shape[0]), 0)),
+             _frame(tmp_path / "g2.jpg", hdr_to_ldr(truth, 2))]
+    assert main(["estimate", *files, "--evs=-2,0,2", "-o", str(tmp_path / "out"), "-q"]) == 0
+    assert "city.jpg: left out of the merge, the set holding without it: city.jpg" in capsys.readouterr().err
+    b = json.loads((tmp_path / "out" / "lighting.json").read_text())["source"]["brackets"]
+    assert [d["file"] for d in b["left_out"]] == [files[1]] and "does not show the scene" in b["left_out"][0]["why"]
+    assert b["stops"] == pytest.approx([0, 2, 4], abs=0.01) and b["shifts"][1] is None
