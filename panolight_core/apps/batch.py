@@ -222,7 +222,9 @@ def _process(job, src: Path, dst: Path, settings) -> dict:
         if notes:
             result["warnings"] = notes
         note = key_light_note(doc) if isinstance(doc, dict) else ""
-        return {**result, "key_light": note} if note else result
+        result = {**result, "key_light": note} if note else result
+        left = _left_out(doc) if hasattr(src, "paths") else []
+        return _left_out_alone(job, left, result, dst, settings) if left else result
     except PanoLightError as exc:
         error = str(exc)
         if hasattr(src, "paths"):  # a bracket set refused: each frame is still a photo to estimate
@@ -245,6 +247,23 @@ def _frames_alone(job, src, dst: Path, settings, why: str, t: float) -> dict:
               "seconds": round(time.perf_counter() - t, 4)}
     if failed:
         result["error"] = "; ".join(f["error"] for f in failed)
+    return result
+
+
+def _left_out(doc) -> list[str]:
+    """The files a bracket set's merge left out (lighting.json's ``source.brackets.left_out``), or none."""
+    brackets = (doc.get("source") or {}).get("brackets") if isinstance(doc, dict) else None
+    return [d["file"] for d in (brackets or {}).get("left_out", ()) if isinstance(d, dict) and "file" in d]
+
+
+def _left_out_alone(job, files: list[str], result: dict, dst: Path, settings) -> dict:
+    """A set's result with the frames its merge left out each estimated alone into ``dst/<frame>/`` (a frame of
+    another scene is still a photo to estimate); "failed" when one of them fails."""
+    frames = [_process(job, Path(p), dst / Path(p).stem, settings) for p in files]
+    failed = [f for f in frames if f["status"] == "failed"]
+    result = {**result, "note": f"{len(files)} frame(s) left out of the set were estimated alone", "frames": frames}
+    if failed:
+        result.update(status="failed", error="; ".join(f["error"] for f in failed))
     return result
 
 

@@ -182,7 +182,7 @@ def run_batch(args) -> int:
             print(f"  failed: {printable(r['error'])}", file=sys.stderr)
         for note in r.get("warnings", ()):
             print(f"  warning: {printable(note)}", file=sys.stderr)
-        if r.get("note"):  # a bracket set refused, its frames estimated alone
+        if r.get("note"):  # a bracket set refused, or frames it left out, estimated alone
             print(f"  note: {printable(r['input'])}: {printable(r['note'])}", file=sys.stderr)
         if r.get("key_light"):  # the note estimate logs: a key light uncertain, kept low or missing
             print(f"  key light: {printable(r['input'])}: {printable(r['key_light'])}", file=sys.stderr)

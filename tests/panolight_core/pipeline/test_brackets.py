@@ -333,3 +333,20 @@ def test_a_frame_of_another_scene_amid_a_set_is_left_out_named_and_recorded(tmp_
     b = json.loads((tmp_path / "out" / "lighting.json").read_text())["source"]["brackets"]
     assert [d["file"] for d in b["left_out"]] == [files[1]] and "does not show the scene" in b["left_out"][0]["why"]
     assert b["stops"] == pytest.approx([0, 2, 4], abs=0.01) and b["shifts"][1] is None
+
+
+def test_a_batch_estimates_a_frame_its_set_left_out_alone(tmp_path, day, capsys):
+    """batch --brackets 3 over a set with another scene's frame amid it: the set is merged without it, and that frame,
+    still a photo, is estimated alone in the set's folder; the report and the summary say so."""
+    truth, _, _ = day
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    _frame(shots / "s_0.jpg", hdr_to_ldr(truth, -2))
+    _frame(shots / "s_1.jpg", hdr_to_ldr(_city(truth.shape[0]), 0))
+    _frame(shots / "s_2.jpg", hdr_to_ldr(truth, 2))
+    out = tmp_path / "out"
+    assert main(["batch", str(shots), "-o", str(out), "--brackets", "3", "--evs", "-2,0,2", "--jobs", "1"]) == 0
+    (r,) = json.loads((out / "batch_report.json").read_text())["results"]
+    assert r["status"] == "ok" and [f["input"] for f in r["frames"]] == [str(shots / "s_1.jpg")]
+    assert (out / "s_0" / "lighting.json").is_file() and (out / "s_0" / "s_1" / "lighting.json").is_file()
+    assert "1 frame(s) left out of the set were estimated alone" in capsys.readouterr().err
