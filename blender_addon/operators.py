@@ -15,6 +15,7 @@ panolight.pick_sun()                     click the sun (or where a shadow points
 import functools
 import math
 import threading
+import warnings
 from pathlib import Path
 
 import bpy
@@ -165,8 +166,16 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
         chosen = sorted(Path(bpy.path.abspath(self.directory)) / f.name for f in self.files if f.name)
         if len(chosen) > 1:  # a bracket set, merged by the core as the CLI merges it
             evs = brackets.parse_evs(self.evs) if self.evs.strip() else None
-            image, info = images.bracket_panorama(chosen, evs, self.align)
-            return self._show(context, image, f" merged from {len(chosen)} frames ({', '.join(f'{v:+g}' for v in info['stops'])} stops)")
+            with warnings.catch_warnings(record=True) as said:  # a frame left out, a set timed by its bias: said
+                warnings.simplefilter("always", errors.PanoLightWarning)
+                image, info = images.bracket_panorama(chosen, evs, self.align)
+            for w in said:
+                if issubclass(w.category, errors.PanoLightWarning):
+                    self.report({"WARNING"}, f"PanoLight: {w.message}")
+            used = len(chosen) - len(info.get("left_out", ()))
+            return self._show(context, image, f" merged from {used if used < len(chosen) else ''}"
+                                              f"{' of ' if used < len(chosen) else ''}{len(chosen)} frames "
+                                              f"({', '.join(f'{v:+g}' for v in info['stops'])} stops)")
         path = Path(bpy.path.abspath(self.filepath))
         if not path.is_file():
             raise Error(f"{path}: file not found")

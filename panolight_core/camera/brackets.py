@@ -336,8 +336,8 @@ def _verdict(agree: Agreement, darker: str, brighter: str, stops: float) -> str 
     if not other_scene(agree):
         return None
     if agree.crossing is not None and agree.crossing <= BAD_SET_CROSSING:  # a still place, its light changed
-        why = (f", and {100 * agree.contradicting:.0f} % of its patches darker in the frame exposed more): the light "
-               f"changed between the two (a studio relit, a lamp switched)")
+        why = (f", and {100 * agree.contradicting:.0f} % of its patches darker in the frame exposed more): another "
+               f"scene from the same place, or its light changed between the two (a studio relit, a lamp switched)")
     else:
         steps = "" if agree.crossing is None else (f", and {100 * agree.crossing:.0f} % of the steps both resolve "
                                                     f"between neighbouring patches run opposite ways")

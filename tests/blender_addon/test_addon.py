@@ -1024,6 +1024,26 @@ def _restored_as_on_the_command_line(want, sun):
     assert metrics.angle_deg(metrics.brightest_light(doc["lights"])["direction"], sun) < 1.0
 
 
+def test_a_frame_of_another_scene_in_a_loaded_set_is_left_out_and_reported(tmp_path, capfd):
+    """Load panorama with three frames, the middle one of another scene: the set loads from the other two, and the
+    artist is told which frame was left out and why (a warning in Blender's reports) and how many frames merged."""
+    from panolight_core.camera import hdr_to_ldr
+    from panolight_core.io import write_srgb8
+    from tests.panolight_core.estimators.sources.test_restore import _clear_day
+    from tests.panolight_core.pipeline.test_brackets import _city
+
+    truth, _, _ = _clear_day()
+    write_srgb8(tmp_path / "shot_0.png", hdr_to_ldr(truth, -2))
+    write_srgb8(tmp_path / "shot_1.png", hdr_to_ldr(_city(truth.shape[0]), 0))
+    write_srgb8(tmp_path / "shot_2.png", hdr_to_ldr(truth, 2))
+    files = [{"name": f"shot_{i}.png"} for i in range(3)]
+    assert bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="-2,0,2") == {"FINISHED"}
+    said = capfd.readouterr()
+    said = said.out + said.err
+    assert "PanoLight: shot_1.png: left out of the merge, the set holding without it" in said
+    assert "merged from 2 of 3 frames" in said
+
+
 def test_several_files_load_as_one_bracket_set_merged_as_on_the_command_line(tmp_path):
     """Load panorama with three frames selected: one background merged by the core (the CLI's numbers), whose sun,
     clipped in every frame, the estimate restores; a set whose exposures cannot be told apart, or that contradicts
