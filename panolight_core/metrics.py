@@ -34,8 +34,18 @@ def irr_rmse_maps(gt_irradiance: np.ndarray, pred_irradiance: np.ndarray) -> flo
                                    np.asarray(pred_irradiance, dtype=np.float64))
 
 
+def scale_defined(gt_coeffs) -> bool:
+    """Whether m-RMSE's median scaling means what it says for this truth: its radiance map reconstructed at the
+    coefficients' order has a positive median. A dominant sun or studio light rings at lmax 2, and over half the
+    sphere can go negative (8 of the 115 un-clipped real HDRs; Blender's sunrise); EVALUATION.md's s = median(G) /
+    median(Q) is then negative, and m-RMSE compares a sign-flipped estimate with the truth (so does the naive one's).
+    Studies report such scenes apart; the metric itself stays as EVALUATION.md defines it."""
+    return float(np.median(sh.reconstruct(np.asarray(gt_coeffs, dtype=np.float64), GRID_H, GRID_W))) > 0.0
+
+
 def m_rmse(gt_coeffs, pred_coeffs) -> float:
-    """Median-scaled, solid-angle weighted RMSE of the radiance maps, divided by the mean GT radiance."""
+    """Median-scaled, solid-angle weighted RMSE of the radiance maps, divided by the mean GT radiance (see
+    ``scale_defined`` for the truths whose median scale flips the estimate's sign)."""
     g = sh.reconstruct(np.asarray(gt_coeffs, dtype=np.float64), GRID_H, GRID_W)
     q = sh.reconstruct(np.asarray(pred_coeffs, dtype=np.float64), GRID_H, GRID_W)
     return _relative_weighted_rmse(g, q)

@@ -148,7 +148,8 @@ def score(hdr: np.ndarray, ev: float, model, variants=VARIANTS) -> dict:
     naive = sh.project(ldr_to_linear(ldr), 2)
     maps = sources.work_maps(ldr)
     row = {"ev": ev, "dominant": bool(ds["dominant"]), "naive": [metrics.m_rmse(gt, naive), metrics.irr_rmse(gt, naive)],
-           "variants": {}, "keys": {}, "spheres": {"naive": spheres.model_scores(true_spheres, naive, [], unit)}}
+           "scale_defined": metrics.scale_defined(gt), "variants": {}, "keys": {},
+           "spheres": {"naive": spheres.model_scores(true_spheres, naive, [], unit)}}
     for variant in variants:
         rule, *extras = variant.split("+")
         with decision_rule(rule):
@@ -188,7 +189,7 @@ def score_clipped(hdr: np.ndarray, stops: float, variants=VARIANTS, estimator: s
     pixels = np.minimum(truth, 2.0 ** stops).astype(np.float32)
     own = sh.project(pixels, 2)
     row = {"ev": stops, "dominant": bool(ds["dominant"]), "naive": [metrics.m_rmse(gt, own), metrics.irr_rmse(gt, own)],
-           "variants": {}, "keys": {}}
+           "scale_defined": metrics.scale_defined(gt), "variants": {}, "keys": {}}
     for variant in variants:
         rule, *extras = variant.split("+")
         with decision_rule(rule), disagreement("as-before" not in extras), lamps_decided("lamps-decided" in extras):
@@ -218,16 +219,23 @@ def _scene_job(args):
 
 def summary(rows: list[dict], variants) -> dict:
     """Per variant: harmed scenes (first), m-RMSE / naive median and mean over every scene and over those with a
-    dominant source, and the harmed scenes' names."""
+    dominant source, and the harmed scenes' names; and the same counts over the scenes whose truth m-RMSE's median
+    scale is defined for (``metrics.scale_defined``; "defined")."""
     out = {}
     for v in variants:
         ratio = [r["variants"][v][0] / r["naive"][0] for r in rows]
         dom = [r["variants"][v][0] / r["naive"][0] for r in rows if r["dominant"]]
         harmed = [r["scene"] for r in rows if metrics.harmed(r["variants"][v][0], r["naive"][0])]
+        ok = [r for r in rows if r.get("scale_defined", True)]
+        dom_ok = [r["variants"][v][0] / r["naive"][0] for r in ok if r["dominant"]]
         out[v] = {"harmed": len(harmed), "scenes": len(rows), "m_rmse_median": statistics.median(ratio),
                   "m_rmse_mean": statistics.mean(ratio), "dominant": len(dom),
                   "dominant_median": statistics.median(dom) if dom else None,
                   "dominant_mean": statistics.mean(dom) if dom else None, "harmed_scenes": harmed,
+                  "defined": {"scenes": len(ok), "harmed": sum(metrics.harmed(r["variants"][v][0], r["naive"][0])
+                                                               for r in ok),
+                              "dominant": len(dom_ok), "dominant_median": statistics.median(dom_ok) if dom_ok else None,
+                              "dominant_mean": statistics.mean(dom_ok) if dom_ok else None},
                   "spheres": spheres.score_medians([r["spheres"][v] for r in rows if v in r.get("spheres", {})])}
     if rows and all("naive" in r.get("spheres", {}) for r in rows):  # the scale: the naive projection's row
         out["naive"] = {"spheres": spheres.score_medians([r["spheres"]["naive"] for r in rows])}
@@ -274,15 +282,18 @@ def main(argv=None) -> int:
                 print(f"[{i}/{len(jobs)}] {r['scene']:28s} ev {r['ev']:+g}: naive {r['naive'][0]:.3f}  " + "  ".join(
                     f"{v} {r['variants'][v][0] / r['naive'][0]:.2f}x" for v in args.variants), flush=True)
     result = {"fold_models": args.fold_models, "summary": {}}
-    print("| ev | variant | harmed | scenes | m-RMSE / naive, median / mean | dominant: median / mean | harmed scenes |")
-    print("|---|---|---:|---:|---:|---:|---|")
+    print("| ev | variant | harmed | scenes | m-RMSE / naive, median / mean | dominant: median / mean | where the scale is "
+          "defined: harmed, dominant median / mean | harmed scenes |")
+    print("|---|---|---:|---:|---:|---:|---:|---|")
     for ev in ([args.clipped] if args.clipped is not None else args.evs):
         s = summary([r for r in rows if r["ev"] == ev], args.variants)
         result["summary"][f"{ev:+g}"] = s
         for v, x in s.items():
             if "harmed" in x:  # the naive projection's entry holds its spheres alone
+                d = x["defined"]
                 print(f"| {ev:+g} | `{v}` | {x['harmed']} | {x['scenes']} | {x['m_rmse_median']:.3f} / "
                       f"{x['m_rmse_mean']:.3f} | {x['dominant_median']:.3f} / {x['dominant_mean']:.3f} | "
+                      f"{d['harmed']} of {d['scenes']}, {d['dominant_median']:.3f} / {d['dominant_mean']:.3f} | "
                       f"{', '.join(x['harmed_scenes'])} |")
     if args.clipped is None:  # the three-sphere protocol, beside the published tables' (a different data set)
         for ev in args.evs:

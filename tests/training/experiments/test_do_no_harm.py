@@ -34,6 +34,12 @@ def test_a_scene_is_scored_under_each_variant_and_the_summary_counts_harm_first(
     s = do_no_harm.summary([low, high], ["shipped"])["shipped"]
     assert list(s)[0] == "harmed" and s["harmed"] == 1 and s["harmed_scenes"] == ["other"]
     assert metrics.harmed(high["variants"]["shipped"][0], high["naive"][0])
+    assert row["scale_defined"] and s["defined"]["harmed"] == 1 and s["defined"]["scenes"] == 2
+    flipped = dict(high, scale_defined=False)  # a truth whose lmax-2 median is negative: reported apart
+    d = do_no_harm.summary([low, flipped], ["shipped"])["shipped"]
+    assert d["harmed"] == 1 and d["defined"] == {"scenes": 1, "harmed": 0, "dominant": int(low["dominant"]),
+                                                 "dominant_median": 0.5 if low["dominant"] else None,
+                                                 "dominant_mean": 0.5 if low["dominant"] else None}
 
 
 def test_a_clipped_hdr_is_scored_against_the_file_as_it_is():
