@@ -52,6 +52,11 @@ def markdown(result: dict) -> str:
         means = [result["summary"][f"{n}@{ev:+g}"] for n in s["estimators"]]
         out.append("| **mean** | " + " | ".join(f"**{m['mean_m_rmse']:.3f} / {m['mean_irr_rmse']:.3f}**" for m in means) + " |")
         out += ["", "cells: m-RMSE / irr-RMSE / dominant-light angle in degrees (lower is better)", ""]
+    flipped = sorted({r["scene"] for r in result["rows"] if r.get("scale_defined") is False})
+    if flipped:
+        out += [f"m-RMSE's median scale flips on {', '.join(flipped)}: the truth's radiance at this order has a "
+                f"negative median (its source rings), so EVALUATION.md's s = median(G) / median(Q) compares a "
+                f"sign-flipped estimate there, naive's too (`metrics.scale_defined`).", ""]
     out += ["## Summary", "", "Baselines (ambient, naive) are projections; other estimators are scored as their whole "
             "model (lights + SH). Harmed (EVALUATION.md, first): scenes whose m-RMSE is over both 2x and + 0.25 "
             "naive's. Wins: scenes whose m-RMSE beats naive's.", "",

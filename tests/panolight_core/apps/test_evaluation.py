@@ -29,6 +29,7 @@ def test_eval_cli_subset(tmp_path, capsys):
     assert main(["eval", "-o", str(tmp_path), "--evs", "0", "--estimators", "naive", "--repeats", "1", "-q"]) == 0
     out = capsys.readouterr().out
     assert "| naive | +0 | 0 | 1.123 |" in out  # mean of the eight EVALUATION.md naive numbers
+    assert "m-RMSE's median scale flips on sunrise:" in out  # its truth's lmax-2 median is negative
 
 
 def test_eval_scores_trained_variants_by_label_and_names_bad_ones(tmp_path, capsys):
