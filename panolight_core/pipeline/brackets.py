@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import threads
-from ..camera.brackets import MIN_EXPOSURE_STEP, check_exposures, exposure, merge_brackets, same_picture
+from ..camera.agreement import same_picture
+from ..camera.brackets import MIN_EXPOSURE_STEP, check_exposures, exposure, merge_brackets
 from ..errors import PanoLightError, PanoLightWarning, naming
 from ..io.capture import read_exposure
 from ..io.images import RAW_FORMAT, read_image, sniff_format
@@ -213,7 +214,7 @@ def read_brackets(paths, evs=None, align: bool = True, **read_options) -> tuple[
 
 def _distinct(paths, frames, exposures):
     """(paths, frames, exposures, dropped) with each frame that is the same picture as the one before it in exposure
-    order (``camera.brackets.same_picture``: one frame listed under two exposures) left out, said in a warning
+    order (``camera.agreement.same_picture``: one frame listed under two exposures) left out, said in a warning
     naming both; PanoLightError when fewer than two distinct frames are left."""
     order = sorted(range(len(paths)), key=lambda i: exposures[i])
     keep, dropped = [order[0]], []

@@ -1029,13 +1029,12 @@ def test_a_frame_of_another_scene_in_a_loaded_set_is_left_out_and_reported(tmp_p
     artist is told which frame was left out and why (a warning in Blender's reports) and how many frames merged."""
     from panolight_core.camera import hdr_to_ldr
     from panolight_core.io import write_srgb8
-    from tests.panolight_core.estimators.sources.test_restore import _clear_day
-    from tests.panolight_core.pipeline.test_brackets import _city
+    from tests.panolight_core.pipeline.test_brackets import _city, _forest
 
-    truth, _, _ = _clear_day()
-    write_srgb8(tmp_path / "shot_0.png", hdr_to_ldr(truth, -2))
-    write_srgb8(tmp_path / "shot_1.png", hdr_to_ldr(_city(truth.shape[0]), 0))
-    write_srgb8(tmp_path / "shot_2.png", hdr_to_ldr(truth, 2))
+    city = _city(128)
+    write_srgb8(tmp_path / "shot_0.png", hdr_to_ldr(city, -2))
+    write_srgb8(tmp_path / "shot_1.png", hdr_to_ldr(_forest(128), 0))
+    write_srgb8(tmp_path / "shot_2.png", hdr_to_ldr(city, 2))
     files = [{"name": f"shot_{i}.png"} for i in range(3)]
     assert bpy.ops.panolight.load_panorama(directory=str(tmp_path), files=files, evs="-2,0,2") == {"FINISHED"}
     said = capfd.readouterr()

@@ -1,4 +1,4 @@
-"""Whether a bracket set's frames agree with their exposures (``camera.brackets.frame_agreement``), over the real
+"""Whether a bracket set's frames agree with their exposures (``camera.agreement.frame_agreement``), over the real
 HDRs: each scene's camera JPEGs (q90, EVALUATION.md's camera and three other tone curves, ``camera.TONE_CURVES``)
 at {-2, 0, +2} and {-4, -2, 0, +2, +4}, each frame against its neighbour in exposure (the pairs the check compares),
 as a set is taken and as a set goes wrong:
@@ -18,6 +18,7 @@ through sRGB, which a test of the exposures' values would read: a camera's own c
 exposure does (the exponential ambiguity of a response curve), so no such test ships.
 
     python -m training.experiments.bracket_agreement [--out docs/studies/bracket_agreement.json]
+    python -m training.experiments.bracket_agreement --sets --out docs/studies/bracket_sets.json   # one wrong frame
 """
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from panolight_core.camera import hdr_to_ldr
-from panolight_core.camera.brackets import (
+from panolight_core.camera.agreement import (
     AGREE_CODES,
     BAD_SET_CONTRADICTING,
     BAD_SET_CROSSING,
@@ -37,8 +38,8 @@ from panolight_core.camera.brackets import (
     Agreement,
     frame_agreement,
     other_scene,
-    shift_frame,
 )
+from panolight_core.camera.brackets import shift_frame
 from panolight_core.camera.color import SRGB8_TO_LINEAR
 from training.common.real_hdri import DEFAULT_HDRI, load_hdr, scene_files
 from training.common.study import save_study
@@ -78,6 +79,49 @@ def scene_rows(hdr, other, scene: str) -> list[dict]:
                          "compared": agree.compared, "rank_correlation": agree.rank_correlation,
                          "crossing": agree.crossing})
     return rows
+
+
+SET_EVS = (-4, -2, 0, 2, 4)
+
+
+def set_rows(hdr, other, scene: str) -> list[dict]:
+    """``--sets``: what ``consistent_frames`` does with a whole 5-frame set ({-4 .. +4}, through sRGB and the
+    contrast S-curve): as shot, and with each frame in turn taken from ``other`` at its exposure (a set grouped
+    across two scenes). Each row: (scene, curve, the wrong frame's position or None, outcome): "kept whole",
+    "left out the wrong frame", "left out a right frame", "refused"."""
+    from panolight_core.camera.agreement import consistent_frames
+    from panolight_core.errors import PanoLightError
+
+    rows = []
+    rel = np.array([2.0 ** ev for ev in SET_EVS])
+    for curve in CURVES[:2]:
+        name = curve[0] if curve[1] is None else f"{curve[0]} {curve[1]:g}"
+        shot = [frames_of(hdr, (ev,), curve)[ev] for ev in SET_EVS]
+        elsewhere = [frames_of(other, (ev,), curve)[ev] for ev in SET_EVS] if other is not None else None
+        for wrong in [None] + (list(range(len(SET_EVS))) if elsewhere is not None else []):
+            frames = [elsewhere[k] if k == wrong else f for k, f in enumerate(shot)]
+            try:
+                _, _, left = consistent_frames(frames, rel)
+                out = {d["frame"] for d in left}
+                outcome = ("kept whole" if not out else "left out the wrong frame" if out == {wrong}
+                           else "left out a right frame")
+            except PanoLightError:
+                outcome = "refused"
+            rows.append({"scene": scene, "curve": name, "wrong": wrong, "outcome": outcome})
+    return rows
+
+
+def set_summary(rows: list[dict]) -> list[str]:
+    """The ``--sets`` table: by case (the set as shot; the wrong frame at each position) the count of each outcome."""
+    outcomes = ("kept whole", "left out the wrong frame", "left out a right frame", "refused")
+    lines = ["| set | sets | " + " | ".join(outcomes) + " |", "|---|---:|" + "---:|" * len(outcomes)]
+    for wrong in [None] + list(range(len(SET_EVS))):
+        sel = [r for r in rows if r["wrong"] == wrong]
+        if sel:
+            case = "as shot" if wrong is None else f"the {SET_EVS[wrong]:+d} EV frame of another scene"
+            lines.append(f"| {case} | {len(sel)} | " + " | ".join(str(sum(r["outcome"] == o for r in sel))
+                                                             for o in outcomes) + " |")
+    return lines
 
 
 def srgb_stops_off(darker: np.ndarray, brighter: np.ndarray, stops: float) -> float:
@@ -152,6 +196,9 @@ def main(argv=None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--hdri", type=Path, default=DEFAULT_HDRI)
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--sets", action="store_true",
+                    help="whole 5-frame sets instead of pairs: as shot, and with one frame of another scene at each "
+                         "position; what consistent_frames keeps, leaves out or refuses")
     args = ap.parse_args(argv)
     files = scene_files(args.hdri)
     rows = []
@@ -159,8 +206,13 @@ def main(argv=None) -> int:
     for i, path in enumerate(files):
         other = next((hdrs[q] for q in files[i + 1:] + files[:i] if hdrs[q].shape == hdrs[path].shape),
                      None)  # a set's frames have one size
-        rows += scene_rows(hdrs[path], other, path.stem)
+        rows += (set_rows if args.sets else scene_rows)(hdrs[path], other, path.stem)
         print(f"[{i + 1}/{len(files)}] {path.stem}", flush=True)
+    if args.sets:
+        table = set_summary(rows)
+        print("\n".join(table))
+        save_study({"table": table, "rows": rows}, args.out)
+        return 0
     table = summary(rows)
     print("\n".join(table))
     save_study(evidence(rows, table), args.out)

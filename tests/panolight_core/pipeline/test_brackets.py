@@ -320,30 +320,37 @@ def test_a_phone_s_compensation_series_is_timed_by_its_exposure_bias(tmp_path, d
     assert "less than an eighth of a stop apart" in capsys.readouterr().err
 
 
-def test_a_frame_of_another_scene_amid_a_set_is_left_out_named_and_recorded(tmp_path, day, capsys):
-    """The clear day at -2 and +2 with Blender's city at 0 between them (a set grouped across two scenes): the city's
+def _forest(rows: int) -> np.ndarray:
+    """Blender's forest panorama at ``rows`` x 2 rows: another scene than the city's."""
+    from panolight_core.camera.resample import area_downsample
+    from panolight_core.data import load_studio_hdri
+
+    return area_downsample(load_studio_hdri("forest"), rows).astype(np.float32)
+
+
+def test_a_frame_of_another_scene_amid_a_set_is_left_out_named_and_recorded(tmp_path, capsys):
+    """Blender's city at -2 and +2 with the forest at 0 between them (a set grouped across two scenes): the forest's
     frame contradicts both neighbours and the set holds without it, so it is left out, named in a warning and in
-    lighting.json (``source.brackets.left_out``), and the day's two frames are merged and estimated."""
-    truth, _, _ = day
-    files = [_frame(tmp_path / "g0.jpg", hdr_to_ldr(truth, -2)),
-             _frame(tmp_path / "city.jpg", hdr_to_ldr(_city(truth.shape[0]), 0)),
-             _frame(tmp_path / "g2.jpg", hdr_to_ldr(truth, 2))]
+    lighting.json (``source.brackets.left_out``), and the city's two frames are merged and estimated."""
+    city, forest = _city(128), _forest(128)
+    files = [_frame(tmp_path / "c0.jpg", hdr_to_ldr(city, -2)), _frame(tmp_path / "forest.jpg", hdr_to_ldr(forest, 0)),
+             _frame(tmp_path / "c2.jpg", hdr_to_ldr(city, 2))]
     assert main(["estimate", *files, "--evs=-2,0,2", "-o", str(tmp_path / "out"), "-q"]) == 0
-    assert "city.jpg: left out of the merge, the set holding without it: city.jpg" in capsys.readouterr().err
+    assert "forest.jpg: left out of the merge, the set holding without it: forest.jpg" in capsys.readouterr().err
     b = json.loads((tmp_path / "out" / "lighting.json").read_text())["source"]["brackets"]
     assert [d["file"] for d in b["left_out"]] == [files[1]] and "does not show the scene" in b["left_out"][0]["why"]
     assert b["stops"] == pytest.approx([0, 2, 4], abs=0.01) and b["shifts"][1] is None
 
 
-def test_a_batch_estimates_a_frame_its_set_left_out_alone(tmp_path, day, capsys):
+def test_a_batch_estimates_a_frame_its_set_left_out_alone(tmp_path, capsys):
     """batch --brackets 3 over a set with another scene's frame amid it: the set is merged without it, and that frame,
     still a photo, is estimated alone in the set's folder; the report and the summary say so."""
-    truth, _, _ = day
+    city = _city(128)
     shots = tmp_path / "shots"
     shots.mkdir()
-    _frame(shots / "s_0.jpg", hdr_to_ldr(truth, -2))
-    _frame(shots / "s_1.jpg", hdr_to_ldr(_city(truth.shape[0]), 0))
-    _frame(shots / "s_2.jpg", hdr_to_ldr(truth, 2))
+    _frame(shots / "s_0.jpg", hdr_to_ldr(city, -2))
+    _frame(shots / "s_1.jpg", hdr_to_ldr(_forest(128), 0))
+    _frame(shots / "s_2.jpg", hdr_to_ldr(city, 2))
     out = tmp_path / "out"
     assert main(["batch", str(shots), "-o", str(out), "--brackets", "3", "--evs", "-2,0,2", "--jobs", "1"]) == 0
     (r,) = json.loads((out / "batch_report.json").read_text())["results"]
