@@ -157,9 +157,9 @@ def consistent_frames(frames, rel: np.ndarray, names=None) -> tuple[list[int], l
     indices in exposure order, the ``Agreement`` of each pair of kept neighbours, darker first, and the frame left
     out: [{"frame": index, "why": one line}] or []). One frame of a failing pair is left out where that alone makes
     the set hold: no pair of the rest fails (``_verdict``) nor crosses its resolved steps, and where it had a neighbour
-    on each side, those two are shown to be one scene (compared, passing, their resolved steps keeping their sign):
-    an untested gap vouches for nothing. PanoLightError with the set's first failing pair where no one frame, or two, would do (frames listed in
-    reverse, a set of two, two halves that each hold, two wrong frames)."""
+    on each side, those two are shown to be one scene (compared, ranking alike, their resolved steps keeping their
+    sign): an untested gap vouches for nothing. PanoLightError with the set's first failing pair where no one frame
+    does, or two would (frames listed in reverse, a set of two, two halves that each hold, two wrong frames)."""
     names = [f"frame {i + 1}" for i in range(len(frames))] if names is None else [str(n) for n in names]
     codes = [block_codes(f) for f in frames]
     cache = {}
@@ -213,24 +213,6 @@ def consistent_frames(frames, rel: np.ndarray, names=None) -> tuple[list[int], l
         kept.remove(k)
         return kept, [agreement(i, j) for i, j in zip(kept[:-1], kept[1:])], [{"frame": k, "why": why}]
     return kept, [agreement(i, j) for i, j in zip(kept[:-1], kept[1:])], []
-
-
-def check_agreement(frames, rel: np.ndarray, names=None) -> list[Agreement]:
-    """The ``Agreement`` of each pair of (aligned) 8-bit ``frames`` neighbours in exposure (``rel``: relative
-    exposures), darker first. PanoLightError in one line naming the first pair that cannot be merged (``_verdict``):
-    merged, it makes a wrong HDR with no sign of it. ``consistent_frames`` leaves such a frame out instead where it
-    can."""
-    names = [f"frame {i + 1}" for i in range(len(frames))] if names is None else [str(n) for n in names]
-    order = np.argsort(rel, kind="stable")
-    codes = [block_codes(f) for f in frames]
-    found = []
-    for i, j in zip(order[:-1], order[1:]):
-        agree = block_agreement(codes[i], codes[j], float(rel[j] / rel[i]))
-        found.append(agree)
-        why = _verdict(agree, names[i], names[j], math.log2(float(rel[j] / rel[i])))
-        if why is not None:
-            raise PanoLightError(why)
-    return found
 
 
 SAME_PICTURE_CODES = 1.0  # two frames whose blocks differ by less than this (median, in codes) are one picture: a

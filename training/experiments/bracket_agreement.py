@@ -10,7 +10,7 @@ as a set is taken and as a set goes wrong:
 - one stop off: the +2 frame shot at +3;
 - another scene: the ev -2 and +2 frames of the next scene of the same size (a set grouped across two scenes).
 
-Prints, by case and curve, the pairs ``check_agreement`` refuses, and the share of contradicting blocks, the rank
+Prints, by case and curve, the pairs the merge refuses (``camera.agreement._verdict``), and the share of contradicting blocks, the rank
 correlation and the share of crossing steps (median, and the worst for the check: the right sets' largest and
 smallest, the wrong ones' opposite), where the refusal's thresholds (``BAD_SET_CONTRADICTING``, ``BAD_SET_RANK``,
 ``BAD_SET_CROSSING``) stand between them; and the stops off
@@ -138,7 +138,7 @@ def srgb_stops_off(darker: np.ndarray, brighter: np.ndarray, stops: float) -> fl
 
 
 def refused(row: dict) -> bool:
-    """Whether ``check_agreement`` refuses the pair of ``row`` (the shipped thresholds)."""
+    """Whether the merge refuses the pair of ``row`` (``camera.agreement._verdict``, the shipped thresholds)."""
     agree = Agreement(row["contradicting"], row["rank_correlation"], row["compared"], row.get("crossing"))
     return row["compared"] >= MIN_AGREE_BLOCKS and (row["contradicting"] > BAD_SET_CONTRADICTING or other_scene(agree))
 

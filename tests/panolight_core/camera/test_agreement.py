@@ -18,7 +18,7 @@ def test_frames_that_contradict_their_exposures_or_show_another_scene_are_left_o
     left out, said in a warning and the record, and the rest merged as a set of their own; a pair with the forest's
     frame is refused (no set holds without it). A wrong step (a 1-stop set told 2) is not caught: a camera's steeper
     curve reads the same."""
-    from panolight_core.camera.agreement import check_agreement
+    from panolight_core.camera.agreement import consistent_frames
     from panolight_core.camera.resample import area_downsample
     from panolight_core.data import load_studio_hdri
 
@@ -43,11 +43,11 @@ def test_frames_that_contradict_their_exposures_or_show_another_scene_are_left_o
                                              r"scene frame 1 shows"):
         merge_brackets(mixed[1:], [1.0, 4.0])
     one_stop = [hdr_to_ldr(city, ev, 90) for ev in (-1, 0, 1)]
-    assert len(check_agreement(one_stop, np.array([0.25, 1.0, 4.0]))) == 2  # passes: see the docstring
+    assert len(consistent_frames(one_stop, np.array([0.25, 1.0, 4.0]))[1]) == 2  # passes: see the docstring
     flat = np.full((16, 32, 3), 120, np.uint8)  # too few pixels to compare, or codes to rank: no test, no refusal
-    assert check_agreement([flat, flat + 60], np.array([1.0, 4.0]))[0].compared == 16 * 32
+    assert consistent_frames([flat, flat + 60], np.array([1.0, 4.0]))[1][0].compared == 16 * 32
     wall = np.full((64, 64, 3), 120, np.uint8)
-    assert check_agreement([wall, wall + 60], np.array([1.0, 4.0]))[0].rank_correlation is None
+    assert consistent_frames([wall, wall + 60], np.array([1.0, 4.0]))[1][0].rank_correlation is None
 
 
 def test_block_codes_are_the_brightest_channel_s_block_means_on_the_sampled_grid():
@@ -75,7 +75,7 @@ def test_a_still_pair_far_apart_through_an_s_curve_is_one_scene_and_a_studio_rel
         BAD_SET_CROSSING,
         BAD_SET_RANK,
         STILL_CONTRADICTING,
-        check_agreement,
+        consistent_frames,
         frame_agreement,
     )
     from panolight_core.data import load_studio_hdri
@@ -86,7 +86,8 @@ def test_a_still_pair_far_apart_through_an_s_curve_is_one_scene_and_a_studio_rel
     for seed in range(3):
         rng = np.random.default_rng(seed)
         pair = [hdr_to_ldr(sunset, scale=k * 2.0 ** s, jpeg_quality=90, noise=rng, curve="contrast") for s in (0, 3.5)]
-        agree = check_agreement(pair, np.array([1.0, 2.0 ** 3.5]))[0]  # no refusal
+        kept, (agree,), out = consistent_frames(pair, np.array([1.0, 2.0 ** 3.5]))  # no refusal
+        assert kept == [0, 1] and out == []
         assert agree.rank_correlation < BAD_SET_RANK and agree.crossing < 0.2 and agree.contradicting == 0.0
     merged, _ = merge_brackets(pair, [1.0, 2.0 ** 3.5])
     assert np.isfinite(merged).all()
