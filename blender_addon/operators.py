@@ -173,8 +173,8 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
                 if issubclass(w.category, errors.PanoLightWarning):
                     self.report({"WARNING"}, f"PanoLight: {w.message}")
             used = len(chosen) - len(info.get("left_out", ()))
-            return self._show(context, image, f" merged from {used if used < len(chosen) else ''}"
-                                              f"{' of ' if used < len(chosen) else ''}{len(chosen)} frames "
+            count = f"{used} of {len(chosen)}" if used < len(chosen) else f"{len(chosen)}"
+            return self._show(context, image, f" merged from {count} frames "
                                               f"({', '.join(f'{v:+g}' for v in info['stops'])} stops)")
         path = Path(bpy.path.abspath(self.filepath))
         if not path.is_file():

@@ -222,6 +222,8 @@ def _without(left_out: list[dict], frames, e: np.ndarray, names, **options) -> t
         warnings.warn(PanoLightWarning(f"{label[d['frame']]}: left out of the merge, the set holding without it: "
                                        f"{d['why']}"), stacklevel=3)
     merged, info = merge_brackets([frames[i] for i in keep], e[keep], names=[label[i] for i in keep], **options)
+    if "left_out" in info:  # aligned again about another reference, the rest would leave out one more: no set holds
+        raise PanoLightError(left_out[0]["why"])
     ref = keep[info["reference"]]
     info.update(reference=ref, stops=[round(math.log2(float(v / e[ref])), 4) for v in e],
                 left_out=[{"frame": d["frame"], "why": d["why"]} for d in left_out])
