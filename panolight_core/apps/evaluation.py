@@ -76,7 +76,8 @@ def run(scenes=STUDIO_HDRIS, evs=(-2.0, 0.0, 2.0), estimators=None, lmax: int = 
                     hdri_m = metrics.m_rmse(gt, sh.project(pano, lmax))
                     if dominant:  # the dominant source's energy ratio, on hdr.exr at the truth's resolution
                         ratio = metrics.source_energy_ratio(hdr, pano, true_dir)
-                rows.append({"scene": scene, "ev": ev, "estimator": name, "hdri_m_rmse": hdri_m, "scale_defined": defined,
+                rows.append({"scene": scene, "ev": ev, "estimator": name, "hdri_m_rmse": hdri_m,
+                             "scale_defined": defined,
                              "m_rmse": metrics.m_rmse(gt, coeffs), "irr_rmse": metrics.irr_rmse(gt, coeffs),
                              "light_angle_deg": None if d is None else metrics.angle_deg(true_dir, d),
                              "sun_share": share, "true_sun_share": true_share if scene in SUN_SCENES else None,

@@ -347,7 +347,8 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
                  **({"response": curve.describe()} if linear is None else {}),
                  "clipped_in_every_frame": clipped / float(out.shape[0] * out.shape[1]),
                  "agreement": [{"contradicting": round(a.contradicting, 4), "compared": a.compared,
-                                "rank_correlation": None if a.rank_correlation is None else round(a.rank_correlation, 4),
+                                "rank_correlation": (None if a.rank_correlation is None
+                                                     else round(a.rank_correlation, 4)),
                                 "crossing": None if a.crossing is None else round(a.crossing, 4)}
                                for a in agreement],
                  **({"shifts": [[int(dy), int(dx)] for dy, dx in shifts]} if align else {})}

@@ -161,9 +161,10 @@ def shown_by_a_frame(frames, exposures, table: np.ndarray) -> np.ndarray:
     channel's code within WELL_EXPOSED) and over FIREFLY_RATIO / 2 x the median of its 5 x 5 neighbourhood, decoded
     through the set's camera curve ``table`` (code -> linear); and lamps only the darkest frame can hold: pixels it
     holds over its well-exposed codes (which a merge can only put near its white or above), or shows as such a point
-    where every other frame clips (brightest channel over WELL_EXPOSED: the brighter frames agree it is bright). A merge's firefly there is the scene's own (a lit speck of a window), not the merge's: the
-    real sets' "spurious" count leaves them out. (One frame alone is no evidence: a speck of dust on one scan is a
-    bright point of that frame.)"""
+    where every other frame clips (brightest channel over WELL_EXPOSED: the brighter frames agree it is bright). A
+    merge's firefly there is the scene's own (a lit speck of a window), not the merge's: the real sets' "spurious"
+    count leaves them out. (One frame alone is no evidence elsewhere: a speck of dust on one scan is a bright point
+    of that frame.)"""
     shown = np.zeros(frames[0].shape[:2], np.uint8)
     lut = np.asarray(table, dtype=np.float64)
     dark = int(np.argmin(exposures))

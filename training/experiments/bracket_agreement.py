@@ -10,11 +10,10 @@ as a set is taken and as a set goes wrong:
 - one stop off: the +2 frame shot at +3;
 - another scene: the ev -2 and +2 frames of the next scene of the same size (a set grouped across two scenes).
 
-Prints, by case and curve, the pairs the merge refuses (``camera.agreement._verdict``), and the share of contradicting blocks, the rank
-correlation and the share of crossing steps (median, and the worst for the check: the right sets' largest and
-smallest, the wrong ones' opposite), where the refusal's thresholds (``BAD_SET_CONTRADICTING``, ``BAD_SET_RANK``,
-``BAD_SET_CROSSING``) stand between them; and the stops off
-through sRGB, which a test of the exposures' values would read: a camera's own curve moves it as far as a wrong
+Prints, by case and curve, the pairs the merge refuses (``camera.agreement._verdict``), and the share of
+contradicting blocks, the rank correlation and the share of crossing steps (median, and the worst for the check: the
+right sets' largest and smallest, the wrong ones' opposite), where the refusal's thresholds
+(``BAD_SET_CONTRADICTING``, ``BAD_SET_RANK``, ``BAD_SET_CROSSING``) stand between them; and the stops off through sRGB, which a test of the exposures' values would read: a camera's own curve moves it as far as a wrong
 exposure does (the exponential ambiguity of a response curve), so no such test ships.
 
     python -m training.experiments.bracket_agreement [--out docs/studies/bracket_agreement.json]
@@ -153,7 +152,8 @@ def refused_by_rank(row: dict) -> bool:
 def summary(rows: list[dict]) -> list[str]:
     """The table: by case and curve, the pairs refused, and each measure's median and worst case for the check
     (the right sets' largest contradicting share and smallest correlation, the wrong ones' opposite)."""
-    lines = ["| case | curve | pairs | refused (by the rank alone) | contradicting: median, worst | rank correlation: median, worst "
+    lines = ["| case | curve | pairs | refused (by the rank alone) | contradicting: median, worst "
+             "| rank correlation: median, worst "
              "| crossing steps: median, worst | stops off through sRGB: median, worst |",
              "|---|---|---:|---:|---:|---:|---:|---:|"]
     for case in dict.fromkeys(r["case"] for r in rows):
@@ -166,7 +166,8 @@ def summary(rows: list[dict]) -> list[str]:
                               if r["compared"] >= MIN_AGREE_BLOCKS and r.get("crossing") is not None])
             off = np.abs([r["stops_off"] for r in sel])
             right = case.startswith("right")
-            lines.append(f"| {case} | {curve} | {len(sel)} | {sum(map(refused, sel))} ({sum(map(refused_by_rank, sel))}) | "
+            lines.append(f"| {case} | {curve} | {len(sel)} | {sum(map(refused, sel))} "
+                         f"({sum(map(refused_by_rank, sel))}) | "
                          f"{np.median(c):.3f}, {(c.max() if right else c.min()):.3f} | "
                          f"{np.median(rho):.3f}, {(rho.min() if right else rho.max()):.3f} | "
                          + (f"{np.median(cross):.3f}, {(cross.max() if right else cross.min()):.3f} | " if cross.size

@@ -282,7 +282,8 @@ def main(argv=None) -> int:
                 print(f"[{i}/{len(jobs)}] {r['scene']:28s} ev {r['ev']:+g}: naive {r['naive'][0]:.3f}  " + "  ".join(
                     f"{v} {r['variants'][v][0] / r['naive'][0]:.2f}x" for v in args.variants), flush=True)
     result = {"fold_models": args.fold_models, "summary": {}}
-    print("| ev | variant | harmed | scenes | m-RMSE / naive, median / mean | dominant: median / mean | where the scale is "
+    print("| ev | variant | harmed | scenes | m-RMSE / naive, median / mean | dominant: median / mean "
+          "| where the scale is "
           "defined: harmed, dominant median / mean | harmed scenes |")
     print("|---|---|---:|---:|---:|---:|---:|---|")
     for ev in ([args.clipped] if args.clipped is not None else args.evs):

@@ -314,7 +314,8 @@ def test_a_phone_s_compensation_series_is_timed_by_its_exposure_bias(tmp_path, d
     assert main(["estimate", *files, "-o", str(tmp_path / "out"), "-q"]) == 0
     assert "p1.jpg: records the exposure of p0.jpg though its exposure bias is -1 EV" in capsys.readouterr().err
     b = json.loads((tmp_path / "out" / "lighting.json").read_text())["source"]["brackets"]
-    assert b["exposures_from"].startswith("EXIF exposure bias") and b["stops"] == pytest.approx([-1, 0, 1, 2], abs=0.01)  # about the -1 EV frame
+    assert b["exposures_from"].startswith("EXIF exposure bias")
+    assert b["stops"] == pytest.approx([-1, 0, 1, 2], abs=0.01)  # about the -1 EV frame
     bare = [_frame(tmp_path / f"q{i}.jpg", hdr_to_ldr(truth, ev), t, 1.8, 100) for i, (ev, t) in enumerate(shots)]
     assert main(["estimate", *bare, "-o", str(tmp_path / "bare"), "-q"]) != 0
     assert "less than an eighth of a stop apart" in capsys.readouterr().err
