@@ -13,8 +13,9 @@ as a set is taken and as a set goes wrong:
 Prints, by case and curve, the pairs the merge refuses (``camera.agreement._verdict``), and the share of
 contradicting blocks, the rank correlation and the share of crossing steps (median, and the worst for the check: the
 right sets' largest and smallest, the wrong ones' opposite), where the refusal's thresholds
-(``BAD_SET_CONTRADICTING``, ``BAD_SET_RANK``, ``BAD_SET_CROSSING``) stand between them; and the stops off through sRGB, which a test of the exposures' values would read: a camera's own curve moves it as far as a wrong
-exposure does (the exponential ambiguity of a response curve), so no such test ships.
+(``BAD_SET_CONTRADICTING``, ``BAD_SET_RANK``, ``BAD_SET_CROSSING``) stand between them; and the stops off through
+sRGB, which a test of the exposures' values would read: a camera's own curve moves it as far as a wrong exposure does
+(the exponential ambiguity of a response curve), so no such test ships.
 
     python -m training.experiments.bracket_agreement [--out docs/studies/bracket_agreement.json]
     python -m training.experiments.bracket_agreement --sets --out docs/studies/bracket_sets.json   # one wrong frame
