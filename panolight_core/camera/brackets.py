@@ -319,9 +319,10 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
             w[lost[i]] = 0.0  # a JPEG's ringing round a clipped edge is no measure of the light there
             return w
 
-        dropped = outlying_frames(frame_weight, top, radiance, sure, ref) if ghosts else None
+        ws = [frame_weight(i) for i in range(len(frames))]  # once per block: the outlier test reads them too
+        dropped = outlying_frames(ws.__getitem__, top, radiance, sure, ref) if ghosts else None
         for i, frame in enumerate(frames):
-            w = frame_weight(i)
+            w = ws[i]
             if dropped is not None and dropped[i] is not None:
                 w[dropped[i]] = 0.0
             if linear is None:
