@@ -14,3 +14,19 @@ def median_seconds(fn, repeats: int) -> float:
         fn()
         times.append(time.perf_counter() - t)
     return statistics.median(times)
+
+
+def interleaved_medians(fns: dict, repeats: int) -> dict:
+    """{name: median wall time of ``fns[name]()``} over ``repeats`` rounds, each round running every one once in
+    turn, after one warm-up round: a noisy machine's slow minute falls on all of them alike, where timing one after
+    the other puts it on whichever ran then."""
+    for fn in fns.values():
+        fn()
+    times = {name: [] for name in fns}
+    for _ in range(repeats):
+        for name, fn in fns.items():
+            t = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - t)
+    return {name: statistics.median(v) for name, v in times.items()}
+

@@ -3,8 +3,8 @@ kind of capture takes from its files to the estimate, beside how right it comes 
 
 Time: one real sunlit scene (../shared/data/hdri, upsampled 2x to 2048 x 1024) as each capture hands it to
 ``panolight estimate``, timed from the files to ``estimate_lighting``'s result (the default estimator; medians of
---repeats runs after a warm-up, ``training.benchmarks.median_seconds``, one capture after the other, all in this
-process):
+--repeats rounds after a warm-up, each round running every capture once in turn,
+``training.benchmarks.interleaved_medians``, all in this process):
 
 - one JPEG: EVALUATION.md's camera at ev 0 (q90);
 - 3 and 5 brackets: the camera's JPEGs at {-2, 0, +2} and {-4 .. +4}, merged (``pipeline.brackets.read_brackets``);
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from training.benchmarks import median_seconds
+from training.benchmarks import interleaved_medians
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "studies"
 # capture -> its row in the captures study (docs/studies/captures.json, or captures_raw.json for the RAW)
@@ -136,8 +136,8 @@ def main(argv=None) -> int:
 
     with tempfile.TemporaryDirectory() as tmp:
         readers = capture_readers(Path(tmp), args.scene)
-        times = {name: median_seconds(lambda r=read: estimate_lighting(r()), args.repeats)
-                 for name, read in readers.items()}
+        times = interleaved_medians({name: (lambda r=read: estimate_lighting(r())) for name, read in readers.items()},
+                                    args.repeats)
     summary = study_rows(args.captures, args.raw)
     print(f"{args.scene} at 2048 x 1024, medians of {args.repeats}")
     print("\n".join(table(times, summary)))
