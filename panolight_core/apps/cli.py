@@ -113,17 +113,18 @@ class _exr_threads:
     loaders) must not inherit a library thread pool, which hangs in the child."""
 
     def __enter__(self):
-        import OpenEXR
-
         from .. import threads
 
-        self.before = OpenEXR.global_thread_count()
-        OpenEXR.set_global_thread_count(threads.cpus())
+        # the run's first import of OpenEXR, with Ctrl-C and SIGTERM held (``threads.optional_module``): a signal
+        # inside its initialisation made it an ImportError with a traceback (a CI run's random-moment interrupt)
+        self.exr = threads.optional_module("OpenEXR")
+        if self.exr is not None:
+            self.before = self.exr.global_thread_count()
+            self.exr.set_global_thread_count(threads.cpus())
 
     def __exit__(self, *exc):
-        import OpenEXR
-
-        OpenEXR.set_global_thread_count(self.before)
+        if self.exr is not None:
+            self.exr.set_global_thread_count(self.before)
         return False
 
 
