@@ -297,8 +297,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", nargs="+",
                    help="panorama file (equirectangular, width = 2 x height; a stitched one, not two fisheye "
                         "circles); several 8-bit files or several RAWs: a bracket set of one scene at different "
-                        "exposures, merged into one HDR first (its exposures from each file's EXIF, or --evs; 8-bit "
-                        "frames through their camera's own curve where it can be told from sRGB)")
+                        "exposures, merged into one HDR first (its exposures from each file's EXIF, or --evs; a "
+                        "phone's repeated exposures from its exposure bias; 8-bit frames through their camera's own "
+                        "curve where it can be told from sRGB). A frame of another scene amid the set is left out, "
+                        "with a warning naming it, where the rest hold without it")
     p.add_argument("--evs", type=estimate_settings.argparse_type(parse_evs), default=None, metavar="EV,EV,...",
                    help="a bracket set's exposures in stops, one per file in their order (e.g. -2,0,2), where the "
                         "files' EXIF lacks or misstates them")
