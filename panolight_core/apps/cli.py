@@ -110,13 +110,12 @@ def run_estimate(args) -> int:
 class _exr_threads:
     """One estimate may use every CPU for OpenEXR's compression of a large hdr.exr (PIZ at 16K: 5.4 ->
     4.3 s on 2 CPUs). The pool is stopped afterwards: a process that forks later (batch workers, data
-    loaders) must not inherit a library thread pool, which hangs in the child."""
+    loaders) must not inherit a library thread pool, which hangs in the child. The run's first import of OpenEXR
+    holds Ctrl-C and SIGTERM (``threads.optional_module``): a signal in its initialisation made an ImportError."""
 
     def __enter__(self):
         from .. import threads
 
-        # the run's first import of OpenEXR, with Ctrl-C and SIGTERM held (``threads.optional_module``): a signal
-        # inside its initialisation made it an ImportError with a traceback (a CI run's random-moment interrupt)
         self.exr = threads.optional_module("OpenEXR")
         if self.exr is not None:
             self.before = self.exr.global_thread_count()
@@ -297,10 +296,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", nargs="+",
                    help="panorama file (equirectangular, width = 2 x height; a stitched one, not two fisheye "
                         "circles); several 8-bit files or several RAWs: a bracket set of one scene at different "
-                        "exposures, merged into one HDR first (its exposures from each file's EXIF, or --evs; a "
-                        "phone's repeated exposures from its exposure bias; 8-bit frames through their camera's own "
-                        "curve where it can be told from sRGB). A frame of another scene amid the set is left out, "
-                        "with a warning naming it, where the rest hold without it")
+                        "exposures, merged into one HDR first (exposures from the EXIF, a phone's from its bias, or "
+                        "--evs; 8-bit frames through the camera's own curve where it differs from sRGB). A frame of "
+                        "another scene amid the set is left out and named, where the rest hold without it")
     p.add_argument("--evs", type=estimate_settings.argparse_type(parse_evs), default=None, metavar="EV,EV,...",
                    help="a bracket set's exposures in stops, one per file in their order (e.g. -2,0,2), where the "
                         "files' EXIF lacks or misstates them")
