@@ -784,3 +784,24 @@ def test_options_with_negative_values_are_taken_as_typed():
         "--sun-direction=-1,0,0"
     assert attach_negative_values(parser, ["estimate", "-q", "-o", "out"]) == ["estimate", "-q", "-o", "out"]
     assert attach_negative_values(parser, ["batch", "in", "--exposure", "-.5"])[-1] == "--exposure=-.5"
+
+
+def test_the_run_s_first_openexr_import_holds_the_signals(monkeypatch):
+    """A SIGTERM inside the run's first import of OpenEXR made it an ImportError with a traceback (CI's random-moment
+    interrupt test, once): the import goes through ``threads.optional_module``, which holds SIGINT and SIGTERM until
+    it ends, and the thread count is set and put back on the module it returned."""
+    import types
+
+    from panolight_core import threads
+    from panolight_core.apps import cli
+
+    calls = []
+    fake = types.SimpleNamespace(count=3, global_thread_count=lambda: fake.count,
+                                 set_global_thread_count=lambda n: setattr(fake, "count", n))
+    monkeypatch.setattr(threads, "optional_module", lambda name: calls.append(name) or fake)
+    with cli._exr_threads():
+        assert fake.count == threads.cpus()
+    assert calls == ["OpenEXR"] and fake.count == 3
+    monkeypatch.setattr(threads, "optional_module", lambda name: None)  # not installed: nothing to set
+    with cli._exr_threads():
+        pass
