@@ -9,7 +9,8 @@ curve) on the same frames and exposures:
   the EVALUATION.md ev-0 exposure times 2^s for each s of ``--stops``, photon and read noise
   (``camera.sensor_noise``: a small sensor's), the sRGB curve, JPEG q90;
 - **real**: ``--frames DIR``, a folder of a real set's frames (8-bit, one scene) with their exposure times: from
-  EXIF, or from a ``shutter_times.txt`` beside them (one time per line, in seconds or as 1/N, frames in name order,
+  EXIF as ``panolight estimate`` reads them (``pipeline.brackets.bracket_exposures``: a phone's repeated exposures
+  from its exposure bias), or from a ``shutter_times.txt`` beside them (one time per line, in seconds or as 1/N, frames in name order,
   as Debevec's memorial set carries them). Never copied into the repository.
 
 Scores (``score``):
@@ -64,10 +65,12 @@ def camera_set(hdr: np.ndarray, stops, seed: int = 0):
 
 def read_set(folder: Path):
     """(frames, exposure times in s, names) of a real set in ``folder``: its 8-bit frames in name order, timed by a
-    shutter_times.txt beside them or by their EXIF. SystemExit naming what is missing."""
+    shutter_times.txt beside them or by their EXIF as ``panolight estimate`` reads it. SystemExit naming what is
+    missing."""
     from PIL import Image
 
-    from panolight_core.io.capture import read_exposure
+    from panolight_core.errors import PanoLightError
+    from panolight_core.pipeline.brackets import bracket_exposures
 
     names = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".jpg", ".jpeg", ".png", ".tif", ".tiff"))
     if not names:
@@ -75,12 +78,11 @@ def read_set(folder: Path):
     listed = folder / "shutter_times.txt"
     if listed.is_file():
         times = [float(Fraction(line.strip())) for line in listed.read_text().split() if line.strip()]
-    else:
-        found = [read_exposure(p) for p in names]
-        if any(f is None for f in found):
-            raise SystemExit(f"--frames {folder}: {names[found.index(None)].name} records no exposure and there is no "
-                             f"shutter_times.txt")
-        times = [f["time_s"] * f["iso"] / f["f_number"] ** 2 for f in found]
+    else:  # as panolight estimate reads them (a phone's repeated exposures from its bias)
+        try:
+            times = bracket_exposures(names)[0]
+        except PanoLightError as exc:
+            raise SystemExit(f"--frames {folder}: {exc} (or give a shutter_times.txt)") from None
     if len(times) != len(names):
         raise SystemExit(f"--frames {folder}: {len(names)} frames but {len(times)} exposure times")
     frames = [np.asarray(Image.open(p).convert("RGB")) for p in names]  # any shape: a merge needs no panorama
