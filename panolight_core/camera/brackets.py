@@ -63,13 +63,23 @@ def exposure(time_s: float, f_number: float, iso: float) -> float:
     return float(time_s) * float(iso) / float(f_number) ** 2
 
 
+def one_exposure(a: float, b: float) -> bool:
+    """Whether two relative exposures are one (within MIN_EXPOSURE_STEP of each other)."""
+    return max(a, b) / min(a, b) < MIN_EXPOSURE_STEP
+
+
+def told_apart(exposures) -> bool:
+    """Whether no two of the positive ``exposures`` are one (``one_exposure``)."""
+    s = np.sort(np.asarray(exposures, dtype=np.float64))
+    return bool(np.all(s[1:] / s[:-1] >= MIN_EXPOSURE_STEP))
+
+
 def check_exposures(exposures) -> np.ndarray:
     """(n,) float64 relative exposures, each pair at least MIN_EXPOSURE_STEP apart; else PanoLightError."""
     e = np.asarray(exposures, dtype=np.float64)
     if e.ndim != 1 or e.size < 2 or not np.all(np.isfinite(e)) or np.any(e <= 0):
         raise PanoLightError(f"a bracket set needs two or more positive exposures, got {list(exposures)}")
-    s = np.sort(e)
-    if np.any(s[1:] / s[:-1] < MIN_EXPOSURE_STEP):
+    if not told_apart(e):
         raise PanoLightError("two frames of the set have exposures less than an eighth of a stop apart "
                              f"(relative exposures {', '.join(f'{v:.4g}' for v in e)}): a bracket set's exposures "
                              f"must differ (give them with --evs if the files' EXIF is wrong: a phone compensating "

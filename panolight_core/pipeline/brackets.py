@@ -12,7 +12,7 @@ import numpy as np
 
 from .. import threads
 from ..camera.agreement import same_picture
-from ..camera.brackets import MIN_EXPOSURE_STEP, check_exposures, exposure, merge_brackets
+from ..camera.brackets import check_exposures, exposure, merge_brackets, one_exposure, told_apart
 from ..errors import PanoLightError, PanoLightWarning, naming
 from ..io.capture import read_exposure
 from ..io.images import RAW_FORMAT, read_image, sniff_format
@@ -107,7 +107,7 @@ def group_by_exposure(files, align: bool = True) -> list:
         e, time_s, taken = exif_shot(path, "which --brackets auto groups the files by; give --brackets N and --evs "
                                            "instead")
         later = taken is not None and ended is not None and taken - ended > BRACKET_GAP_S
-        if later or any(max(e, v) / min(e, v) < MIN_EXPOSURE_STEP for v in seen):
+        if later or any(one_exposure(e, v) for v in seen):
             sets.append(current)
             current, seen = [], []
         current.append(path)
@@ -142,7 +142,7 @@ def bracket_exposures(paths, evs=None) -> tuple[list[float], str]:
     else:
         found = [exif_exposure(p, "; give every frame's exposure with --evs (e.g. --evs -2,0,2)") for p in paths]
         origin = "EXIF (ExposureTime x ISO / FNumber^2)"
-        biased = None if _told_apart(found) else _by_bias(paths, found)
+        biased = None if told_apart(found) else _by_bias(paths, found)
         if biased is not None:
             found, origin = biased, BIAS_ORIGIN
     check_exposures(found)
@@ -152,21 +152,16 @@ def bracket_exposures(paths, evs=None) -> tuple[list[float], str]:
 BIAS_ORIGIN = "EXIF exposure bias (ExposureBiasValue; its ExposureTime x ISO / FNumber^2 repeat)"
 
 
-def _told_apart(exposures) -> bool:
-    s = np.sort(np.asarray(exposures, dtype=np.float64))
-    return bool(np.all(s[1:] / s[:-1] >= MIN_EXPOSURE_STEP))
-
-
 def _by_bias(paths, exposures) -> list[float] | None:
     """2^bias of each frame where the frames' recorded exposures repeat but every one records an exposure bias and
     the biases tell them apart: a phone compensating past its shortest shutter and lowest ISO records one exposure
     for frames its bias set apart (a gain it does not record). Said in a warning naming two such files; None where
     the biases cannot stand in (one missing, or two alike: the set is refused as it was)."""
     biases = [(read_exposure(p) or {}).get("bias_ev") for p in paths]
-    if any(b is None for b in biases) or not _told_apart([2.0 ** b for b in biases]):
+    if any(b is None for b in biases) or not told_apart([2.0 ** b for b in biases]):
         return None
     i, j = next((i, j) for i in range(len(paths)) for j in range(i + 1, len(paths))
-                if max(exposures[i], exposures[j]) / min(exposures[i], exposures[j]) < MIN_EXPOSURE_STEP)
+                if one_exposure(exposures[i], exposures[j]))
     warnings.warn(PanoLightWarning(f"{paths[j]}: records the exposure of {paths[i].name} though its exposure bias is "
                                    f"{biases[j]:+.3g} EV and that one's {biases[i]:+.3g} EV (a phone compensating past "
                                    f"its shutter and ISO): the set is timed by its exposure bias (--evs sets it "
