@@ -224,7 +224,8 @@ def _process(job, src: Path, dst: Path, settings) -> dict:
         note = key_light_note(doc) if isinstance(doc, dict) else ""
         result = {**result, "key_light": note} if note else result
         left = _left_out(doc) if hasattr(src, "paths") else []
-        return _left_out_alone(job, left, result, dst, settings) if left else result
+        return _alone(job, left, result, f"{len(left)} frame(s) left out of the set were estimated alone", dst,
+                      settings) if left else result
     except PanoLightError as exc:
         error = str(exc)
         if hasattr(src, "paths"):  # a bracket set refused: each frame is still a photo to estimate
@@ -236,35 +237,30 @@ def _process(job, src: Path, dst: Path, settings) -> dict:
     return {"input": str(src), "status": "failed", "error": error, "seconds": round(time.perf_counter() - t, 4)}
 
 
-def _frames_alone(job, src, dst: Path, settings, why: str, t: float) -> dict:
-    """A refused bracket set's frames, each estimated alone into ``dst/<frame>/``: a batch never ends with no
-    output for a photo that could be estimated. Its report entry says why the set was refused and what each frame
-    got; "ok" when every frame was estimated."""
-    frames = [_process(job, Path(p), dst / Path(p).stem, settings) for p in src.paths]
+def _alone(job, files, result: dict, note: str, dst: Path, settings) -> dict:
+    """``result`` with ``files`` (a bracket set's frames) each estimated alone into ``dst/<frame>/`` and ``note``
+    saying why: a batch never ends with no output for a photo that could be estimated. "failed" when one of them
+    fails."""
+    frames = [_process(job, Path(p), dst / Path(p).stem, settings) for p in files]
     failed = [f for f in frames if f["status"] == "failed"]
-    result = {"input": str(src), "status": "failed" if failed else "ok", "output": str(dst),
-              "note": f"the set was refused ({why}): its frames were estimated alone", "frames": frames,
-              "seconds": round(time.perf_counter() - t, 4)}
+    result = {**result, "note": note, "frames": frames}
     if failed:
-        result["error"] = "; ".join(f["error"] for f in failed)
+        result.update(status="failed", error="; ".join(f["error"] for f in failed))
     return result
+
+
+def _frames_alone(job, src, dst: Path, settings, why: str, t: float) -> dict:
+    """A refused bracket set's frames, each estimated alone (``_alone``); the report entry says why the set was
+    refused and what each frame got; "ok" when every frame was estimated."""
+    result = _alone(job, src.paths, {"input": str(src), "status": "ok", "output": str(dst)},
+                    f"the set was refused ({why}): its frames were estimated alone", dst, settings)
+    return {**result, "seconds": round(time.perf_counter() - t, 4)}
 
 
 def _left_out(doc) -> list[str]:
     """The files a bracket set's merge left out (lighting.json's ``source.brackets.left_out``), or none."""
     brackets = (doc.get("source") or {}).get("brackets") if isinstance(doc, dict) else None
     return [d["file"] for d in (brackets or {}).get("left_out", ()) if isinstance(d, dict) and "file" in d]
-
-
-def _left_out_alone(job, files: list[str], result: dict, dst: Path, settings) -> dict:
-    """A set's result with the frames its merge left out each estimated alone into ``dst/<frame>/`` (a frame of
-    another scene is still a photo to estimate); "failed" when one of them fails."""
-    frames = [_process(job, Path(p), dst / Path(p).stem, settings) for p in files]
-    failed = [f for f in frames if f["status"] == "failed"]
-    result = {**result, "note": f"{len(files)} frame(s) left out of the set were estimated alone", "frames": frames}
-    if failed:
-        result.update(status="failed", error="; ".join(f["error"] for f in failed))
-    return result
 
 
 def _process_task(task):

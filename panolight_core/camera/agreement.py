@@ -182,10 +182,10 @@ def consistent_frames(frames, rel: np.ndarray, names=None) -> tuple[list[int], l
         """A pair shown to be one scene: compared, ranking alike (not a squeezed pair's pass: a studio relit, 4 stops
         apart, ranks at 0.30 with its steps kept), its resolved steps keeping their sign (two scenes alike in layout
         can rank alike, 0.66, while 35 % of their steps cross), and passing."""
-        a = agreement(i, j)
+        a = agreement(i, j)  # ranking alike, it is no other scene: passing asks only the exposures' order
         return (a.compared >= MIN_AGREE_BLOCKS and a.rank_correlation is not None
                 and a.rank_correlation >= BAD_SET_RANK and a.crossing is not None
-                and a.crossing <= BAD_SET_CROSSING and _verdict(a, "", "", 0.0) is None)
+                and a.crossing <= BAD_SET_CROSSING and a.contradicting <= BAD_SET_CONTRADICTING)
 
     def clean(chain) -> bool:
         """No pair fails, nor crosses its resolved steps (a frame of another scene alike in layout can pass its
