@@ -38,15 +38,10 @@ import numpy as np
 from .. import threads
 from ..errors import PanoLightError, PanoLightWarning
 from .agreement import block_agreement, block_codes, consistent_frames
+from .blend import Blend
 from .color import SRGB8_TO_LINEAR, gray8
 from .response import SRGB, recover_response
-from .weights import CLIPPED_CODE, GHOST_RATIO, noise_weights, outlying_frames, sure_codes
 
-RING_CODE = 230  # a JPEG rings 10-20 codes round a clipped patch (codes 230-249 beside a clipped edge) ...
-RING_BLOCK = 16  # ... inside the compression's blocks that hold the edge (8 x 8 luma, 16 x 16 with 4:2:0 chroma): a
-# code from RING_CODE up in a block of this size that holds a clipped code is taken as clipped, never as the light
-# there (a brighter frame's ringing pixel, trusted where every darker frame clipped, came out at 0.2 where the truth
-# was over 100)
 MIN_EXPOSURE_STEP = 2.0 ** (1.0 / 8.0)  # two frames whose exposures differ less than an eighth of a stop are one
 # exposure: a camera's nominal third-stop steps are 1.25-1.28x (1/250 to 1/200 s: a third of a stop at 1.26 had
 # refused them), a phone's exposure-compensation series steps a quarter or a sixth, and EXIF rounds one exposure
@@ -193,19 +188,6 @@ def align_shift(reference: np.ndarray, frame: np.ndarray, ratio: float = 1.0) ->
     return AlignmentReference(reference).shift_of(frame, ratio)
 
 
-def clipped_or_ringing(top: np.ndarray) -> np.ndarray:
-    """(n, W) bool: the pixels of a frame's brightest-channel codes ``top`` (n, W) uint8 (rows starting on the
-    RING_BLOCK grid) that are clipped (CLIPPED_CODE up) or may be a JPEG's ringing round a clipped edge (RING_CODE up
-    in a RING_BLOCK square holding a clipped code)."""
-    n, w = top.shape
-    b = RING_BLOCK
-    pad = np.zeros((-(-n // b) * b, -(-w // b) * b), dtype=bool)
-    pad[:n, :w] = top >= CLIPPED_CODE
-    blocks = pad.reshape(pad.shape[0] // b, b, pad.shape[1] // b, b).any(axis=(1, 3))
-    near = np.repeat(np.repeat(blocks, b, axis=0), b, axis=1)[:n, :w]
-    return pad[:n, :w] | (near & (top >= RING_CODE))
-
-
 def kept_shift(reference_codes: np.ndarray, frame: np.ndarray, ratio: float, shift: tuple) -> tuple[int, int]:
     """``shift`` (an ``align_shift`` of ``frame`` onto the reference frame, whose ``block_codes`` are
     ``reference_codes``; ``frame`` exposed ``ratio`` times as much) where it measurably improves how the two agree,
@@ -296,64 +278,10 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
         return _without(left_out, given, e, names, align=align, ghosts=ghosts, response=response)
     curve = recover_response(frames, rel, ref) if response and linear is None else SRGB
     ceiling = float(curve.table[255] / rel.min())  # the darkest frame's white: above every value a frame holds
-    dark = int(np.argmin(rel))
-    weight = noise_weights(curve.table)  # by code: a table lookup per pixel, not arithmetic
-    radiance = [(curve.table / np.float32(k)).astype(np.float32) for k in rel]  # each frame's code -> radiance
-    floor = np.float32(0.5 * curve.table[1])  # half the first code's light: a code 0 reads no light, not -inf in log
-    logs = [np.log(np.maximum(r, floor / np.float32(k))).astype(np.float32) for r, k in zip(radiance, rel)]
-    # each frame's weight by (the reference's code, its own code) of a pixel's brightest channel: the noise weight,
-    # and 0 where the two differ by GHOST_RATIO in radiance though both are well exposed (``sure_codes``): one table
-    # lookup per pixel
-    sure = sure_codes(curve.table)
-    weights = []
-    for i, k in enumerate(rel):
-        table = np.broadcast_to(weight[None, :], (256, 256)).copy()  # [reference code, own code]
-        if ghosts and i != ref:
-            level = curve.table.astype(np.float64)
-            ratio = level[None, :] / (k * np.maximum(level[:, None], 1e-12))  # own radiance over the reference's
-            table[sure[:, None] & sure[None, :] & ((ratio > GHOST_RATIO) | (ratio < 1.0 / GHOST_RATIO))] = 0.0
-        weights.append(table.ravel())  # read at reference code x 256 + own code
+    blend = Blend(frames, linear, rel, ref, curve, ghosts, ceiling)
     h = frames[0].shape[0]
     out = np.empty(frames[0].shape, np.float32)
-
-    def merge_rows(rows):
-        r0, r1 = rows
-        num = np.zeros((r1 - r0,) + frames[0].shape[1:], np.float32)
-        den = np.zeros((r1 - r0, frames[0].shape[1]), np.float32)
-        top = [np.maximum(np.maximum(f[r0:r1, :, 0], f[r0:r1, :, 1]), f[r0:r1, :, 2]) for f in frames]
-        row = top[ref].astype(np.uint16) << 8
-        lost = [clipped_or_ringing(t) for t in top]  # RAWs too (by their nearest codes): one rule for every set
-
-        def frame_weight(i):
-            w = weights[i][row | top[i]]
-            w[lost[i]] = 0.0  # a JPEG's ringing round a clipped edge is no measure of the light there
-            return w
-
-        ws = [frame_weight(i) for i in range(len(frames))]  # once per block: the outlier test reads them too
-        dropped = outlying_frames(ws.__getitem__, top, radiance, sure, ref) if ghosts else None
-        for i, frame in enumerate(frames):
-            w = ws[i]
-            if dropped is not None and dropped[i] is not None:
-                w[dropped[i]] = 0.0
-            if linear is None:
-                seen = logs[i][frame[r0:r1]]
-            else:
-                seen = np.log(np.maximum(linear[i][r0:r1], floor) * np.float32(1.0 / rel[i]))
-            seen *= w[..., None]  # in place: a fresh array either way
-            num += seen
-            den += w
-        none = den == 0  # clipped in every frame by its brightest channel: the darkest frame's channels, those it
-        # clipped at its white (a lower bound, which the restoration weighs as an HDR file's clipped channels)
-        num /= np.where(none, np.float32(1.0), den)[..., None]
-        np.exp(num, out=num)  # Debevec and Malik's ln E = sum w (g(Z) - ln t) / sum w
-        if none.any():
-            codes = frames[dark][r0:r1][none]
-            held = radiance[dark][codes] if linear is None else linear[dark][r0:r1][none] * np.float32(1.0 / rel[dark])
-            num[none] = np.where(codes >= CLIPPED_CODE, np.float32(ceiling), held)
-        out[r0:r1] = num
-        return int(none.sum())
-
-    clipped = sum(threads.map_ordered(merge_rows, [(r, min(h, r + BLOCK_ROWS)) for r in range(0, h, BLOCK_ROWS)]))
+    clipped = sum(threads.map_ordered(lambda r: blend.merge_rows(out, r, min(h, r + BLOCK_ROWS)), range(0, h, BLOCK_ROWS)))
     return out, {"reference": ref, "stops": [round(math.log2(k), 4) for k in rel], "ceiling": ceiling,
                  **({"response": curve.describe()} if linear is None else {}),
                  "clipped_in_every_frame": clipped / float(out.shape[0] * out.shape[1]),

@@ -59,30 +59,35 @@ def weighted_median(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return v[first, np.arange(values.shape[1])]
 
 
-def outlying_frames(frame_weight, top, radiance, sure, ref: int):
+def sure_readings(level: np.ndarray, sure: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """(256 * 256,) float32, read at (the reference's code) x 256 + (the frame's code) of a pixel's brightest channel:
+    the radiance ``level`` (256,) the frame's code reads, where ``outlying_frames`` trusts it (a ``sure_codes`` code,
+    ``sure``, that the frame's merge weight table ``weight``, of the same index, weighs), NaN elsewhere."""
+    ok = np.asarray(sure, bool)[None, :] & (np.asarray(weight).reshape(256, 256) > 0)
+    return np.where(ok, np.asarray(level, np.float32)[None, :], np.float32(np.nan)).astype(np.float32).ravel()
+
+
+def outlying_frames(readings, frame_weight, ref: int):
     """Per frame, None or the (n, W) bool pixels of a ``merge_brackets`` block where the frame's reading is an outlier:
-    well exposed there (``sure``) yet GHOST_RATIO off the weighted median of the readings of every frame that sees the
-    pixel well exposed (each frame's brightest-channel radiance, ``radiance[i][top[i]]``, weighed by its merge weight
-    ``frame_weight(i)``). A speck of dust, a scanner's edge or a hot pixel is one frame's reading against its
-    neighbours' in exposure, which the ghost test (each frame against the reference alone) cannot see where the
-    reference is in its toe. The reference frame is never dropped (what moved is the reference's), nor the median's
-    own frame, so every pixel keeps a frame. Only pixels whose sure readings spread over GHOST_RATIO are looked at
-    closely (a few per set)."""
-    n = len(top)
-    low = high = None
-    readings = []
-    for i in range(n):
-        level = radiance[i][top[i]]  # the brightest channel's radiance (one curve table for all channels)
-        ok = sure[top[i]] & (frame_weight(i) > 0)
-        readings.append((level, ok))
-        low = np.where(ok, level, np.inf) if low is None else np.where(ok, np.minimum(low, level), low)
-        high = np.where(ok, level, 0.0) if high is None else np.where(ok, np.maximum(high, level), high)
-    spread = high > GHOST_RATIO * low  # two sure readings that disagree
+    trusted there yet GHOST_RATIO off the weighted median of the trusted readings of every frame. ``readings[i]``
+    (n, W) float32: frame i's brightest-channel radiance where the frame sees the pixel well exposed and weighs it
+    (``sure_readings``), NaN elsewhere; ``frame_weight(i)`` its (n, W) merge weights. A speck of dust, a scanner's edge
+    or a hot pixel is one frame's reading against its neighbours' in exposure, which the ghost test (each frame against
+    the reference alone) cannot see where the reference is in its toe. The reference frame is never dropped (what
+    moved is the reference's), nor the median's own frame, so every pixel keeps a frame. Only pixels whose trusted
+    readings spread over GHOST_RATIO are looked at closely (a few per set)."""
+    n = len(readings)
+    low, high = readings[0].copy(), readings[0].copy()
+    for level in readings[1:]:  # fmin and fmax pass over NaN: the trusted readings' range
+        np.fmin(low, level, out=low)
+        np.fmax(high, level, out=high)
+    spread = high > np.float32(GHOST_RATIO) * low  # two trusted readings that disagree (NaN compares False)
     if not spread.any():
         return None
-    values = np.stack([level[spread] for level, _ in readings]).astype(np.float64)
-    weight = np.stack([np.where(ok[spread], frame_weight(i)[spread], 0.0) for i, (_, ok) in enumerate(readings)])
-    median = weighted_median(values, weight.astype(np.float64))
+    values = np.stack([level[spread] for level in readings]).astype(np.float64)
+    trusted = ~np.isnan(values)
+    weight = np.stack([np.where(trusted[i], frame_weight(i)[spread], 0.0) for i in range(n)]).astype(np.float64)
+    median = weighted_median(np.where(trusted, values, np.inf), weight)
     off = (weight > 0) & ((values > GHOST_RATIO * median) | (values < median / GHOST_RATIO))
     off[ref] = False
     out = []

@@ -1,7 +1,7 @@
 """Two rules of the bracket merge and the evidence for them (docs/studies/captures.md), each measured against the rule
 it replaced over the real HDRs of ../shared/data/hdri:
 
-- ``ring``: a JPEG's ringing round a clipped edge counts as clipped (``camera.brackets.clipped_or_ringing``). Each
+- ``ring``: a JPEG's ringing round a clipped edge counts as clipped (``camera.blend.clipped_or_ringing``). Each
   scene's camera JPEGs (q90) at -2, 0, +2 are merged with the rule and without it (only codes from CLIPPED_CODE up
   clipped); a dark-ring pixel is one whose truth is over the set's ceiling but that merged under half of it.
 - ``curve``: the camera's own curve wherever it leaves ``camera.response.RESPONSE_GAIN`` of sRGB's disagreement.
@@ -28,8 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from panolight_core.camera import auto_exposure, brackets, hdr_to_ldr, response
+from panolight_core.camera import auto_exposure, blend, brackets, hdr_to_ldr, response
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
+from panolight_core.camera.weights import CLIPPED_CODE
 from training.common.real_hdri import DEFAULT_HDRI, load_hdr, scene_files
 
 RING_EVS = (-2, 0, 2)
@@ -41,13 +42,13 @@ MILD_CAMERAS = (("contrast", 1.03), ("contrast", 1.04), ("gamma", 2.25))  # a li
 @contextlib.contextmanager
 def ring_rule(on: bool):
     """Within it, the merge takes a JPEG's ringing as clipped (``on``, as shipped) or only codes from CLIPPED_CODE."""
-    shipped = brackets.clipped_or_ringing
+    shipped = blend.clipped_or_ringing
     if not on:
-        brackets.clipped_or_ringing = lambda top: top >= brackets.CLIPPED_CODE
+        blend.clipped_or_ringing = lambda top: top >= CLIPPED_CODE
     try:
         yield
     finally:
-        brackets.clipped_or_ringing = shipped
+        blend.clipped_or_ringing = shipped
 
 
 @contextlib.contextmanager

@@ -141,7 +141,7 @@ def test_no_dark_ring_round_a_sun_clipped_in_every_frame():
     a compression block holding a clipped code counts as clipped: a pixel over every frame's white is never darker
     than what the darkest frame holds there (its own ring, RING_CODE up: at least 0.79 of its white)."""
     from panolight_core import sh
-    from panolight_core.camera.brackets import RING_CODE, clipped_or_ringing
+    from panolight_core.camera.blend import RING_CODE, clipped_or_ringing
 
     top = np.full((32, 48), 200, np.uint8)
     top[3, 5], top[4, 6], top[20, 40] = 252, 240, 240  # a clipped pixel and ringing in its block; 240 alone
@@ -191,7 +191,7 @@ def test_what_moves_between_frames_is_the_reference_frame_s_alone():
 def test_a_noisy_camera_s_set_merges_nearer_its_truth_than_the_plain_hat(monkeypatch):
     """Frames a small sensor takes (photon and read noise, sRGB, JPEG q90, -4..+4 stops): the noise-weighted merge
     is nearer the truth's mid-tones than Debevec's hat alone would be."""
-    from panolight_core.camera import brackets, sensor_noise
+    from panolight_core.camera import blend, sensor_noise
     from panolight_core.camera.color import LUMINANCE_WEIGHTS
 
     rng = np.random.default_rng(3)
@@ -207,7 +207,7 @@ def test_a_noisy_camera_s_set_merges_nearer_its_truth_than_the_plain_hat(monkeyp
         return float(np.median(np.abs(r - np.median(r))))
 
     weighed = error(merge_brackets(frames, [2.0 ** s for s in stops], align=False)[0])
-    monkeypatch.setattr(brackets, "noise_weights", lambda table: hat(np.arange(256, dtype=np.uint8)))
+    monkeypatch.setattr(blend, "noise_weights", lambda table: hat(np.arange(256, dtype=np.uint8)))
     plain = error(merge_brackets(frames, [2.0 ** s for s in stops], align=False)[0])
     assert weighed < 0.9 * plain
 

@@ -46,7 +46,7 @@ def test_weighted_median_against_a_plain_reference():
 def test_outlying_frames_drop_one_frame_s_odd_reading_never_the_reference_s():
     """Four frames read one pixel well exposed: three agree, one reads 8x; that one is dropped. Where the odd one is
     the reference, nothing is (what moved is the reference's). A pixel whose readings agree is not looked at."""
-    from panolight_core.camera.weights import outlying_frames
+    from panolight_core.camera.weights import outlying_frames, sure_readings
 
     table = SRGB.table
     rel = np.array([0.25, 1.0, 4.0, 16.0])
@@ -56,10 +56,36 @@ def test_outlying_frames_drop_one_frame_s_odd_reading_never_the_reference_s():
     top = [np.array([[c, c]], np.uint8) for c in codes]
     top[0][0, 0] = np.searchsorted(table, 8 * level * rel[0])  # frame 0 reads 8x at the first pixel
     weight = noise_weights(table)
-    dropped = outlying_frames(lambda i: weight[top[i]], top, radiance, sure_codes(table), ref=1)
+    tables = [sure_readings(r, sure_codes(table), np.tile(weight, 256)) for r in radiance]  # no ghost test here
+
+    def outliers():
+        index = [(top[1].astype(np.uint16) << 8) | t for t in top]
+        return outlying_frames([t[i] for t, i in zip(tables, index)], lambda i: weight[top[i]], ref=1)
+
+    dropped = outliers()
     assert dropped[0] is not None and dropped[0].tolist() == [[True, False]]
     assert all(d is None for d in dropped[1:])
     top[1][0, 0] = np.searchsorted(table, 8 * level)  # now the reference is the odd one
     top[0][0, 0] = codes[0]
-    dropped = outlying_frames(lambda i: weight[top[i]], top, radiance, sure_codes(table), ref=1)
+    dropped = outliers()
     assert dropped is None or all(d is None or not d[0, 0] for d in dropped)
+
+
+def test_sure_readings_trust_a_weighed_well_exposed_code_only_and_an_untrusted_reading_is_never_dropped():
+    """The outlier test's table holds a frame's radiance at a sure code its weight table weighs, NaN at a code out of
+    GHOST_CODES or one the ghost test zeroed; a wild reading held as NaN does not count, so nothing is dropped."""
+    from panolight_core.camera.weights import outlying_frames, sure_readings
+
+    table = SRGB.table
+    level = (table / np.float32(4.0)).astype(np.float32)
+    weight = np.tile(noise_weights(table), 256)
+    weight[128 * 256 + 100] = 0.0  # the ghost test zeroed (reference code 128, own code 100)
+    got = sure_readings(level, sure_codes(table), weight).reshape(256, 256)
+    assert got[128, 100] != got[128, 100]  # NaN
+    assert got[128, 101] == level[101] and got[7, 101] == level[101]
+    assert np.isnan(got[:, 5]).all() and np.isnan(got[:, CLIPPED_CODE]).all()
+    a = np.array([[0.01, 0.01]], np.float32)
+    wild = np.array([[np.nan, 0.08]], np.float32)  # the first pixel's wild reading untrusted, the second's trusted
+    dropped = outlying_frames([a, a.copy(), wild], lambda i: np.ones((1, 2), np.float32), ref=1)
+    assert dropped[2] is not None and dropped[2].tolist() == [[False, True]]
+    assert dropped[0] is None and dropped[1] is None

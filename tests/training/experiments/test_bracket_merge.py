@@ -3,7 +3,7 @@ scores see what they say."""
 
 import numpy as np
 
-from panolight_core.camera import brackets, response
+from panolight_core.camera import blend, response
 from panolight_core.camera.resample import area_downsample
 from panolight_core.data import load_studio_hdri
 from training.experiments import bracket_merge
@@ -12,10 +12,10 @@ from training.experiments import bracket_merge
 def test_the_old_rules_hold_only_inside_and_the_shipped_ones_come_back():
     ringing = np.full((32, 32), 240, np.uint8)
     ringing[0, 0] = 255  # one clipped code: its 16 x 16 block rings
-    assert brackets.clipped_or_ringing(ringing)[5, 5]
+    assert blend.clipped_or_ringing(ringing)[5, 5]
     with bracket_merge.ring_rule(False):
-        assert not brackets.clipped_or_ringing(ringing)[5, 5] and brackets.clipped_or_ringing(ringing)[0, 0]
-    assert brackets.clipped_or_ringing(ringing)[5, 5]
+        assert not blend.clipped_or_ringing(ringing)[5, 5] and blend.clipped_or_ringing(ringing)[0, 0]
+    assert blend.clipped_or_ringing(ringing)[5, 5]
     shipped = response.RESPONSE_GAIN
     with bracket_merge.response_gain(bracket_merge.OLD_GAIN):
         assert response.RESPONSE_GAIN == 0.35
