@@ -46,7 +46,9 @@ MIN_EXPOSURE_STEP = 2.0 ** (1.0 / 8.0)  # two frames whose exposures differ less
 # exposure: a camera's nominal third-stop steps are 1.25-1.28x (1/250 to 1/200 s: a third of a stop at 1.26 had
 # refused them), a phone's exposure-compensation series steps a quarter or a sixth, and EXIF rounds one exposure
 # by under 3 %
-BLOCK_ROWS = 256
+BLOCK_ROWS = 64  # rows per block of the merge's per-pixel passes (a multiple of blend.RING_BLOCK): a 2K panorama's block
+# temporaries (1.5 MB) stay in cache and in the allocator's heap; 256-row blocks (6 MB each, fresh pages from the
+# system) took 3.98-4.75x one JPEG's time for a 3-frame set against 3.03-3.54x (bench_captures, session 55)
 
 
 def exposure(time_s: float, f_number: float, iso: float) -> float:
