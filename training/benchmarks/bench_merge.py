@@ -26,6 +26,9 @@ Scores (``score``):
 - held out (a real set of three or more frames, which has no truth): each frame between the darkest and the
   brightest left out, the others merged, and it taken again through the merge's own curve (``held_out``): the median
   and mean |code error|;
+- where the disagreement comes from (a real set, ``weighed_as_opencv``): PanoLight's merge run again with OpenCV's
+  calibrated curve, then also with Debevec's hat for its noise weights and no ghost or outlier tests, each against
+  OpenCV's merge (what is left is the two merges' weighing, not their curves);
 - time: the median of ``--repeats`` runs, in this process;
 - the camera curve (``curves``): PanoLight's recovered curve against OpenCV's CalibrateDebevec, and each against
   sRGB (the simulated cameras' own), in log over codes 30-230 after one scale; and which curve the merge used.
@@ -36,6 +39,7 @@ Scores (``score``):
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import statistics
@@ -45,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from panolight_core.camera import auto_exposure, brackets, hdr_to_ldr
+from panolight_core.camera import auto_exposure, blend, brackets, hdr_to_ldr, response
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.camera.resample import area_downsample
 
@@ -103,6 +107,35 @@ def merge_opencv(frames, exposures):
     return cv2.createMergeDebevec().process(bgr, times, curve)[..., ::-1].astype(np.float64)
 
 
+def opencv_curve(frames, exposures) -> np.ndarray:
+    """(256,) float32: OpenCV's CalibrateDebevec curve of the set, its luminance made monotone, scaled to put code 250
+    where sRGB does (as ``camera.response`` scales a recovered curve)."""
+    import cv2
+
+    bgr = [np.ascontiguousarray(f[..., ::-1]) for f in frames]
+    theirs = cv2.createCalibrateDebevec().process(bgr, np.asarray(exposures, np.float32))[:, 0, ::-1]
+    table = np.maximum.accumulate(theirs @ LUMINANCE_WEIGHTS).astype(np.float64)
+    return (table / table[250] * float(response.SRGB.table[250])).astype(np.float32)
+
+
+@contextlib.contextmanager
+def weighed_as_opencv(frames, exposures, hat: bool):
+    """Within it, ``merge_brackets`` decodes through OpenCV's curve of the set (``opencv_curve``) and, with ``hat``,
+    weighs each code by Debevec's hat instead of its noise weight: the parts of OpenCV's merge that PanoLight's can
+    take, so that what disagreement is left is the rest of the weighing (per channel there, the worst channel here)."""
+    from panolight_core.camera.weights import hat as hat_weights
+
+    curve = response.Response(opencv_curve(frames, exposures), "OpenCV's", "bench_merge", {})
+    shipped = brackets.recover_response, blend.noise_weights
+    brackets.recover_response = lambda *_: curve
+    if hat:
+        blend.noise_weights = lambda table: hat_weights(np.arange(256, dtype=np.uint8))
+    try:
+        yield
+    finally:
+        brackets.recover_response, blend.noise_weights = shipped
+
+
 def firefly_mask(img: np.ndarray, floor: float, ratio: float = FIREFLY_RATIO) -> np.ndarray:
     """Pixels whose luminance is over ``ratio`` x their 5 x 5 neighbourhood's median, and over ``floor``."""
     from scipy.ndimage import median_filter
@@ -120,8 +153,6 @@ def curves(frames, exposures) -> dict:
     the median |ln| between the two, and each against sRGB (the simulated sets' true curve); and which curve the merge
     used (sRGB unless the recovered one explains the frames RESPONSE_GAIN better)."""
     import cv2
-
-    from panolight_core.camera import response
 
     e = np.asarray(exposures, dtype=np.float64)
     ref = int(np.argsort(e)[(e.size - 1) // 2])
@@ -203,8 +234,6 @@ def held_out(frames, exposures) -> dict:
     of a photo they never saw (a moving flag or a flickering lamp is in both merges' error alike)."""
     import cv2
 
-    from panolight_core.camera import response
-
     e = np.asarray(exposures, dtype=np.float64)
     order = np.argsort(e)
     errors = {"panolight": [], "opencv": []}
@@ -253,8 +282,6 @@ def score(frames, exposures, repeats: int = 3, truth: np.ndarray | None = None) 
                                                       1e-30) for n in merged}  # each merge's reference white
     shown = None
     if truth is None:  # a real set: the points its frames show themselves are the scene's
-        from panolight_core.camera import response
-
         shown = shown_by_a_frame(frames, e, response.recover_response(frames, e / e[ref], ref).table)
     for n in merged:
         out[n]["fireflies"] = fireflies(merged[n], 1e-3 * white[n])
@@ -270,6 +297,12 @@ def score(frames, exposures, repeats: int = 3, truth: np.ndarray | None = None) 
     out["curve"] = curves(frames, e)
     if truth is None and len(frames) >= 3:  # a real set: how well each merge predicts a frame it never saw
         out["held_out"] = held_out(frames, e)
+    if truth is None:  # where its disagreement with OpenCV comes from
+        out["agreement_parts"] = {}
+        for key, hat, ghosts in (("opencv_curve", False, True), ("opencv_curve_hat_no_ghosts", True, False)):
+            with weighed_as_opencv(frames, e, hat):
+                m = brackets.merge_brackets(frames, e, align=False, ghosts=ghosts)[0]
+            out["agreement_parts"][key] = _scaled_log_error((m @ LUMINANCE_WEIGHTS)[well], lum["opencv"][well])
     return out
 
 
@@ -327,6 +360,14 @@ def main(argv=None) -> int:
         for r in held:
             p, o = r["held_out"]["panolight"], r["held_out"]["opencv"]
             print(f"| {r['set']} | {p['median']:.0f} / {p['mean']:.2f} | {o['median']:.0f} / {o['mean']:.2f} |")
+    parts = [r for r in rows if r.get("agreement_parts")]
+    if parts:
+        print("\n| set | agreement with OpenCV | PanoLight's merge on OpenCV's curve | and Debevec's hat, no ghost tests "
+              "|\n|---|---:|---:|---:|")
+        for r in parts:
+            p = r["agreement_parts"]
+            print(f"| {r['set']} | {r['agreement']:.3f} | {p['opencv_curve']:.3f} | "
+                  f"{p['opencv_curve_hat_no_ghosts']:.3f} |")
     print("\n| set | curve used | recovered vs OpenCV's | recovered vs sRGB | OpenCV's vs sRGB |\n|---|---|---:|---:|---:|")
     for r in rows:
         c = r["curve"]

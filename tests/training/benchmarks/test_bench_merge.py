@@ -69,3 +69,24 @@ def test_a_lamp_only_the_darkest_frame_holds_is_the_scene_s_own():
     table = np.linspace(0.0, 1.0, 256) ** 2.2
     shown = bench_merge.shown_by_a_frame([dark, bright], np.array([1.0, 4.0]), table)
     assert shown[4, 4] and shown[8, 8] and not shown[12, 12] and shown.sum() == 2
+
+
+def test_the_merge_weighed_as_opencv_reads_opencv_s_curve_and_the_hat_only_inside_and_a_real_set_scores_it():
+    """Inside ``weighed_as_opencv`` the merge decodes through OpenCV's monotone curve (code 250 where sRGB's is) and
+    weighs by the hat; outside, the shipped rules come back; a real set's score has both parts, finite."""
+    from panolight_core.camera import blend, brackets, response
+
+    frames = [bench_merge.hdr_to_ldr(_scene(32), ev) for ev in (-2, 0, 2)]
+    e = np.array([0.25, 1.0, 4.0])
+    curve = bench_merge.opencv_curve(frames, e)
+    assert curve.shape == (256,) and (np.diff(curve) >= 0).all()
+    assert curve[250] == pytest.approx(float(response.SRGB.table[250]), rel=1e-5)
+    shipped = brackets.recover_response, blend.noise_weights
+    with bench_merge.weighed_as_opencv(frames, e, hat=True):
+        assert np.array_equal(brackets.recover_response(frames, e, 1).table, curve)
+        assert blend.noise_weights(response.SRGB.table)[128] == 128.0  # the hat, unscaled
+    assert (brackets.recover_response, blend.noise_weights) == shipped
+    r = bench_merge.score(frames, e, repeats=1)
+    parts = r["agreement_parts"]
+    assert set(parts) == {"opencv_curve", "opencv_curve_hat_no_ghosts"}
+    assert all(0 <= v < 1 for v in parts.values())
