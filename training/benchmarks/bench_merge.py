@@ -25,7 +25,7 @@ Scores (``score``):
   frame's white, after one scale;
 - held out (a real set of three or more frames, which has no truth): each frame between the darkest and the
   brightest left out, the others merged, and it taken again through the merge's own curve (``held_out``): the median
-  and mean |code error|;
+  and mean |code error|, for PanoLight's merge also weighed by Debevec's hat (which weighing predicts better);
 - where the disagreement comes from (a real set, ``weighed_as_opencv``): PanoLight's merge run again with OpenCV's
   calibrated curve, then also with Debevec's hat for its noise weights and no ghost or outlier tests, each against
   OpenCV's merge (what is left is the two merges' weighing, not their curves);
@@ -119,15 +119,17 @@ def opencv_curve(frames, exposures) -> np.ndarray:
 
 
 @contextlib.contextmanager
-def weighed_as_opencv(frames, exposures, hat: bool):
-    """Within it, ``merge_brackets`` decodes through OpenCV's curve of the set (``opencv_curve``) and, with ``hat``,
+def weighed_as_opencv(frames, exposures, hat: bool, curve: bool = True):
+    """Within it, ``merge_brackets`` decodes, with ``curve``, through OpenCV's curve of the set (``opencv_curve``; else
+    through its own) and, with ``hat``,
     weighs each code by Debevec's hat instead of its noise weight: the parts of OpenCV's merge that PanoLight's can
     take, so that what disagreement is left is the rest of the weighing (per channel there, the worst channel here)."""
     from panolight_core.camera.weights import hat as hat_weights
 
-    curve = response.Response(opencv_curve(frames, exposures), "OpenCV's", "bench_merge", {})
+    theirs = response.Response(opencv_curve(frames, exposures), "OpenCV's", "bench_merge", {}) if curve else None
     shipped = brackets.recover_response, blend.noise_weights
-    brackets.recover_response = lambda *_: curve
+    if curve:
+        brackets.recover_response = lambda *_: theirs
     if hat:
         blend.noise_weights = lambda table: hat_weights(np.arange(256, dtype=np.uint8))
     try:
@@ -226,26 +228,30 @@ def _codes_of(values: np.ndarray, curve: np.ndarray) -> np.ndarray:
     return out
 
 
-def held_out(frames, exposures) -> dict:
+def held_out(frames, exposures, merges=("panolight", "opencv")) -> dict:
     """Each merge's accuracy where no truth exists: every frame between the darkest and the brightest left out in
     turn, the others merged (each merge with its own curve, recovered from them), and the left-out frame taken again
     from that HDR through that curve at its own exposure. The median |code error| over the channels the frame holds
     well exposed (WELL_EXPOSED), and its mean, pooled over the frames left out: what each merge's HDR and curve predict
-    of a photo they never saw (a moving flag or a flickering lamp is in both merges' error alike)."""
+    of a photo they never saw (a moving flag or a flickering lamp is in both merges' error alike). ``merges``: which of
+    the two to score."""
     import cv2
 
     e = np.asarray(exposures, dtype=np.float64)
     order = np.argsort(e)
-    errors = {"panolight": [], "opencv": []}
+    errors = {n: [] for n in merges}
     for k in order[1:-1]:
         keep = [i for i in range(len(frames)) if i != k]
         rest, t = [frames[i] for i in keep], e[keep]
         ref = int(np.argsort(t)[(t.size - 1) // 2])
         actual = frames[k].astype(np.int16)
         well = (actual >= WELL_EXPOSED[0]) & (actual <= WELL_EXPOSED[1])
-        ours = merge_panolight(rest, t)  # the reference's units: a code z of frame i reads table[z] / (t_i / t_ref)
-        table = response.recover_response(rest, t / t[ref], ref).table
-        errors["panolight"].append(np.abs(_codes_of(ours * (e[k] / t[ref]), table) - actual)[well])
+        if "panolight" in errors:  # the reference's units: a code z of frame i reads table[z] / (t_i / t_ref)
+            ours = merge_panolight(rest, t)
+            table = response.recover_response(rest, t / t[ref], ref).table
+            errors["panolight"].append(np.abs(_codes_of(ours * (e[k] / t[ref]), table) - actual)[well])
+        if "opencv" not in errors:
+            continue
         bgr = [np.ascontiguousarray(f[..., ::-1]) for f in rest]
         curve = cv2.createCalibrateDebevec().process(bgr, t.astype(np.float32))  # (256, 1, 3), BGR
         theirs = cv2.createMergeDebevec().process(bgr, t.astype(np.float32), curve)[..., ::-1].astype(np.float64)
@@ -297,6 +303,8 @@ def score(frames, exposures, repeats: int = 3, truth: np.ndarray | None = None) 
     out["curve"] = curves(frames, e)
     if truth is None and len(frames) >= 3:  # a real set: how well each merge predicts a frame it never saw
         out["held_out"] = held_out(frames, e)
+        with weighed_as_opencv(frames, e, hat=True, curve=False):  # PanoLight's merge weighed by the hat
+            out["held_out"]["panolight_hat"] = held_out(frames, e, merges=("panolight",))["panolight"]
     if truth is None:  # where its disagreement with OpenCV comes from
         out["agreement_parts"] = {}
         for key, hat, ghosts in (("opencv_curve", False, True), ("opencv_curve_hat_no_ghosts", True, False)):
@@ -356,10 +364,11 @@ def main(argv=None) -> int:
     held = [r for r in rows if r.get("held_out")]
     if held:
         print("\n| set | a frame left out, taken again from the others' merge: code error, median / mean: PanoLight "
-              "| OpenCV |\n|---|---:|---:|")
+              "| PanoLight weighed by the hat | OpenCV |\n|---|---:|---:|---:|")
         for r in held:
-            p, o = r["held_out"]["panolight"], r["held_out"]["opencv"]
-            print(f"| {r['set']} | {p['median']:.0f} / {p['mean']:.2f} | {o['median']:.0f} / {o['mean']:.2f} |")
+            p, h, o = (r["held_out"][k] for k in ("panolight", "panolight_hat", "opencv"))
+            print(f"| {r['set']} | {p['median']:.0f} / {p['mean']:.2f} | {h['median']:.0f} / {h['mean']:.2f} | "
+                  f"{o['median']:.0f} / {o['mean']:.2f} |")
     parts = [r for r in rows if r.get("agreement_parts")]
     if parts:
         print("\n| set | agreement with OpenCV | PanoLight's merge on OpenCV's curve | and Debevec's hat, no ghost tests "

@@ -70,7 +70,8 @@ _values = st.recursive(_leaves, lambda inner: st.one_of(st.lists(inner, max_size
                        max_leaves=8)
 _TAG_NAMES = ["ExposureTime", "FNumber", "Exif:SubsecTimeOriginal", "Exif:PhotographicSensitivity", "Exif:ISOSpeedRatings", "GPS:Latitude",
               "GPS:LatitudeRef", "GPS:Longitude", "GPS:LongitudeRef", "GPS:DateStamp", "GPS:TimeStamp",
-              "Exif:DateTimeOriginal", "Exif:OffsetTimeOriginal", "GPano:FirstPhotoDate", "Exif:ExposureBiasValue"]
+              "Exif:DateTimeOriginal", "Exif:OffsetTimeOriginal", "GPano:FirstPhotoDate", "Exif:ExposureBiasValue",
+              "Exif:ExposureMode", "Exif:ExposureProgram"]
 _tag_sets = st.dictionaries(st.sampled_from(_TAG_NAMES), _values, max_size=len(_TAG_NAMES))
 FUZZ = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
@@ -104,6 +105,7 @@ def test_the_capture_and_exposure_of_any_tags_are_typed_and_in_range(found, head
         assert exposure["taken_s"] is None or (type(exposure["taken_s"]) is float and exposure["taken_s"] >= 0)
         bias = exposure["bias_ev"]
         assert bias is None or (type(bias) is float and abs(bias) <= 30.0)
+        assert type(exposure["manual"]) is bool
     got = parse_capture(found.get, heading)
     assert got.latitude is None or -90.0 <= got.latitude <= 90.0
     assert got.longitude is None or -180.0 <= got.longitude <= 180.0

@@ -90,3 +90,5 @@ def test_the_merge_weighed_as_opencv_reads_opencv_s_curve_and_the_hat_only_insid
     parts = r["agreement_parts"]
     assert set(parts) == {"opencv_curve", "opencv_curve_hat_no_ghosts"}
     assert all(0 <= v < 1 for v in parts.values())
+    assert set(r["held_out"]) == {"panolight", "panolight_hat", "opencv"}
+    assert all(np.isfinite(v["mean"]) for v in r["held_out"].values())
