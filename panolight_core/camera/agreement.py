@@ -129,6 +129,16 @@ def other_scene(agree: Agreement) -> bool:
             and agree.rank_correlation < BAD_SET_RANK and not squeezed)
 
 
+def one_scene(agree: Agreement) -> bool:
+    """Whether a pair's ``Agreement`` shows the two frames to be one scene, not merely fails to tell them apart:
+    compared (MIN_AGREE_BLOCKS), ranking alike (BAD_SET_RANK: not a squeezed pair's pass; a studio relit, 4 stops apart,
+    ranks at 0.30 with its steps kept), its resolved steps keeping their sign (two scenes alike in layout can rank
+    alike, 0.66, while 35 % of their steps cross), and in the exposures' order (BAD_SET_CONTRADICTING)."""
+    return (agree.compared >= MIN_AGREE_BLOCKS and agree.rank_correlation is not None
+            and agree.rank_correlation >= BAD_SET_RANK and agree.crossing is not None
+            and agree.crossing <= BAD_SET_CROSSING and agree.contradicting <= BAD_SET_CONTRADICTING)
+
+
 def _verdict(agree: Agreement, darker: str, brighter: str, stops: float) -> str | None:
     """Why a pair of neighbours in exposure (``brighter`` exposed ``stops`` more than ``darker``) cannot be merged, in
     one line, or None: its blocks run against the exposures' order (BAD_SET_CONTRADICTING: listed in another order
@@ -157,8 +167,8 @@ def consistent_frames(frames, rel: np.ndarray, names=None) -> tuple[list[int], l
     indices in exposure order, the ``Agreement`` of each pair of kept neighbours, darker first, and the frame left
     out: [{"frame": index, "why": one line}] or []). One frame of a failing pair is left out where that alone makes
     the set hold: no pair of the rest fails (``_verdict``) nor crosses its resolved steps, and where it had a neighbour
-    on each side, those two are shown to be one scene (compared, ranking alike, their resolved steps keeping their
-    sign): an untested gap vouches for nothing. PanoLightError with the set's first failing pair where no one frame
+    on each side, those two are shown to be one scene (``one_scene``): an untested gap vouches for nothing.
+    PanoLightError with the set's first failing pair where no one frame
     does, or two would (frames listed in reverse, a set of two, two halves that each hold, two wrong frames)."""
     names = [f"frame {i + 1}" for i in range(len(frames))] if names is None else [str(n) for n in names]
     codes = [block_codes(f) for f in frames]
@@ -178,15 +188,6 @@ def consistent_frames(frames, rel: np.ndarray, names=None) -> tuple[list[int], l
                 out[i, j] = why
         return out
 
-    def shown(i, j) -> bool:
-        """A pair shown to be one scene: compared, ranking alike (not a squeezed pair's pass: a studio relit, 4 stops
-        apart, ranks at 0.30 with its steps kept), its resolved steps keeping their sign (two scenes alike in layout
-        can rank alike, 0.66, while 35 % of their steps cross), and passing."""
-        a = agreement(i, j)  # ranking alike, it is no other scene: passing asks only the exposures' order
-        return (a.compared >= MIN_AGREE_BLOCKS and a.rank_correlation is not None
-                and a.rank_correlation >= BAD_SET_RANK and a.crossing is not None
-                and a.crossing <= BAD_SET_CROSSING and a.contradicting <= BAD_SET_CONTRADICTING)
-
     def clean(chain) -> bool:
         """No pair fails, nor crosses its resolved steps (a frame of another scene alike in layout can pass its
         rank test with one neighbour, 0.53-0.66, while 35-39 % of their steps cross)."""
@@ -204,7 +205,7 @@ def consistent_frames(frames, rel: np.ndarray, names=None) -> tuple[list[int], l
         for k in dict.fromkeys(x for pair in bad for x in pair):
             n = kept.index(k)
             rest = kept[:n] + kept[n + 1:]
-            if clean(rest) and (n in (0, len(kept) - 1) or shown(kept[n - 1], kept[n + 1])):
+            if clean(rest) and (n in (0, len(kept) - 1) or one_scene(agreement(kept[n - 1], kept[n + 1]))):
                 fits.append(k)
         if len(fits) != 1:
             raise PanoLightError(first)

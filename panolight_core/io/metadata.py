@@ -131,7 +131,7 @@ def _calendar(pattern: re.Pattern, raw) -> datetime | None:
 def subseconds(raw) -> float:
     """EXIF's SubSecTimeOriginal ("123": 0.123 s) in seconds; 0 when absent or not digits."""
     s = text(raw, 9) or ""
-    return int(s) / 10 ** len(s) if s.isdigit() else 0.0
+    return int(s) / 10 ** len(s) if s.isascii() and s.isdigit() else 0.0  # "¹" is a digit to str.isdigit, not to int
 
 
 def utc_offset(raw) -> timezone | None:
@@ -212,13 +212,14 @@ MAX_BIAS_EV = 30.0  # an exposure bias beyond +-30 stops is no camera's (--evs t
 
 
 def exposure(get) -> dict | None:
-    """{"time_s", "f_number", "iso", "taken_s", "iso_recorded", "bias_ev"} from raw tag values (``get(name)``, None when
+    """{"time_s", "f_number", "iso", "taken_s", "iso_recorded", "bias_ev", "manual"} from raw tag values (``get(name)``, None when
     absent): each a positive finite number, as a number, its text, a rational's text ("1/250") or the first of several
     values (ISOSpeedRatings); None when the time or the f-number is not one. An ISO that is not one is taken as 100
     (``iso_recorded`` False: an absolute scale from it is a guess, ``camera.units``). bias_ev: the exposure bias the
     shot was compensated by (ExposureBiasValue, stops within +-MAX_BIAS_EV), or None.
     taken_s: when the shot was taken (DateTimeOriginal and SubSecTimeOriginal, the camera's own clock), seconds
-    from year 1, or None: what tells a bracket sequence from shots minutes apart."""
+    from year 1, or None: what tells a bracket sequence from shots minutes apart. manual: whether the photographer set
+    the exposure by hand (ExposureMode 1, or ExposureProgram 1: "Manual"), as a bracket shot one setting at a time is."""
     time_s = positive(get("ExposureTime"), MAX_EXPOSURE_S)
     f_number = positive(get("FNumber"), MAX_F_NUMBER)
     if time_s is None or f_number is None:
@@ -228,7 +229,8 @@ def exposure(get) -> dict | None:
     taken_s = None if taken is None else (taken - datetime(1, 1, 1)).total_seconds() + \
         subseconds(get("Exif:SubsecTimeOriginal"))
     return {"time_s": time_s, "f_number": f_number, "iso": iso or 100.0, "taken_s": taken_s, "iso_recorded": bool(iso),
-            "bias_ev": number(get("Exif:ExposureBiasValue"), -MAX_BIAS_EV, MAX_BIAS_EV)}
+            "bias_ev": number(get("Exif:ExposureBiasValue"), -MAX_BIAS_EV, MAX_BIAS_EV),
+            "manual": integer(get("Exif:ExposureMode"), 0, 255) == 1 or integer(get("Exif:ExposureProgram"), 0, 255) == 1}
 
 
 MAX_JSON_DEPTH = 32  # no record PanoLight writes nests deeper

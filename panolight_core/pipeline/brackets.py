@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import threads
-from ..camera.agreement import same_picture
+from ..camera.agreement import frame_agreement, one_scene, same_picture
 from ..camera.brackets import check_exposures, exposure, merge_brackets, one_exposure, told_apart
 from ..errors import PanoLightError, PanoLightWarning, naming
 from ..io.capture import read_exposure
@@ -78,43 +78,74 @@ def exif_exposure(path: Path, remedy: str) -> float:
     return exif_shot(path, remedy)[0]
 
 
-def exif_shot(path: Path, remedy: str) -> tuple[float, float, float | None]:
-    """(relative exposure, exposure time s, when it was taken: s on the camera's clock or None) of a frame from its
-    EXIF; PanoLightError as ``exif_exposure``."""
+def exif_shot(path: Path, remedy: str) -> tuple[float, float, float | None, bool]:
+    """(relative exposure, exposure time s, when it was taken: s on the camera's clock or None, whether it was exposed
+    by hand) of a frame from its EXIF; PanoLightError as ``exif_exposure``."""
     exif = read_exposure(path)
     if exif is None:
         sep = "" if remedy.startswith(";") else ", "
         raise PanoLightError(f"{path}: records no exposure (EXIF ExposureTime and FNumber){sep}{remedy}")
     try:
-        return exposure(exif["time_s"], exif["f_number"], exif["iso"]), exif["time_s"], exif.get("taken_s")
+        return (exposure(exif["time_s"], exif["f_number"], exif["iso"]), exif["time_s"], exif.get("taken_s"),
+                bool(exif.get("manual")))
     except PanoLightError as exc:
         raise naming(path, exc) from None
 
 
 BRACKET_GAP_S = 5.0  # a frame taken more than this after the previous one ended begins a new set: a camera's
-# bracket sequence follows on at once (a second or two between frames), shots of other scenes minutes later
+# bracket sequence follows on at once (a second or two between frames), shots of other scenes minutes later ...
+SLOW_BRACKET_GAP_S = 120.0  # ... unless both were exposed by hand (``slow_bracket``), the later within this: a set shot
+# one setting at a time (a real iPhone set, a stop apart, 7-27 s between frames, had become nine single shots)
 
 
 def group_by_exposure(files, align: bool = True) -> list:
     """Sorted ``files`` grouped by each file's EXIF (``--brackets auto``): consecutive frames make one set until a
     frame's exposure repeats one the set holds (within MIN_EXPOSURE_STEP: the camera's bracket sequence began again)
     or it was taken more than BRACKET_GAP_S after the previous frame ended (DateTimeOriginal and SubSecTimeOriginal:
-    shots of other scenes), so sets of any size share a folder. A set of one frame is that file alone (a single
-    shot: estimated as it is). PanoLightError naming a file that records no exposure."""
+    shots of other scenes) and is no ``slow_bracket`` step, so sets of any size share a folder. A set of one frame is
+    that file alone (a single shot: estimated as it is). PanoLightError naming a file that records no exposure."""
     files = sorted((Path(f) for f in files), key=str)
-    sets, current, seen, ended = [], [], [], None
+    sets, current, seen, ended, by_hand = [], [], [], None, False
+    pictures = {}  # the last two frames read: a slow set's chain reads each frame once
+
+    def picture(p: Path) -> np.ndarray:
+        if p not in pictures:
+            pictures[p] = read_image(p, ldr_as_uint8=True)
+            while len(pictures) > 2:
+                del pictures[next(iter(pictures))]
+        return pictures[p]
+
     for path in files:
-        e, time_s, taken = exif_shot(path, "which --brackets auto groups the files by; give --brackets N and --evs "
-                                           "instead")
-        later = taken is not None and ended is not None and taken - ended > BRACKET_GAP_S
+        e, time_s, taken, manual = exif_shot(path, "which --brackets auto groups the files by; give --brackets N and "
+                                                   "--evs instead")
+        gap = None if taken is None or ended is None else taken - ended
+        later = gap is not None and gap > BRACKET_GAP_S and not (
+            gap <= SLOW_BRACKET_GAP_S and by_hand and manual and slow_bracket(current[-1], path, seen, e, picture))
         if later or any(one_exposure(e, v) for v in seen):
             sets.append(current)
             current, seen = [], []
         current.append(path)
         seen.append(e)
-        ended = None if taken is None else taken + time_s
+        ended, by_hand = (None if taken is None else taken + time_s), manual
     sets.append(current)
     return [BracketSet(s, None, align) if len(s) > 1 else s[0] for s in sets if s]
+
+
+def slow_bracket(previous: Path, path: Path, exposures: list, e: float, read=None) -> bool:
+    """Whether ``path`` (exposure ``e``), shot by hand a while after ``previous`` (the last frame of a set exposed
+    ``exposures`` so far), is the set's next step: its exposure goes on the way the set's do, and its picture is
+    shown to be the previous frame's scene (``camera.agreement.one_scene``, as shot: a tripod set). A frame that cannot
+    be read as an 8-bit picture of the previous one's size is no step (each is estimated alone, as before). ``read``:
+    a path's pixels (default ``io.read_image`` as 8 bits)."""
+    if len(exposures) >= 2 and (e > exposures[-1]) != (exposures[-1] > exposures[-2]):
+        return False
+    try:
+        a, b = (read(p) if read else read_image(p, ldr_as_uint8=True) for p in (previous, path))
+    except PanoLightError:
+        return False
+    if a.dtype != np.uint8 or b.dtype != np.uint8 or a.shape != b.shape:
+        return False
+    return one_scene(frame_agreement(a, b, e / exposures[-1]))
 
 
 def parse_evs(text: str) -> tuple[float, ...]:

@@ -90,13 +90,14 @@ def test_exposures_in_legal_but_unexpected_shapes_are_read_or_absent(tmp_path):
     from panolight_core.io.capture import read_exposure
 
     two = _raw_exif_photo(tmp_path / "iso2.jpg", [(0x829A, IFDRational(1, 250)), (0x829D, IFDRational(8, 1)),
-                                                  (0x8827, (400, 800)), (0x9204, IFDRational(-5, 3))])
+                                                  (0x8827, (400, 800)), (0x9204, IFDRational(-5, 3)),
+                                                  (0xA402, 1)])  # ExposureMode: manual
     assert read_exposure(two) == {"time_s": pytest.approx(0.004), "f_number": 8.0, "iso": 400.0, "taken_s": None,
-                                  "iso_recorded": True, "bias_ev": pytest.approx(-5 / 3)}
+                                  "iso_recorded": True, "bias_ev": pytest.approx(-5 / 3), "manual": True}
     text = _raw_exif_photo(tmp_path / "text.jpg", [(0x829A, "1/250"), (0x829D, "8"), (0x8827, "200"),
                                                    (0x9204, "99")])  # a bias no camera records: none
     assert read_exposure(text) == {"time_s": 0.004, "f_number": 8.0, "iso": 200.0, "taken_s": None,
-                                   "iso_recorded": True, "bias_ev": None}
+                                   "iso_recorded": True, "bias_ev": None, "manual": False}
     assert read_exposure(_raw_exif_photo(tmp_path / "nan.jpg", [(0x829A, IFDRational(0, 0)),
                                                                 (0x829D, IFDRational(8, 1))])) is None
 

@@ -6,7 +6,7 @@ from datetime import datetime, timedelta, timezone
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from panolight_core.io import metadata as tags
@@ -78,6 +78,8 @@ FUZZ = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCh
 
 @FUZZ
 @given(_values)
+@example("¹")  # a digit to str.isdigit that int() refuses: SubSecTimeOriginal raised
+@example("٣٤")  # Arabic-Indic digits
 def test_every_reader_takes_any_value_and_returns_its_type_or_none(raw):
     for value in (tags.number(raw), tags.positive(raw), tags.heading(raw)):
         assert value is None or (type(value) is float and math.isfinite(value))

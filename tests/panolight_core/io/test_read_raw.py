@@ -63,7 +63,7 @@ def test_the_files_orientation_is_applied(tmp_path):
 def test_the_exposure_comes_from_the_raw(tmp_path):
     path = write_dng(tmp_path / "d.dng", _scene(), scale=0.1, time_s=1 / 250, f_number=8.0)
     assert read_exposure(path) == {"time_s": pytest.approx(1 / 250), "f_number": pytest.approx(8.0), "iso": 100.0,
-                                   "taken_s": None, "iso_recorded": False, "bias_ev": None}  # no ISO: 100 assumed
+                                   "taken_s": None, "iso_recorded": False, "bias_ev": None, "manual": False}  # no ISO: 100 assumed
     assert read_exposure(write_dng(tmp_path / "e.dng", _scene(), scale=0.1)) is None
 
 

@@ -9,7 +9,7 @@ from PIL.TiffImagePlugin import IFDRational
 
 from panolight_core import metrics
 from panolight_core.apps.cli import main
-from panolight_core.camera import hdr_to_ldr
+from panolight_core.camera import auto_exposure, hdr_to_ldr
 from panolight_core.io import write_image
 from tests.panolight_core.estimators.sources.test_restore import _clear_day
 
@@ -215,14 +215,45 @@ def test_a_tripod_set_is_merged_as_shot_with_no_align(tmp_path, day):
     assert doc["source"]["brackets"]["aligned"] is False
 
 
-def _timed_frame(path, ldr, time_s, taken: str, subsec: str = "00"):
-    """A JPEG with an exposure time (f/8, ISO 100) and the camera's DateTimeOriginal / SubSecTimeOriginal."""
+def _timed_frame(path, ldr, time_s, taken: str, subsec: str = "00", manual: bool = False):
+    """A JPEG with an exposure time (f/8, ISO 100), the camera's DateTimeOriginal / SubSecTimeOriginal and, with
+    ``manual``, ExposureMode 1 (the photographer set the exposure, as a phone app or a dial does; else auto, 0)."""
     exif = Image.Exif()
     ifd = exif.get_ifd(0x8769)
     ifd[0x829A] = IFDRational(*(1, round(1 / time_s)) if time_s < 1 else (round(time_s), 1))
     ifd[0x829D], ifd[0x8827], ifd[0x9003], ifd[0x9291] = IFDRational(8, 1), 100, taken, subsec
+    ifd[0xA402] = 1 if manual else 0
     Image.fromarray(ldr).save(path, quality=95, exif=exif)
     return path
+
+
+def test_a_set_shot_by_hand_a_stop_at_a_time_is_one_set_and_other_shots_stay_alone(tmp_path):
+    """Real case: an iPhone set exposed by hand a stop apart, 7-27 s between frames (a tripod, an exposure app), became
+    nine single shots. Frames exposed by hand, within SLOW_BRACKET_GAP_S, stepping on one way and shown to be the
+    previous frame's scene make one set; an auto-exposed frame, another scene, a step back or a frame minutes later
+    begins another (each checked here), and an auto-exposed sequence 20 s apart stays single shots."""
+    from panolight_core.data import load_studio_hdri
+    from panolight_core.pipeline.brackets import SLOW_BRACKET_GAP_S, BracketSet, group_by_exposure
+
+    city, forest = load_studio_hdri("city"), load_studio_hdri("forest")
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    k = auto_exposure(city, 0.0, robust=True)
+    plan = [  # name, scene, stop, seconds after 12:00:00, by hand
+        ("a0", city, -2, 0, True), ("a1", city, -1, 20, True), ("a2", city, 0, 45, True), ("a3", city, 1, 60, True),
+        ("b0", forest, 2, 80, True),  # another scene, by hand, the steps going on: a new set
+        ("b1", forest, 1, 100, True),  # its own second frame
+        ("c0", forest, 0, 120, False), ("c1", forest, -1, 140, False),  # auto-exposed 20 s apart: single shots
+        ("d0", city, -2, 160, True), ("d1", city, -1, 180, True), ("d2", city, -2.5, 200, True),  # a step back
+        ("e0", city, 0, 400, True), ("e1", city, 1, 420 + int(SLOW_BRACKET_GAP_S), True),  # too long after
+    ]
+    for name, scene, stop, t, manual in plan:
+        taken = f"2024:06:21 12:{t // 60:02d}:{t % 60:02d}"
+        _timed_frame(shots / f"{name}.jpg", hdr_to_ldr(scene, scale=k * 2.0 ** stop), 2.0 ** stop / 250, taken,
+                     manual=manual)
+    groups = group_by_exposure(sorted(shots.iterdir()))
+    got = [[p.stem for p in g.paths] if isinstance(g, BracketSet) else g.stem for g in groups]
+    assert got == [["a0", "a1", "a2", "a3"], ["b0", "b1"], "c0", "c1", ["d0", "d1"], "d2", "e0", "e1"]
 
 
 def test_auto_grouping_splits_shots_taken_minutes_apart(tmp_path, day, capsys):
