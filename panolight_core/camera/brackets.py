@@ -290,6 +290,7 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
                  "agreement": [{"contradicting": round(a.contradicting, 4), "compared": a.compared,
                                 "rank_correlation": (None if a.rank_correlation is None
                                                      else round(a.rank_correlation, 4)),
-                                "crossing": None if a.crossing is None else round(a.crossing, 4)}
+                                "crossing": None if a.crossing is None else round(a.crossing, 4),
+                                "step_codes": None if a.step_codes is None else round(a.step_codes, 2)}
                                for a in agreement],
                  **({"shifts": [[int(dy), int(dx)] for dy, dx in shifts]} if align else {})}

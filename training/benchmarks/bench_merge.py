@@ -52,6 +52,7 @@ import numpy as np
 from panolight_core.camera import auto_exposure, blend, brackets, hdr_to_ldr, response
 from panolight_core.camera.color import LUMINANCE_WEIGHTS
 from panolight_core.camera.resample import area_downsample
+from panolight_core.errors import PanoLightError
 
 FIREFLY_RATIO = 10.0
 WELL_EXPOSED = (20, 235)
@@ -73,7 +74,6 @@ def read_set(folder: Path):
     missing."""
     from PIL import Image
 
-    from panolight_core.errors import PanoLightError
     from panolight_core.pipeline.brackets import bracket_exposures
 
     names = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".jpg", ".jpeg", ".png", ".tif", ".tiff"))
@@ -318,6 +318,9 @@ def table(rows: list[dict]) -> list[str]:
     lines = ["| set | frames | pixels | agreement (median abs ln) | fireflies (spurious): PanoLight / OpenCV | error vs "
              "truth: PanoLight / OpenCV | time s: PanoLight / OpenCV (ratio) |", "|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
+        if "refused" in r:
+            lines.append(f"| {r['set']} | {r['frames']} | refused by PanoLight: {r['refused']} |||||")
+            continue
         p, o = r["panolight"], r["opencv"]
         truth = (f"{p['truth_error']:.3f} / {o['truth_error']:.3f}" if "truth_error" in p else "n/a")
         flies = [f"{x['fireflies']}" + (f" ({x['spurious_fireflies']})" if "spurious_fireflies" in x else "")
@@ -346,7 +349,10 @@ def main(argv=None) -> int:
     rows = []
     for folder in args.frames:
         frames, times, names = read_set(folder)
-        rows.append({"set": folder.name, "frames": len(frames), **score(frames, times, args.repeats)})
+        try:
+            rows.append({"set": folder.name, "frames": len(frames), **score(frames, times, args.repeats)})
+        except PanoLightError as exc:  # a set the merge refuses (its frames are not what it says): said, not scored
+            rows.append({"set": folder.name, "frames": len(frames), "refused": str(exc)})
         print("\n".join(table(rows[-1:])[2:]), flush=True)
     if not args.frames:
         from panolight_core.data import STUDIO_HDRIS, load_studio_hdri
@@ -361,7 +367,8 @@ def main(argv=None) -> int:
             rows.append({"set": scene, "frames": len(frames), **score(frames, exposures, args.repeats, truth)})
             print("\n".join(table(rows[-1:])[2:]), flush=True)
     print("\n".join(table(rows)))
-    held = [r for r in rows if r.get("held_out")]
+    scored = [r for r in rows if "refused" not in r]
+    held = [r for r in scored if r.get("held_out")]
     if held:
         print("\n| set | a frame left out, taken again from the others' merge: code error, median / mean: PanoLight "
               "| PanoLight weighed by the hat | OpenCV |\n|---|---:|---:|---:|")
@@ -369,7 +376,7 @@ def main(argv=None) -> int:
             p, h, o = (r["held_out"][k] for k in ("panolight", "panolight_hat", "opencv"))
             print(f"| {r['set']} | {p['median']:.0f} / {p['mean']:.2f} | {h['median']:.0f} / {h['mean']:.2f} | "
                   f"{o['median']:.0f} / {o['mean']:.2f} |")
-    parts = [r for r in rows if r.get("agreement_parts")]
+    parts = [r for r in scored if r.get("agreement_parts")]
     if parts:
         print("\n| set | agreement with OpenCV | PanoLight's merge on OpenCV's curve | and Debevec's hat, no ghost tests "
               "|\n|---|---:|---:|---:|")
@@ -378,14 +385,14 @@ def main(argv=None) -> int:
             print(f"| {r['set']} | {r['agreement']:.3f} | {p['opencv_curve']:.3f} | "
                   f"{p['opencv_curve_hat_no_ghosts']:.3f} |")
     print("\n| set | curve used | recovered vs OpenCV's | recovered vs sRGB | OpenCV's vs sRGB |\n|---|---|---:|---:|---:|")
-    for r in rows:
+    for r in scored:
         c = r["curve"]
         print(f"| {r['set']} | {c['used']} | {c['panolight_vs_opencv']:.3f} | {c['panolight_vs_srgb']:.3f} | "
               f"{c['opencv_vs_srgb']:.3f} |")
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps({"rows": rows, "stops": args.stops}, indent=1))
-    return 0 if math.isfinite(sum(r["agreement"] for r in rows)) else 1
+    return 0 if math.isfinite(sum(r["agreement"] for r in scored)) else 1
 
 
 if __name__ == "__main__":

@@ -8,6 +8,8 @@ as a set is taken and as a set goes wrong:
 - reversed: the frames in the opposite order to their exposures (the files listed the other way round);
 - steps halved / doubled: a set shot 1 stop apart told 2 (``--evs=-2,0,2``), and one shot 2 apart told 1;
 - one stop off: the +2 frame shot at +3;
+- one exposure listed as two: the ev-0 frame and one shot 0.05 stops over it, listed a stop apart (a camera's auto
+  ISO undoing a bracket's step: four real sets);
 - another scene: the ev -2 and +2 frames of the next scene of the same size (a set grouped across two scenes).
 
 Prints, by case and curve, the pairs the merge refuses (``camera.agreement._verdict``), and the share of
@@ -34,10 +36,11 @@ from panolight_core.camera.agreement import (
     BAD_SET_CONTRADICTING,
     BAD_SET_CROSSING,
     BAD_SET_RANK,
+    FLAT_STEP_CODES,
     MIN_AGREE_BLOCKS,
     Agreement,
+    _verdict,
     frame_agreement,
-    other_scene,
 )
 from panolight_core.camera.brackets import shift_frame
 from panolight_core.camera.color import SRGB8_TO_LINEAR
@@ -70,6 +73,9 @@ def scene_rows(hdr, other, scene: str) -> list[dict]:
         cases += [("steps halved", "3 brackets", (a, b), shot[a // 2], shot[b // 2]) for a, b in ((-2, 0), (0, 2))]
         cases += [("steps doubled", "3 brackets", (a, b), shot[2 * a], shot[2 * b]) for a, b in ((-1, 0), (0, 1))]
         cases += [("one stop off", "3 brackets", (0, 2), shot[0], shot[3])]
+        nudged = frames_of(hdr, (0.05,), curve)[0.05]  # a camera's auto ISO undid the step, a twentieth of a stop left
+        # (four real sets' undone steps moved -5.4 to +1.6 codes: 0.05 stops moves 1-2)
+        cases += [("one exposure listed as two", "3 brackets", (0, 1), shot[0], nudged)]
         cases += [("another scene", "3 brackets", tuple(sorted((0, ev))), *((f, shot[0]) if ev < 0 else (shot[0], f)))
                   for ev, f in elsewhere.items()]
         for case, kind, (a, b), darker, brighter in cases:
@@ -77,7 +83,7 @@ def scene_rows(hdr, other, scene: str) -> list[dict]:
             rows.append({"scene": scene, "case": case, "curve": name, "set": kind, "evs": [a, b],
                          "contradicting": agree.contradicting, "stops_off": srgb_stops_off(darker, brighter, b - a),
                          "compared": agree.compared, "rank_correlation": agree.rank_correlation,
-                         "crossing": agree.crossing})
+                         "crossing": agree.crossing, "step_codes": agree.step_codes})
     return rows
 
 
@@ -139,8 +145,9 @@ def srgb_stops_off(darker: np.ndarray, brighter: np.ndarray, stops: float) -> fl
 
 def refused(row: dict) -> bool:
     """Whether the merge refuses the pair of ``row`` (``camera.agreement._verdict``, the shipped thresholds)."""
-    agree = Agreement(row["contradicting"], row["rank_correlation"], row["compared"], row.get("crossing"))
-    return row["compared"] >= MIN_AGREE_BLOCKS and (row["contradicting"] > BAD_SET_CONTRADICTING or other_scene(agree))
+    agree = Agreement(row["contradicting"], row["rank_correlation"], row["compared"], row.get("crossing"),
+                      row.get("step_codes"))
+    return _verdict(agree, "darker", "brighter", float(row["evs"][1] - row["evs"][0])) is not None
 
 
 def refused_by_rank(row: dict) -> bool:
@@ -155,8 +162,9 @@ def summary(rows: list[dict]) -> list[str]:
     (the right sets' largest contradicting share and smallest correlation, the wrong ones' opposite)."""
     lines = ["| case | curve | pairs | refused (by the rank alone) | contradicting: median, worst "
              "| rank correlation: median, worst "
-             "| crossing steps: median, worst | stops off through sRGB: median, worst |",
-             "|---|---|---:|---:|---:|---:|---:|---:|"]
+             "| crossing steps: median, worst | codes a stop moves: median, worst "
+             "| stops off through sRGB: median, worst |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for case in dict.fromkeys(r["case"] for r in rows):
         for curve in dict.fromkeys(r["curve"] for r in rows):
             sel = [r for r in rows if r["case"] == case and r["curve"] == curve]
@@ -166,12 +174,16 @@ def summary(rows: list[dict]) -> list[str]:
             cross = np.array([r["crossing"] for r in sel
                               if r["compared"] >= MIN_AGREE_BLOCKS and r.get("crossing") is not None])
             off = np.abs([r["stops_off"] for r in sel])
+            moves = np.array([r["step_codes"] / (r["evs"][1] - r["evs"][0]) for r in sel
+                              if r["compared"] >= MIN_AGREE_BLOCKS and r.get("step_codes") is not None])
             right = case.startswith("right")
             lines.append(f"| {case} | {curve} | {len(sel)} | {sum(map(refused, sel))} "
                          f"({sum(map(refused_by_rank, sel))}) | "
                          f"{np.median(c):.3f}, {(c.max() if right else c.min()):.3f} | "
                          f"{np.median(rho):.3f}, {(rho.min() if right else rho.max()):.3f} | "
                          + (f"{np.median(cross):.3f}, {(cross.max() if right else cross.min()):.3f} | " if cross.size
+                            else "n/a | ")
+                         + (f"{np.median(moves):.1f}, {(moves.min() if right else moves.max()):.1f} | " if moves.size
                             else "n/a | ") +
                          f"{np.median(off):.2f}, {(off.max() if right else off.min()):.2f} |")
     return lines
@@ -186,11 +198,12 @@ def evidence(rows: list[dict], table: list[str]) -> dict:
     right = [r for r in rows if r["case"].startswith("right") and r["compared"] >= MIN_AGREE_BLOCKS]
     ranked = [r for r in right if r["rank_correlation"] is not None]
     return {"table": table, "thresholds": {"contradicting": BAD_SET_CONTRADICTING, "rank": BAD_SET_RANK,
-                                           "crossing": BAD_SET_CROSSING,
+                                           "crossing": BAD_SET_CROSSING, "flat_step_codes": FLAT_STEP_CODES,
                                            "min_blocks": MIN_AGREE_BLOCKS},
             "right_most_contradicting": [short(r) for r in sorted(right, key=lambda r: -r["contradicting"])[:10]],
             "right_least_alike": [short(r) for r in sorted(ranked, key=lambda r: r["rank_correlation"])[:10]],
-            "wrong_passed": [short(r) for r in rows if r["case"] in ("reversed", "another scene") and not refused(r)]}
+            "wrong_passed": [short(r) for r in rows if r["case"] in ("reversed", "another scene",
+                                                                     "one exposure listed as two") and not refused(r)]}
 
 
 def main(argv=None) -> int:

@@ -99,3 +99,27 @@ def test_a_still_pair_far_apart_through_an_s_curve_is_one_scene_and_a_studio_rel
     with pytest.raises(PanoLightError, match=r"^frame 2 \(exposed 2 stops more than frame 1\) does not show the "
                                              r"scene frame 1 shows .* 2 % of its patches darker .* light changed"):
         merge_brackets([darker, brighter], [1.0, 4.0])
+
+
+def test_one_exposure_listed_as_two_is_refused_where_no_one_frame_explains_it():
+    """Four real sets (a camera whose auto ISO undid the bracket's steps) listed frames a stop apart that read the same
+    exposure, and were merged in silence, 0.4-0.96 off OpenCV's merge. Two shots at one exposure (noise and JPEG each
+    their own) listed a stop apart move no codes: refused, naming them. In a set of three, either of the pair could be
+    the mislabelled one: refused. A still pair a stop apart moves 11 codes or more a stop, recorded (step_codes)."""
+    from panolight_core.camera.agreement import FLAT_STEP_CODES, consistent_frames, frame_agreement
+    from panolight_core.data import load_studio_hdri
+
+    city = load_studio_hdri("city")
+    k = auto_exposure(city, 0.0, robust=True)
+    shot = [hdr_to_ldr(city, scale=k * 2.0 ** s, jpeg_quality=90, noise=np.random.default_rng(seed))
+            for seed, s in enumerate((-1, 0, 0))]
+    right = frame_agreement(shot[0], shot[1], 2.0)
+    assert right.step_codes > 2.5 * FLAT_STEP_CODES and right.contradicting <= 0.01
+    assert abs(frame_agreement(shot[1], shot[2], 2.0).step_codes) < 1.0
+    with pytest.raises(PanoLightError, match=r"^b \(exposed 1 stops more than a\) reads the same exposure as a: what "
+                                             r"both expose well moves [+-]\d\.\d codes .* --evs"):
+        consistent_frames(shot[1:], np.array([1.0, 2.0]), ["a", "b"])
+    with pytest.raises(PanoLightError, match="reads the same exposure"):
+        consistent_frames(shot, np.array([0.5, 1.0, 2.0]))
+    _, info = merge_brackets(shot[:2], [0.5, 1.0])
+    assert info["agreement"][0]["step_codes"] == pytest.approx(right.step_codes, abs=0.01)

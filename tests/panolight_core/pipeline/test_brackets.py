@@ -389,3 +389,24 @@ def test_a_batch_estimates_a_frame_its_set_left_out_alone(tmp_path, capsys):
     assert r["status"] == "ok" and [f["input"] for f in r["frames"]] == [str(shots / "s_1.jpg")]
     assert (out / "s_0" / "lighting.json").is_file() and (out / "s_0" / "s_1" / "lighting.json").is_file()
     assert "1 frame(s) left out of the set were estimated alone" in capsys.readouterr().err
+
+
+def test_a_set_whose_camera_undid_its_steps_is_refused_in_one_line_and_batch_estimates_its_frames_alone(tmp_path, capsys):
+    """Real case: four public sets listed frames a stop apart that a camera's auto ISO had taken at one exposure; they
+    were merged in silence into an HDR 0.4-0.96 off OpenCV's. Now ``estimate`` refuses the set naming the two frames
+    and what to do; ``batch`` estimates each frame alone and its report says why."""
+    from panolight_core.data import load_studio_hdri
+
+    city = load_studio_hdri("city")
+    k = auto_exposure(city, 0.0, robust=True)
+    files = [_frame(tmp_path / f"u{i}.jpg", hdr_to_ldr(city, scale=k * 2.0 ** s, jpeg_quality=90,
+                                                      noise=np.random.default_rng(i)))
+             for i, s in enumerate((-1, 0, 0.03))]  # the third shot at the second's exposure, listed a stop over it
+    assert main(["estimate", *files, "--evs", "-1,0,1", "-o", str(tmp_path / "out"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "u2.jpg (exposed 1 stops more than u1.jpg) reads the same exposure as u1.jpg" in err and "--evs" in err
+    assert "Traceback" not in err and not (tmp_path / "out" / "lighting.json").exists()
+    out = tmp_path / "batch"
+    assert main(["batch", *files, "-o", str(out), "--brackets", "3", "--evs", "-1,0,1", "--jobs", "1", "-q"]) == 0
+    (r,) = json.loads((out / "batch_report.json").read_text())["results"]
+    assert "reads the same exposure" in r["note"] and [f["status"] for f in r["frames"]] == ["ok"] * 3

@@ -92,3 +92,15 @@ def test_the_merge_weighed_as_opencv_reads_opencv_s_curve_and_the_hat_only_insid
     assert all(0 <= v < 1 for v in parts.values())
     assert set(r["held_out"]) == {"panolight", "panolight_hat", "opencv"}
     assert all(np.isfinite(v["mean"]) for v in r["held_out"].values())
+
+
+def test_a_real_set_the_merge_refuses_is_said_and_not_scored(tmp_path, capsys):
+    """Four public sets list frames a stop apart that their camera took at one exposure: the merge refuses them, and
+    the bench says so in its row rather than scoring an HDR PanoLight would not make."""
+    frames = [bench_merge.hdr_to_ldr(_scene(64), ev) for ev in (-1, 0, 0)]
+    for i, f in enumerate(frames):
+        Image.fromarray(f).save(tmp_path / f"f{i}.png")
+    (tmp_path / "shutter_times.txt").write_text("1/4\n1/2\n1\n")
+    assert bench_merge.main(["--frames", str(tmp_path), "--repeats", "1"]) == 0
+    out = capsys.readouterr().out
+    assert f"| {tmp_path.name} | 3 | refused by PanoLight: " in out

@@ -15,6 +15,7 @@ def test_right_pairs_pass_and_reversed_or_mixed_ones_are_refused():
     assert all(map(bracket_agreement.refused, by["reversed"]))
     assert sum(map(bracket_agreement.refused, by["another scene"])) >= 7  # the shoulder camera's -2/0 pair: 0.47
     assert not any(map(bracket_agreement.refused, by["steps halved"] + by["one stop off"]))  # not caught: the docstring
+    assert all(map(bracket_agreement.refused, by["one exposure listed as two"]))  # a step the camera undid
     srgb = [r for r in by["steps halved"] if r["curve"] == "srgb"]
     assert all(abs(r["stops_off"] + 1.0) < 0.1 for r in srgb)  # a 1-stop set told 2 reads 1 stop short through sRGB
     kept = bracket_agreement.evidence(rows, bracket_agreement.summary(rows))
