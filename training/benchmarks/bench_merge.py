@@ -93,8 +93,8 @@ def read_set(folder: Path):
     return frames, np.array(times, dtype=np.float64), [p.name for p in names]
 
 
-def merge_panolight(frames, exposures):
-    return brackets.merge_brackets(frames, exposures, align=False)[0]
+def merge_panolight(frames, exposures, names=None):
+    return brackets.merge_brackets(frames, exposures, align=False, names=names)[0]
 
 
 def merge_opencv(frames, exposures):
@@ -267,13 +267,13 @@ def _scaled_log_error(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.median(np.abs(r - np.median(r))))
 
 
-def score(frames, exposures, repeats: int = 3, truth: np.ndarray | None = None) -> dict:
+def score(frames, exposures, repeats: int = 3, truth: np.ndarray | None = None, names=None) -> dict:
     """Both merges of one set: time, agreement, fireflies and (with ``truth``, in the reference frame's units) the
-    error against it."""
+    error against it. PanoLightError (naming frames by ``names``) where PanoLight's merge refuses the set."""
     e = np.asarray(exposures, dtype=np.float64)
     ref = int(np.argsort(e)[(e.size - 1) // 2])
     out, merged = {}, {}
-    for name, merge in (("panolight", merge_panolight), ("opencv", merge_opencv)):
+    for name, merge in (("panolight", lambda f, x: merge_panolight(f, x, names)), ("opencv", merge_opencv)):
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
@@ -350,7 +350,7 @@ def main(argv=None) -> int:
     for folder in args.frames:
         frames, times, names = read_set(folder)
         try:
-            rows.append({"set": folder.name, "frames": len(frames), **score(frames, times, args.repeats)})
+            rows.append({"set": folder.name, "frames": len(frames), **score(frames, times, args.repeats, names=names)})
         except PanoLightError as exc:  # a set the merge refuses (its frames are not what it says): said, not scored
             rows.append({"set": folder.name, "frames": len(frames), "refused": str(exc)})
         print("\n".join(table(rows[-1:])[2:]), flush=True)
