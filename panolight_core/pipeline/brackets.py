@@ -99,12 +99,17 @@ SLOW_BRACKET_GAP_S = 120.0  # ... unless both were exposed by hand (``slow_brack
 
 
 def group_by_exposure(files, align: bool = True) -> list:
-    """Sorted ``files`` grouped by each file's EXIF (``--brackets auto``): consecutive frames make one set until a
-    frame's exposure repeats one the set holds (within MIN_EXPOSURE_STEP: the camera's bracket sequence began again)
-    or it was taken more than BRACKET_GAP_S after the previous frame ended (DateTimeOriginal and SubSecTimeOriginal:
-    shots of other scenes) and is no ``slow_bracket`` step, so sets of any size share a folder. A set of one frame is
-    that file alone (a single shot: estimated as it is). PanoLightError naming a file that records no exposure."""
-    files = sorted((Path(f) for f in files), key=str)
+    """``files`` grouped by each file's EXIF (``--brackets auto``), in the order they were taken (DateTimeOriginal and
+    SubSecTimeOriginal, where every file records it: a set renamed by its exposures, 1_125.jpg, still comes in order;
+    else by name, as a camera numbers its files): consecutive frames make one set until a frame's exposure repeats one
+    the set holds (within MIN_EXPOSURE_STEP: the camera's bracket sequence began again) or it was taken more than
+    BRACKET_GAP_S after the previous frame ended (shots of other scenes) and is no ``slow_bracket`` step, so sets of
+    any size share a folder. A set of one frame is that file alone (a single shot: estimated as it is). PanoLightError
+    naming a file that records no exposure."""
+    remedy = "which --brackets auto groups the files by; give --brackets N and --evs instead"
+    shots = [(path, *exif_shot(path, remedy)) for path in sorted((Path(f) for f in files), key=str)]
+    if all(shot[3] is not None for shot in shots):
+        shots.sort(key=lambda shot: shot[3])  # stable: a burst's frames of one second keep their names' order
     sets, current, seen, ended, by_hand = [], [], [], None, False
     pictures = {}  # the last two frames read: a slow set's chain reads each frame once
 
@@ -115,9 +120,7 @@ def group_by_exposure(files, align: bool = True) -> list:
                 del pictures[next(iter(pictures))]
         return pictures[p]
 
-    for path in files:
-        e, time_s, taken, manual = exif_shot(path, "which --brackets auto groups the files by; give --brackets N and "
-                                                   "--evs instead")
+    for path, e, time_s, taken, manual in shots:
         gap = None if taken is None or ended is None else taken - ended
         later = gap is not None and gap > BRACKET_GAP_S and not (
             gap <= SLOW_BRACKET_GAP_S and by_hand and manual and slow_bracket(current[-1], path, seen, e, picture))

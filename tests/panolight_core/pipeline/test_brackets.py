@@ -256,6 +256,22 @@ def test_a_set_shot_by_hand_a_stop_at_a_time_is_one_set_and_other_shots_stay_alo
     assert got == [["a0", "a1", "a2", "a3"], ["b0", "b1"], "c0", "c1", ["d0", "d1"], "d2", "e0", "e1"]
 
 
+def test_auto_grouping_reads_frames_in_the_order_they_were_taken_not_their_names(tmp_path):
+    """Real case: a 12-frame set shot by hand and renamed by its exposures (1_1.jpg, 1_125.jpg, 1_15.jpg ...): in name
+    order its exposures jump up and down, and it broke into pieces. Where every file records when it was taken, the
+    frames are read in that order: one set."""
+    from panolight_core.data import load_studio_hdri
+    from panolight_core.pipeline.brackets import BracketSet, group_by_exposure
+
+    city = load_studio_hdri("city")
+    k = auto_exposure(city, 0.0, robust=True)
+    for t, denominator in enumerate((250, 125, 60)):  # taken 20 s apart, darkest first; by name: 1_125, 1_250, 1_60
+        _timed_frame(tmp_path / f"1_{denominator}.jpg", hdr_to_ldr(city, scale=k * 250 / denominator),
+                     1 / denominator, f"2024:06:21 12:00:{20 * t:02d}", manual=True)
+    (group,) = group_by_exposure(sorted(tmp_path.iterdir()))
+    assert isinstance(group, BracketSet) and [p.stem for p in group.paths] == ["1_250", "1_125", "1_60"]
+
+
 def test_auto_grouping_splits_shots_taken_minutes_apart(tmp_path, day, capsys):
     """Real case: four single shots of four scenes, ten minutes apart, at four exposures, were grouped into one set by
     exposure alone, then refused: none got an estimate. The capture time splits them; a bracket sequence shot within
