@@ -158,8 +158,8 @@ def _verdict(agree: Agreement, darker: str, brighter: str, stops: float) -> str 
         return (f"{pair} is darker than {darker} over {100 * agree.contradicting:.0f} % of what both expose well: the "
                 f"exposures are not the frames' (give them in the files' order with --evs, or check the EXIF)")
     if agree.step_codes is not None and agree.step_codes < FLAT_STEP_CODES * stops:
-        return (f"{pair} reads the same exposure as {darker}: what both expose well moves {agree.step_codes:+.1f} codes "
-                f"between them, where a stop moves 9 or more: the exposures are not the frames' (a camera's auto ISO "
+        return (f"{pair} reads the same exposure as {darker}: what both expose well moves {agree.step_codes:+.1f} "
+                f"codes between them, where a stop moves 9 or more: the exposures are not the frames' (a camera's auto ISO "
                 f"or exposure compensation can undo a bracket's steps: give the exposures with --evs, or check the "
                 f"EXIF)")
     if not other_scene(agree):

@@ -46,8 +46,8 @@ MIN_EXPOSURE_STEP = 2.0 ** (1.0 / 8.0)  # two frames whose exposures differ less
 # exposure: a camera's nominal third-stop steps are 1.25-1.28x (1/250 to 1/200 s: a third of a stop at 1.26 had
 # refused them), a phone's exposure-compensation series steps a quarter or a sixth, and EXIF rounds one exposure
 # by under 3 %
-BLOCK_ROWS = 64  # rows per block of the merge's per-pixel passes (a multiple of blend.RING_BLOCK): a 2K panorama's block
-# temporaries (1.5 MB) stay in cache and in the allocator's heap; 256-row blocks (6 MB each, fresh pages from the
+BLOCK_ROWS = 64  # rows per block of the merge's per-pixel passes (a multiple of blend.RING_BLOCK): a 2K panorama's
+# block temporaries (1.5 MB) stay in cache and in the allocator's heap; 256-row blocks (6 MB each, fresh pages from the
 # system) took 3.98-4.75x one JPEG's time for a 3-frame set against 3.03-3.54x (bench_captures, session 55)
 
 
@@ -283,7 +283,8 @@ def merge_brackets(frames, exposures, align: bool = True, ghosts: bool = True, r
     blend = Blend(frames, linear, rel, ref, curve, ghosts, ceiling)
     h = frames[0].shape[0]
     out = np.empty(frames[0].shape, np.float32)
-    clipped = sum(threads.map_ordered(lambda r: blend.merge_rows(out, r, min(h, r + BLOCK_ROWS)), range(0, h, BLOCK_ROWS)))
+    clipped = sum(threads.map_ordered(lambda r: blend.merge_rows(out, r, min(h, r + BLOCK_ROWS)),
+                                      range(0, h, BLOCK_ROWS)))
     return out, {"reference": ref, "stops": [round(math.log2(k), 4) for k in rel], "ceiling": ceiling,
                  **({"response": curve.describe()} if linear is None else {}),
                  "clipped_in_every_frame": clipped / float(out.shape[0] * out.shape[1]),

@@ -378,8 +378,8 @@ def main(argv=None) -> int:
                   f"{o['median']:.0f} / {o['mean']:.2f} |")
     parts = [r for r in scored if r.get("agreement_parts")]
     if parts:
-        print("\n| set | agreement with OpenCV | PanoLight's merge on OpenCV's curve | and Debevec's hat, no ghost tests "
-              "|\n|---|---:|---:|---:|")
+        print("\n| set | agreement with OpenCV | PanoLight's merge on OpenCV's curve | and Debevec's hat, no ghost "
+              "tests |\n|---|---:|---:|---:|")
         for r in parts:
             p = r["agreement_parts"]
             print(f"| {r['set']} | {r['agreement']:.3f} | {p['opencv_curve']:.3f} | "

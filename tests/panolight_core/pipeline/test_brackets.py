@@ -407,7 +407,8 @@ def test_a_batch_estimates_a_frame_its_set_left_out_alone(tmp_path, capsys):
     assert "1 frame(s) left out of the set were estimated alone" in capsys.readouterr().err
 
 
-def test_a_set_whose_camera_undid_its_steps_is_refused_in_one_line_and_batch_estimates_its_frames_alone(tmp_path, capsys):
+def test_a_set_whose_camera_undid_its_steps_is_refused_in_one_line_and_batch_estimates_its_frames_alone(tmp_path,
+                                                                                                          capsys):
     """Real case: four public sets listed frames a stop apart that a camera's auto ISO had taken at one exposure; they
     were merged in silence into an HDR 0.4-0.96 off OpenCV's. Now ``estimate`` refuses the set naming the two frames
     and what to do; ``batch`` estimates each frame alone and its report says why."""

@@ -103,4 +103,5 @@ def test_a_real_set_the_merge_refuses_is_said_and_not_scored(tmp_path, capsys):
     (tmp_path / "shutter_times.txt").write_text("1/4\n1/2\n1\n")
     assert bench_merge.main(["--frames", str(tmp_path), "--repeats", "1"]) == 0
     out = capsys.readouterr().out
-    assert f"| {tmp_path.name} | 3 | refused by PanoLight: f2.png (exposed 1 stops more than f1.png) reads the same " in out
+    assert (f"| {tmp_path.name} | 3 | refused by PanoLight: f2.png (exposed 1 stops more than f1.png) reads the "
+            f"same exposure as f1.png") in out
