@@ -214,9 +214,10 @@ MAX_BIAS_EV = 30.0  # an exposure bias beyond +-30 stops is no camera's (--evs t
 def exposure(get) -> dict | None:
     """{"time_s", "f_number", "iso", "taken_s", "iso_recorded", "bias_ev", "manual"} from raw tag values
     (``get(name)``, None when absent): each a positive finite number, as a number, its text, a rational's text
-    ("1/250") or the first of several values (ISOSpeedRatings); None when the time or the f-number is not one. An ISO that is not one is taken as 100
-    (``iso_recorded`` False: an absolute scale from it is a guess, ``camera.units``). bias_ev: the exposure bias the
-    shot was compensated by (ExposureBiasValue, stops within +-MAX_BIAS_EV), or None.
+    ("1/250") or the first of several values (ISOSpeedRatings); None when the time or the f-number is not one. An
+    ISO that is not one is taken as 100 (``iso_recorded`` False: an absolute scale from it is a guess,
+    ``camera.units``). bias_ev: the exposure bias the shot was compensated by (ExposureBiasValue, stops within
+    +-MAX_BIAS_EV), or None.
     taken_s: when the shot was taken (DateTimeOriginal and SubSecTimeOriginal, the camera's own clock), seconds
     from year 1, or None: what tells a bracket sequence from shots minutes apart. manual: whether the photographer
     set the exposure by hand (ExposureMode 1, or ExposureProgram 1: "Manual"), as a bracket shot one setting at a
