@@ -166,19 +166,44 @@ class AlignmentReference:
         dy = dx = 0
         for level, (ref, cur) in reversed(list(enumerate(zip(self.pyramid, self.grey_pyramid(frame))))):
             dy, dx = 2 * dy, 2 * dx
-            (rb, re), (cb, ce) = _bitmaps(ref, t_ref), _bitmaps(cur, t_frame)
+            mismatch = _Mismatch(_bitmaps(ref, t_ref), _bitmaps(cur, t_frame))
             best = None  # the shift so far first: a move must do strictly better (a flat sky ties everywhere)
             limit = ALIGN_MAX_ROWS >> level  # the rows' reach on this level's grid (level 0 the finest)
             for ty, tx in [(dy, dx)] + [(dy + a, dx + b) for a in (-1, 0, 1) for b in (-1, 0, 1)
                                         if (a or b) and abs(dy + a) <= limit]:
-                cost = int(((rb ^ shift_frame(cb, ty, tx)) & re & shift_frame(ce, ty, tx)).sum())
+                cost = mismatch(ty, tx)
                 if best is None or cost < best[0]:
                     best = (cost, ty, tx)
             _, dy, dx = best
-        unmoved = int(((rb ^ cb) & re & ce).sum())  # the finest level's mismatch with no shift
-        if best[0] > ALIGN_MIN_GAIN * unmoved:  # no shift explains the two frames better than none
+        if best[0] > ALIGN_MIN_GAIN * mismatch(0, 0):  # no shift explains the two frames better than none
             return 0, 0
         return self.scale * dy, (self.scale * dx) % frame.shape[1]
+
+
+_POPCOUNT = np.array([bin(i).count("1") for i in range(256)], dtype=np.uint8)
+
+
+class _Mismatch:
+    """Ward's mismatch of a frame's threshold bitmap and exclusion mask (``cur``) moved by (ty, tx) (``shift_frame``:
+    the edge rows repeated, the columns round the panorama) against the reference's (``ref``): the pixels where the
+    bitmaps differ and neither is excluded. Bit-packed along the rows, each column move packed once: the same count as
+    ``((rb ^ shift_frame(cb, ty, tx)) & re & shift_frame(ce, ty, tx)).sum()`` in an eighth of the bytes."""
+
+    def __init__(self, ref, cur):
+        (rb, re), (self.cb, self.ce) = ref, cur
+        self.rb, self.re = np.packbits(rb, axis=1), np.packbits(re, axis=1)
+        self.rows = rb.shape[0]
+        self.moved = {}  # tx -> the frame's packed bitmap and mask turned tx columns
+
+    def __call__(self, ty: int, tx: int) -> int:
+        if tx not in self.moved:
+            self.moved[tx] = (np.packbits(np.roll(self.cb, tx, axis=1), axis=1),
+                              np.packbits(np.roll(self.ce, tx, axis=1), axis=1))
+        cb, ce = self.moved[tx]
+        if ty:  # row r of the moved frame is its row r - ty, the edge rows repeated
+            rows = np.clip(np.arange(self.rows) - ty, 0, self.rows - 1)
+            cb, ce = cb[rows], ce[rows]
+        return int(np.take(_POPCOUNT, (self.rb ^ cb) & self.re & ce).sum(dtype=np.int64))
 
 
 def align_shift(reference: np.ndarray, frame: np.ndarray, ratio: float = 1.0) -> tuple[int, int]:

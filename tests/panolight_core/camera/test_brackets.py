@@ -246,3 +246,19 @@ def test_a_camera_s_third_stop_steps_merge(day):
     assert np.median(rel) < 0.01
     with pytest.raises(PanoLightError, match="less than an eighth of a stop apart"):
         merge_brackets(frames[:2], [1 / 200, 1 / 200])
+
+
+def test_the_packed_mismatch_counts_what_the_moved_bitmaps_count():
+    """The alignment's bit-packed mismatch equals ((rb ^ moved cb) & re & moved ce).sum() for every move of a few rows
+    and columns, at widths that are not whole bytes (the packing's padding counts nothing)."""
+    from panolight_core.camera.brackets import _bitmaps, _Mismatch, shift_frame
+
+    rng = np.random.default_rng(7)
+    for h, w in ((9, 13), (16, 64), (31, 77)):
+        a, b = (rng.integers(0, 256, (h, w), dtype=np.uint8) for _ in range(2))
+        (rb, re), (cb, ce) = _bitmaps(a, 128), _bitmaps(b, 100)
+        mismatch = _Mismatch((rb, re), (cb, ce))
+        for ty in range(-3, 4):
+            for tx in (-w - 1, -2, 0, 1, 5):
+                want = int(((rb ^ shift_frame(cb, ty, tx)) & re & shift_frame(ce, ty, tx)).sum())
+                assert mismatch(ty, tx) == want
