@@ -19,6 +19,7 @@ from ..io.staging import clean_stale
 from .workers import keep_freed_memory, run_workers
 
 EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg") + RAW_EXTENSIONS
+UNREAD_EXTENSIONS = (".heic", ".heif", ".hif", ".avif")  # a phone's default photos: a folder's are said, not taken
 
 
 def collect_inputs(paths, list_file=None, recursive: bool = False, exclude=None) -> list[Path]:
@@ -45,12 +46,22 @@ def collect_inputs(paths, list_file=None, recursive: bool = False, exclude=None)
             if line and not line.startswith("#"):
                 p = Path(line)
                 entries.append(p if p.is_absolute() else base / p)
+    unread = []
     for p in entries:
         if _is_dir(p):
             pattern = "**/*" if recursive else "*"
             found += [f for f in p.glob(pattern) if f.suffix.lower() in EXTENSIONS and _is_file(f)]
+            unread += [f for f in p.glob(pattern) if f.suffix.lower() in UNREAD_EXTENSIONS and _is_file(f)]
         else:
             found.append(p)
+    if unread:
+        import warnings
+
+        from ..errors import PanoLightWarning
+
+        warnings.warn(f"skipping {len(unread)} HEIF (HEIC) or AVIF photo(s), e.g. {sorted(unread)[0]}: a phone's "
+                      f"default format, which PanoLight does not decode (save or export them as JPEG with their EXIF, "
+                      f"or shoot RAW)", PanoLightWarning, stacklevel=2)
     inputs = sorted({_resolved(f) for f in found}, key=str)
     if exclude is None:
         return inputs

@@ -22,6 +22,7 @@ RAW_EXTENSIONS = (".dng", ".cr2", ".cr3", ".crw", ".nef", ".nrw", ".arw", ".srf"
                   ".pef", ".srw", ".3fr", ".iiq", ".erf", ".kdc", ".mos", ".mrw", ".x3f")  # batch's folder scan
 # a RAW's first bytes: TIFF's (DNG, CR2, NEF, ARW, PEF, SRW ...), Olympus', Panasonic's, Fujifilm's and CR3's box
 _RAW_MAGIC = (b"II*\x00", b"MM\x00*", b"IIRO", b"IIRS", b"MMOR", b"IIU\x00", b"FUJIFILM")
+_HEIF_BRANDS = (b"heic", b"heix", b"hevc", b"hevx", b"heim", b"heis", b"mif1", b"msf1", b"avif", b"avis")  # ISO BMFF
 BLOCK_ROWS = 256  # row blocks for full-resolution passes: temporaries stay a few MB at any width
 # a JPEG codes every 8 x 8 luma block with at least one bit (its DC difference, even in progressive
 # scans): fewer bytes than pixels / 512 cannot hold the picture; half that is refused as corrupt
@@ -68,6 +69,10 @@ def sniff_format(path) -> str:
         return "jpeg"
     if head.startswith(_RAW_MAGIC) or head[4:12] == b"ftypcrx ":
         return RAW_FORMAT
+    if head[4:8] == b"ftyp" and head[8:12] in _HEIF_BRANDS:
+        raise ImageError(p, "a HEIF (HEIC) or AVIF photo, a phone's default format, which PanoLight does not decode: "
+                            "save or export it as JPEG with its EXIF (an iPhone: Settings > Camera > Formats > Most "
+                            "Compatible), or shoot RAW (DNG)")
     raise ImageError(p, f"not a supported image (OpenEXR, Radiance .hdr, PNG, JPEG or a camera RAW); starts with "
                         f"{head[:8]!r}")
 

@@ -22,6 +22,22 @@ def test_collect_sort_dedupe_and_list(tmp_path):
         collect_inputs([], tmp_path / "nope.txt")
 
 
+def test_a_folder_s_phone_photos_are_said_not_silently_passed_over(tmp_path, capsys):
+    """A folder of an iPhone's HEIC photos (its default format) had batch answer "no input panoramas found" and
+    nothing more: the skipped photos are said, with what to do, and the folder's JPEGs are still taken."""
+    from panolight_core.errors import PanoLightWarning
+
+    (tmp_path / "IMG_0001.HEIC").write_bytes(b"\x00\x00\x00\x18ftypheic")
+    (tmp_path / "IMG_0002.avif").write_bytes(b"\x00\x00\x00\x18ftypavif")
+    (tmp_path / "pano.jpg").write_bytes(b"x")
+    with pytest.warns(PanoLightWarning, match=r"skipping 2 HEIF \(HEIC\) or AVIF photo\(s\), e\.g\. .*IMG_0001.HEIC"):
+        assert [p.name for p in collect_inputs([tmp_path])] == ["pano.jpg"]
+    (tmp_path / "pano.jpg").unlink()
+    assert main(["batch", str(tmp_path), "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert "export them as JPEG" in err and "no input panoramas found" in err
+
+
 def test_shards_cover_everything_once():
     items = list(range(23))
     parts = [shard(items, i, 4) for i in range(1, 5)]

@@ -70,6 +70,10 @@ def test_missing_empty_directory_and_unknown(tmp_path):
     (tmp_path / "notes.exr").write_text("hello, not an image")
     with pytest.raises(ImageError, match="not a supported image"):
         read_image(tmp_path / "notes.exr")
+    for brand in (b"heic", b"mif1", b"avif"):  # a phone's default format: said what it is and what to do
+        (tmp_path / "IMG_0001.HEIC").write_bytes(b"\x00\x00\x00\x18ftyp" + brand + b"\x00" * 64)
+        with pytest.raises(ImageError, match=r"IMG_0001.HEIC: a HEIF \(HEIC\) or AVIF photo.*as JPEG with its EXIF"):
+            read_image(tmp_path / "IMG_0001.HEIC")
 
 
 def test_content_not_extension_decides(tmp_path, pano):
