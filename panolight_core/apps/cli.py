@@ -280,8 +280,7 @@ def _load_plugins(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="panolight", formatter_class=HelpFormatter,
+    parser = argparse.ArgumentParser(prog="panolight", formatter_class=HelpFormatter,
         description="PanoLight: HDR lighting from 360-degree panoramas, as spherical harmonics.",
         epilog="start with:  panolight demo      then:  panolight estimate YOUR_PANORAMA.jpg\n"
                "Run 'panolight <command> --help' for the options of each command.")
@@ -315,7 +314,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--brackets", type=_bracket_count, default=None, metavar="N|auto",
                    help="the inputs are bracket sets of N frames: sorted by name, each N consecutive files one scene, "
                         "merged into one HDR (its folder named after the first frame); auto: sets of any size by the "
-                        "files' EXIF exposures, a new set where an exposure repeats (a lone frame estimated alone)")
+                        "files' EXIF, in the order taken, a new set where an exposure repeats or a frame comes 5 s "
+                        "after the last (2 min for a set exposed by hand); a lone frame is estimated alone")
     b.add_argument("--evs", type=estimate_settings.argparse_type(parse_evs), default=None, metavar="EV,EV,...",
                    help="with --brackets: every set's exposures in stops, in name order (default: each file's EXIF)")
     b.add_argument("--no-align", dest="align", action="store_false", help=NO_ALIGN_HELP)
