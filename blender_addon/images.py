@@ -89,15 +89,15 @@ def bracket_panorama(paths, evs=None, align: bool = True):
 
 def load_panorama(filepath: str):
     """PanoLight's own image of ``filepath``, with the right colour space: Linear Rec.709 for HDR files
-    (EXR, Radiance), sRGB for the rest (8-bit and 16-bit PNG/JPEG: Blender keeps 16-bit PNGs in float
-    buffers, but they are sRGB-encoded). An image of the same file the user already has is left as it
+    (EXR, Radiance, float TIFF), sRGB for the rest (8-bit and 16-bit PNG/JPEG/TIFF: Blender keeps 16-bit PNGs in
+    float buffers, but they are sRGB-encoded). An image of the same file the user already has is left as it
     is (its colour space is theirs): PanoLight loads its own copy, tagged, and reuses it next time.
 
     The colour space is chosen from the file's first bytes and set before Blender decodes the pixels
     (``image.file_format`` decodes them, and a colour space change drops them again: an 8K JPEG was
     decoded twice)."""
     target = bpy.path.abspath(filepath)
-    space = "Linear Rec.709" if core_images.sniff_format(target) in ("exr", "hdr") else "sRGB"
+    space = "Linear Rec.709" if core_images.is_hdr(target) else "sRGB"
     for image in bpy.data.images:
         if image.get(TAG) == "panorama" and bpy.path.abspath(image.filepath) == target:
             image.reload()

@@ -12,13 +12,13 @@ from pathlib import Path
 from ..errors import PanoLightError, PanoLightWarning, printable
 from ..estimators.keylight import key_light_note
 from ..io.atomic import atomic_path, folder_lock, read_small_file
-from ..io.checks import RAW_EXTENSIONS
+from ..io.checks import RAW_EXTENSIONS, TIFF_EXTENSIONS
 from ..io.metadata import json_object
 from ..io.ownership import MANIFEST, digest
 from ..io.staging import clean_stale
 from .workers import keep_freed_memory, run_workers
 
-EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg") + RAW_EXTENSIONS
+EXTENSIONS = (".exr", ".hdr", ".png", ".jpg", ".jpeg") + TIFF_EXTENSIONS + RAW_EXTENSIONS
 UNREAD_EXTENSIONS = (".heic", ".heif", ".hif", ".avif")  # a phone's default photos: a folder's are said, not taken
 
 

@@ -18,10 +18,14 @@ DEFAULT_MAX_MEGAPIXELS = 140.0  # the decode budget: 16384 x 8192 (134 MP, the l
 HDR_FORMATS = ("exr", "hdr")
 LDR_FORMATS = ("png", "jpeg")
 RAW_FORMAT = "raw"  # a camera RAW (io.read_raw): linear, its sensor's white the ceiling
+TIFF_FORMAT = "tiff"  # a TIFF picture (a stitcher's output, Hugin's default): 8/16-bit sRGB as a PNG, float as linear
+TIFF_EXTENSIONS = (".tif", ".tiff")  # a file starting like a TIFF is a picture under these names; a camera RAW (a DNG,
+# NEF, CR2 ...: TIFF containers too) under its own
 RAW_EXTENSIONS = (".dng", ".cr2", ".cr3", ".crw", ".nef", ".nrw", ".arw", ".srf", ".sr2", ".raf", ".orf", ".rw2",
                   ".pef", ".srw", ".3fr", ".iiq", ".erf", ".kdc", ".mos", ".mrw", ".x3f")  # batch's folder scan
 # a RAW's first bytes: TIFF's (DNG, CR2, NEF, ARW, PEF, SRW ...), Olympus', Panasonic's, Fujifilm's and CR3's box
-_RAW_MAGIC = (b"II*\x00", b"MM\x00*", b"IIRO", b"IIRS", b"MMOR", b"IIU\x00", b"FUJIFILM")
+_TIFF_MAGIC = (b"II*\x00", b"MM\x00*")
+_RAW_MAGIC = _TIFF_MAGIC + (b"IIRO", b"IIRS", b"MMOR", b"IIU\x00", b"FUJIFILM")
 _HEIF_BRANDS = (b"heic", b"heix", b"hevc", b"hevx", b"heim", b"heis", b"mif1", b"msf1", b"avif", b"avis")  # ISO BMFF
 BLOCK_ROWS = 256  # row blocks for full-resolution passes: temporaries stay a few MB at any width
 # a JPEG codes every 8 x 8 luma block with at least one bit (its DC difference, even in progressive
@@ -67,19 +71,56 @@ def sniff_format(path) -> str:
         return "png"
     if head.startswith(b"\xff\xd8\xff"):
         return "jpeg"
+    if head.startswith(_TIFF_MAGIC) and p.suffix.lower() in TIFF_EXTENSIONS:
+        return TIFF_FORMAT
     if head.startswith(_RAW_MAGIC) or head[4:12] == b"ftypcrx ":
         return RAW_FORMAT
     if head[4:8] == b"ftyp" and head[8:12] in _HEIF_BRANDS:
         raise ImageError(p, "a HEIF (HEIC) or AVIF photo, a phone's default format, which PanoLight does not decode: "
                             "save or export it as JPEG with its EXIF (an iPhone: Settings > Camera > Formats > Most "
                             "Compatible), or shoot RAW (DNG)")
-    raise ImageError(p, f"not a supported image (OpenEXR, Radiance .hdr, PNG, JPEG or a camera RAW); starts with "
-                        f"{head[:8]!r}")
+    raise ImageError(p, f"not a supported image (OpenEXR, Radiance .hdr, PNG, JPEG, TIFF or a camera RAW); starts "
+                        f"with {head[:8]!r}")
 
 
 def is_hdr(path) -> bool:
-    """True for OpenEXR / Radiance files (by content)."""
-    return sniff_format(path) in HDR_FORMATS
+    """True for OpenEXR / Radiance files and float TIFFs (by content): files whose values are linear light."""
+    fmt = sniff_format(path)
+    return fmt in HDR_FORMATS or (fmt == TIFF_FORMAT and tiff_is_float(path))
+
+
+TIFF_MAX_ENTRIES = 4096  # a first directory with more entries than this is no picture's
+
+
+def tiff_is_float(path) -> bool:
+    """Whether a TIFF's first image holds floating-point samples (its SampleFormat tag, SHORT, says 3: IEEE float),
+    read from the header (numpy only: Blender sets a float TIFF's colour space before decoding it). False for integer
+    samples and for anything the header does not say plainly (a short or malformed directory)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+            if len(head) < 8 or head[:4] not in _TIFF_MAGIC:
+                return False
+            order = "little" if head[:2] == b"II" else "big"
+            f.seek(int.from_bytes(head[4:8], order))
+            count = int.from_bytes(f.read(2), order)
+            if not 0 < count <= TIFF_MAX_ENTRIES:
+                return False
+            entries = f.read(12 * count)
+            for k in range(len(entries) // 12):
+                entry = entries[12 * k:12 * k + 12]
+                if int.from_bytes(entry[:2], order) != 339:  # SampleFormat
+                    continue
+                if int.from_bytes(entry[2:4], order) != 3:  # not SHORT: not a header PanoLight reads
+                    return False
+                value = entry[8:10]
+                if int.from_bytes(entry[4:8], order) > 2:  # one per sample, more than fit inline: at the offset
+                    f.seek(int.from_bytes(entry[8:12], order))
+                    value = f.read(2)
+                return int.from_bytes(value, order) == 3
+    except (OSError, ValueError, OverflowError):
+        return False
+    return False
 
 
 def check_size(path, h: int, w: int, equirect: bool, max_megapixels: float = DEFAULT_MAX_MEGAPIXELS):

@@ -100,6 +100,7 @@ class Opened:
                                            f"{spec.width} x {spec.height} {_colour_layout(spec.channelnames)}), "
                                            f"the largest full-frame colour part"), stacklevel=2)
         self.inp.seek_subimage(i, 0)
+        self.inp.geterror()  # cleared: the probe past the last part leaves one (a TIFF's "no such directory")
         return i, spec
 
     def pixels(self, as_uint8: bool = False, packed: str | None = None):
@@ -113,7 +114,7 @@ class Opened:
                                         "read here; estimate it with 'panolight estimate', or save it as RGB")
         h, w = spec.height, spec.width
         base = str(spec.format)
-        integer_ldr = self.fmt in ("png", "jpeg")
+        integer_ldr = self.fmt in ("png", "jpeg", "tiff")  # an integer TIFF is an sRGB picture, as a PNG
         if integer_ldr and base == "uint8":
             kind, out_dtype = "uint8", np.uint8
         elif integer_ldr and base == "uint16":

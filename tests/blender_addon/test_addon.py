@@ -92,6 +92,12 @@ def test_colour_space_follows_the_file_format(tmp_path):
     write_image(tmp_path / "e.png", rgb, bit_depth=16)
     image = images.load_panorama(str(tmp_path / "e.png"))
     assert image.is_float and image.colorspace_settings.name == "sRGB"  # 16-bit: float buffer, sRGB data
+    import tifffile  # a stitcher's TIFF (Hugin's default): integer sRGB, or float linear light
+
+    tifffile.imwrite(tmp_path / "f.tif", (rgb * 65535).astype(np.uint16), photometric="rgb")
+    tifffile.imwrite(tmp_path / "g.tif", rgb.astype(np.float32), photometric="rgb")
+    assert images.load_panorama(str(tmp_path / "f.tif")).colorspace_settings.name == "sRGB"
+    assert images.load_panorama(str(tmp_path / "g.tif")).colorspace_settings.name == "Linear Rec.709"
 
 
 def test_missing_file_and_missing_estimate_are_reported_not_raised(tmp_path):

@@ -3,6 +3,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from panolight_core.camera.color import SRGB8_TO_LINEAR
 from panolight_core.errors import ImageError, PanoLightWarning
@@ -550,3 +552,37 @@ def test_an_unstitched_dual_fisheye_capture_is_refused(tmp_path):
     assert read_image(tmp_path / "night.exr").shape == night.shape
     write_image(tmp_path / "city.exr", city)
     assert read_image(tmp_path / "city.exr").shape == city.shape
+
+
+def test_a_stitcher_s_tiff_is_read_as_its_png_would_be_and_a_float_one_as_linear_light(tmp_path, pano):
+    """Hugin writes TIFF panoramas by default, and they were refused ("a plain TIFF?"). An 8- or 16-bit TIFF reads as
+    the same picture's PNG (sRGB codes; 16 bits rounded to 8 where codes are asked for), a float TIFF as linear light,
+    bit for bit; a TIFF under a camera RAW's name is still a RAW."""
+    import tifffile
+
+    from panolight_core.io import is_hdr
+    from panolight_core.io.checks import RAW_FORMAT, TIFF_FORMAT
+
+    codes = read_image(write_image(tmp_path / "p.png", np.clip(pano, 0, 1)), ldr_as_uint8=True)
+    tifffile.imwrite(tmp_path / "p8.tif", codes, photometric="rgb")
+    tifffile.imwrite(tmp_path / "p16.tiff", codes.astype(np.uint16) * 257, photometric="rgb", byteorder=">")
+    tifffile.imwrite(tmp_path / "pf.tif", pano.astype(np.float32), photometric="rgb")
+    for name in ("p8.tif", "p16.tiff"):
+        assert sniff_format(tmp_path / name) == TIFF_FORMAT and not is_hdr(tmp_path / name)
+        assert np.array_equal(read_image(tmp_path / name, ldr_as_uint8=True), codes)
+        np.testing.assert_allclose(read_image(tmp_path / name), SRGB8_TO_LINEAR[codes], rtol=1e-6)
+    assert is_hdr(tmp_path / "pf.tif") and np.array_equal(read_image(tmp_path / "pf.tif"), pano.astype(np.float32))
+    (tmp_path / "p8.dng").write_bytes((tmp_path / "p8.tif").read_bytes())
+    assert sniff_format(tmp_path / "p8.dng") == RAW_FORMAT
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=200), st.sampled_from([b"II*\x00", b"MM\x00*"]))
+def test_a_tiff_header_of_any_bytes_is_float_or_not_never_an_error(tmp_path_factory, body, magic):
+    """The float test reads a TIFF's first directory by hand (Blender sets the colour space before decoding): any
+    bytes after the magic give True or False, never an exception."""
+    from panolight_core.io.checks import tiff_is_float
+
+    path = tmp_path_factory.mktemp("tiff") / "x.tif"
+    path.write_bytes(magic + body)
+    assert tiff_is_float(path) in (True, False)

@@ -68,9 +68,9 @@ def test_the_exposure_comes_from_the_raw(tmp_path):
 
 
 def test_bad_raws_are_refused_in_one_line_naming_the_file(tmp_path):
-    plain = tmp_path / "plain.tif"
+    plain = tmp_path / "plain.dng"  # a plain TIFF under a RAW's name (a .tif is read as a TIFF picture)
     tifffile.imwrite(plain, np.zeros((64, 128, 3), np.uint16), photometric="rgb")
-    with pytest.raises(ImageError, match=r"plain\.tif: .*cannot read it as a camera RAW"):
+    with pytest.raises(ImageError, match=r"plain\.dng: .*cannot read it as a camera RAW"):
         read_image(plain)
     good = write_dng(tmp_path / "good.dng", _scene(), scale=0.1)
     cut = tmp_path / "cut.dng"
