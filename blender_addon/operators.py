@@ -146,7 +146,7 @@ class PANOLIGHT_OT_load_panorama(bpy.types.Operator):
 
     filepath: StringProperty(subtype="FILE_PATH")
     filter_glob: StringProperty(default="*.jpg;*.jpeg;*.png;*.exr;*.hdr;" + ";".join(
-        f"*{e}" for e in checks.RAW_EXTENSIONS), options={"HIDDEN"})
+        f"*{e}" for e in checks.TIFF_EXTENSIONS + checks.RAW_EXTENSIONS), options={"HIDDEN"})
     files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
     directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
     evs: StringProperty(name="Bracket EVs", default="",
