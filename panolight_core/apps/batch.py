@@ -49,16 +49,13 @@ def collect_inputs(paths, list_file=None, recursive: bool = False, exclude=None)
     unread = []
     for p in entries:
         if _is_dir(p):
-            pattern = "**/*" if recursive else "*"
-            found += [f for f in p.glob(pattern) if f.suffix.lower() in EXTENSIONS and _is_file(f)]
-            unread += [f for f in p.glob(pattern) if f.suffix.lower() in UNREAD_EXTENSIONS and _is_file(f)]
+            for f in p.glob("**/*" if recursive else "*"):  # one walk of the folder: its panoramas and its phone photos
+                suffix = f.suffix.lower()
+                if suffix in EXTENSIONS + UNREAD_EXTENSIONS and _is_file(f):
+                    (found if suffix in EXTENSIONS else unread).append(f)
         else:
             found.append(p)
     if unread:
-        import warnings
-
-        from ..errors import PanoLightWarning
-
         warnings.warn(f"skipping {len(unread)} HEIF (HEIC) or AVIF photo(s), e.g. {sorted(unread)[0]}: a phone's "
                       f"default format, which PanoLight does not decode (save or export them as JPEG with their EXIF, "
                       f"or shoot RAW)", PanoLightWarning, stacklevel=2)
@@ -68,10 +65,6 @@ def collect_inputs(paths, list_file=None, recursive: bool = False, exclude=None)
     out = _resolved(Path(exclude))
     kept = [f for f in inputs if f != out and out not in f.parents]
     if len(kept) < len(inputs):
-        import warnings
-
-        from ..errors import PanoLightWarning
-
         warnings.warn(f"skipping {len(inputs) - len(kept)} file(s) inside the output folder {out}: a batch "
                       f"never takes its own outputs as inputs", PanoLightWarning, stacklevel=2)
     return kept
