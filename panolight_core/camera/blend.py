@@ -77,7 +77,7 @@ class Blend:
                 ws[i][lost] = 0.0
                 if self.ghosts:
                     trusted[i][lost] = np.nan
-        dropped = outlying_frames(trusted, ws.__getitem__, self.ref) if self.ghosts else None
+        dropped = outlying_frames(trusted, ws, self.ref) if self.ghosts else None
         for w, d in zip(ws, dropped or ()):
             if d is not None:
                 w[d] = 0.0

@@ -67,11 +67,11 @@ def sure_readings(level: np.ndarray, sure: np.ndarray, weight: np.ndarray) -> np
     return np.where(ok, np.asarray(level, np.float32)[None, :], np.float32(np.nan)).astype(np.float32).ravel()
 
 
-def outlying_frames(readings, frame_weight, ref: int):
+def outlying_frames(readings, weights, ref: int):
     """Per frame, None or the (n, W) bool pixels of a ``merge_brackets`` block where the frame's reading is an outlier:
     trusted there yet GHOST_RATIO off the weighted median of the trusted readings of every frame. ``readings[i]``
     (n, W) float32: frame i's brightest-channel radiance where the frame sees the pixel well exposed and weighs it
-    (``sure_readings``), NaN elsewhere; ``frame_weight(i)`` its (n, W) merge weights. A speck of dust, a scanner's edge
+    (``sure_readings``), NaN elsewhere; ``weights[i]`` its (n, W) merge weights. A speck of dust, a scanner's edge
     or a hot pixel is one frame's reading against its neighbours' in exposure, which the ghost test (each frame against
     the reference alone) cannot see where the reference is in its toe. The reference frame is never dropped (what
     moved is the reference's), nor the median's own frame, so every pixel keeps a frame. Only pixels whose trusted
@@ -86,7 +86,7 @@ def outlying_frames(readings, frame_weight, ref: int):
         return None
     values = np.stack([level[spread] for level in readings]).astype(np.float64)
     trusted = ~np.isnan(values)
-    weight = np.stack([np.where(trusted[i], frame_weight(i)[spread], 0.0) for i in range(n)]).astype(np.float64)
+    weight = np.stack([np.where(trusted[i], weights[i][spread], 0.0) for i in range(n)]).astype(np.float64)
     median = weighted_median(np.where(trusted, values, np.inf), weight)
     off = (weight > 0) & ((values > GHOST_RATIO * median) | (values < median / GHOST_RATIO))
     off[ref] = False

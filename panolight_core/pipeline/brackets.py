@@ -134,16 +134,16 @@ def group_by_exposure(files, align: bool = True) -> list:
     return [BracketSet(s, None, align) if len(s) > 1 else s[0] for s in sets if s]
 
 
-def slow_bracket(previous: Path, path: Path, exposures: list, e: float, read=None) -> bool:
+def slow_bracket(previous: Path, path: Path, exposures: list, e: float, read) -> bool:
     """Whether ``path`` (exposure ``e``), shot by hand a while after ``previous`` (the last frame of a set exposed
     ``exposures`` so far), is the set's next step: its exposure goes on the way the set's do, and its picture is
     shown to be the previous frame's scene (``camera.agreement.one_scene``, as shot: a tripod set). A frame that cannot
     be read as an 8-bit picture of the previous one's size is no step (each is estimated alone, as before). ``read``:
-    a path's pixels (default ``io.read_image`` as 8 bits)."""
+    a path's pixels (``io.read_image`` as 8 bits, kept for the next step)."""
     if len(exposures) >= 2 and (e > exposures[-1]) != (exposures[-1] > exposures[-2]):
         return False
     try:
-        a, b = (read(p) if read else read_image(p, ldr_as_uint8=True) for p in (previous, path))
+        a, b = read(previous), read(path)
     except PanoLightError:
         return False
     if a.dtype != np.uint8 or b.dtype != np.uint8 or a.shape != b.shape:

@@ -60,7 +60,7 @@ def test_outlying_frames_drop_one_frame_s_odd_reading_never_the_reference_s():
 
     def outliers():
         index = [(top[1].astype(np.uint16) << 8) | t for t in top]
-        return outlying_frames([t[i] for t, i in zip(tables, index)], lambda i: weight[top[i]], ref=1)
+        return outlying_frames([t[i] for t, i in zip(tables, index)], [weight[t] for t in top], ref=1)
 
     dropped = outliers()
     assert dropped[0] is not None and dropped[0].tolist() == [[True, False]]
@@ -86,6 +86,6 @@ def test_sure_readings_trust_a_weighed_well_exposed_code_only_and_an_untrusted_r
     assert np.isnan(got[:, 5]).all() and np.isnan(got[:, CLIPPED_CODE]).all()
     a = np.array([[0.01, 0.01]], np.float32)
     wild = np.array([[np.nan, 0.08]], np.float32)  # the first pixel's wild reading untrusted, the second's trusted
-    dropped = outlying_frames([a, a.copy(), wild], lambda i: np.ones((1, 2), np.float32), ref=1)
+    dropped = outlying_frames([a, a.copy(), wild], [np.ones((1, 2), np.float32)] * 3, ref=1)
     assert dropped[2] is not None and dropped[2].tolist() == [[False, True]]
     assert dropped[0] is None and dropped[1] is None
