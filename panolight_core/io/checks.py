@@ -19,6 +19,7 @@ HDR_FORMATS = ("exr", "hdr")
 LDR_FORMATS = ("png", "jpeg")
 RAW_FORMAT = "raw"  # a camera RAW (io.read_raw): linear, its sensor's white the ceiling
 TIFF_FORMAT = "tiff"  # a TIFF picture (a stitcher's output, Hugin's default): 8/16-bit sRGB as a PNG, float as linear
+PICTURE_FORMATS = LDR_FORMATS + (TIFF_FORMAT,)  # formats whose integer samples are sRGB codes (a float TIFF's: light)
 TIFF_EXTENSIONS = (".tif", ".tiff")  # a file starting like a TIFF is a picture under these names; a camera RAW (a DNG,
 # NEF, CR2 ...: TIFF containers too) under its own
 RAW_EXTENSIONS = (".dng", ".cr2", ".cr3", ".crw", ".nef", ".nrw", ".arw", ".srf", ".sr2", ".raf", ".orf", ".rw2",

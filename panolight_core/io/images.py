@@ -26,8 +26,8 @@ from .checks import (  # noqa: F401
     HDR_FORMATS,
     LDR_FORMATS,
     MAX_PIXELS,
+    PICTURE_FORMATS,
     RAW_FORMAT,
-    TIFF_FORMAT,
     _sanitise,
     check_jpeg_data,
     check_size,
@@ -147,7 +147,7 @@ def _decode(p: Path, fmt: str, equirect: bool, max_megapixels: float, as_uint8: 
                 if rgb is not None:
                     return rgb if as_uint8 else SRGB8_TO_LINEAR[rgb]
         pack = fmt in HDR_FORMATS and h * w > packed_above * 1e6
-        img = opened.pixels(as_uint8=as_uint8 and fmt in LDR_FORMATS + (TIFF_FORMAT,),
+        img = opened.pixels(as_uint8=as_uint8 and fmt in PICTURE_FORMATS,
                             packed=("rgbe" if fmt == "hdr" else "half") if pack else None)
     if img.shape != (h, w, 3):
         raise ImageError(p, f"decoded shape {img.shape} does not match header size {w} x {h}")

@@ -25,7 +25,7 @@ from ..camera.color import SRGB8_TO_LINEAR, srgb_to_linear
 from ..errors import ImageError, PanoLightWarning
 from ..packed import PackedImage, Packer
 from ..threads import optional_module
-from .checks import BLOCK_ROWS, file_state
+from .checks import BLOCK_ROWS, PICTURE_FORMATS, file_state
 
 
 def available() -> bool:
@@ -114,7 +114,7 @@ class Opened:
                                         "read here; estimate it with 'panolight estimate', or save it as RGB")
         h, w = spec.height, spec.width
         base = str(spec.format)
-        integer_ldr = self.fmt in ("png", "jpeg", "tiff")  # an integer TIFF is an sRGB picture, as a PNG
+        integer_ldr = self.fmt in PICTURE_FORMATS
         if integer_ldr and base == "uint8":
             kind, out_dtype = "uint8", np.uint8
         elif integer_ldr and base == "uint16":
