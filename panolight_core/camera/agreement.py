@@ -181,8 +181,8 @@ def consistent_frames(frames, rel: np.ndarray, names=None) -> tuple[list[int], l
     out: [{"frame": index, "why": one line}] or []). One frame of a failing pair is left out where that alone makes
     the set hold: no pair of the rest fails (``_verdict``) nor crosses its resolved steps, and where it had a neighbour
     on each side, those two are shown to be one scene (``one_scene``): an untested gap vouches for nothing.
-    PanoLightError with the set's first failing pair where no one frame
-    does, or two would (frames listed in reverse, a set of two, two halves that each hold, two wrong frames)."""
+    PanoLightError with the set's first failing pair where no one frame does, or two would (frames listed in reverse,
+    a set of two, two halves that each hold, two wrong frames)."""
     names = [f"frame {i + 1}" for i in range(len(frames))] if names is None else [str(n) for n in names]
     codes = [block_codes(f) for f in frames]
     cache = {}
