@@ -97,23 +97,33 @@ def merge_panolight(frames, exposures, names=None):
     return brackets.merge_brackets(frames, exposures, align=False, names=names)[0]
 
 
-def merge_opencv(frames, exposures):
-    """OpenCV's calibrated Debevec merge: its curve from the frames (CalibrateDebevec), then MergeDebevec (RGB)."""
+def _opencv_calibration(frames, exposures):
+    """(the frames as OpenCV takes them, BGR; their times, float32; OpenCV's CalibrateDebevec curve, (256, 1, 3) BGR)."""
     import cv2
 
     bgr = [np.ascontiguousarray(f[..., ::-1]) for f in frames]
     times = np.asarray(exposures, dtype=np.float32)
-    curve = cv2.createCalibrateDebevec().process(bgr, times)
-    return cv2.createMergeDebevec().process(bgr, times, curve)[..., ::-1].astype(np.float64)
+    return bgr, times, cv2.createCalibrateDebevec().process(bgr, times)
+
+
+def opencv_merge(frames, exposures) -> tuple[np.ndarray, np.ndarray]:
+    """OpenCV's calibrated Debevec merge of RGB ``frames``: (the HDR (H, W, 3) float64, RGB; its curve (256, 3), RGB):
+    the curve from the frames (CalibrateDebevec), then MergeDebevec with it."""
+    import cv2
+
+    bgr, times, curve = _opencv_calibration(frames, exposures)
+    return cv2.createMergeDebevec().process(bgr, times, curve)[..., ::-1].astype(np.float64), curve[:, 0, ::-1]
+
+
+def merge_opencv(frames, exposures):
+    """``opencv_merge``'s HDR."""
+    return opencv_merge(frames, exposures)[0]
 
 
 def opencv_curve(frames, exposures) -> np.ndarray:
     """(256,) float32: OpenCV's CalibrateDebevec curve of the set, its luminance made monotone, scaled to put code 250
     where sRGB does (as ``camera.response`` scales a recovered curve)."""
-    import cv2
-
-    bgr = [np.ascontiguousarray(f[..., ::-1]) for f in frames]
-    theirs = cv2.createCalibrateDebevec().process(bgr, np.asarray(exposures, np.float32))[:, 0, ::-1]
+    theirs = _opencv_calibration(frames, exposures)[2][:, 0, ::-1]
     table = np.maximum.accumulate(theirs @ LUMINANCE_WEIGHTS).astype(np.float64)
     return (table / table[250] * float(response.SRGB.table[250])).astype(np.float32)
 
@@ -121,9 +131,9 @@ def opencv_curve(frames, exposures) -> np.ndarray:
 @contextlib.contextmanager
 def weighed_as_opencv(frames, exposures, hat: bool, curve: bool = True):
     """Within it, ``merge_brackets`` decodes, with ``curve``, through OpenCV's curve of the set (``opencv_curve``; else
-    through its own) and, with ``hat``,
-    weighs each code by Debevec's hat instead of its noise weight: the parts of OpenCV's merge that PanoLight's can
-    take, so that what disagreement is left is the rest of the weighing (per channel there, the worst channel here)."""
+    through its own) and, with ``hat``, weighs each code by Debevec's hat instead of its noise weight: the parts of
+    OpenCV's merge that PanoLight's can take, so that what disagreement is left is the rest of the weighing (per
+    channel there, the worst channel here)."""
     from panolight_core.camera.weights import hat as hat_weights
 
     theirs = response.Response(opencv_curve(frames, exposures), "OpenCV's", "bench_merge", {}) if curve else None
@@ -154,7 +164,6 @@ def curves(frames, exposures) -> dict:
     over sRGB) and as OpenCV's ``CalibrateDebevec`` does, compared in log luminance over CURVE_CODES after one scale:
     the median |ln| between the two, and each against sRGB (the simulated sets' true curve); and which curve the merge
     used (sRGB unless the recovered one explains the frames RESPONSE_GAIN better)."""
-    import cv2
 
     e = np.asarray(exposures, dtype=np.float64)
     ref = int(np.argsort(e)[(e.size - 1) // 2])
@@ -164,8 +173,7 @@ def curves(frames, exposures) -> dict:
         ours = response.recover_response(frames, e / e[ref], ref)
     finally:
         response.RESPONSE_GAIN = shipped
-    bgr = [np.ascontiguousarray(f[..., ::-1]) for f in frames]
-    theirs = cv2.createCalibrateDebevec().process(bgr, e.astype(np.float32))[:, 0, ::-1] @ LUMINANCE_WEIGHTS
+    theirs = _opencv_calibration(frames, e)[2][:, 0, ::-1] @ LUMINANCE_WEIGHTS
     z = slice(CURVE_CODES[0], CURVE_CODES[1] + 1)
     logs = {"panolight": np.log(ours.table[z].astype(np.float64)), "opencv": np.log(theirs[z]),
             "srgb": np.log(response.SRGB.table[z].astype(np.float64))}
@@ -235,8 +243,6 @@ def held_out(frames, exposures, merges=("panolight", "opencv")) -> dict:
     well exposed (WELL_EXPOSED), and its mean, pooled over the frames left out: what each merge's HDR and curve predict
     of a photo they never saw (a moving flag or a flickering lamp is in both merges' error alike). ``merges``: which of
     the two to score."""
-    import cv2
-
     e = np.asarray(exposures, dtype=np.float64)
     order = np.argsort(e)
     errors = {n: [] for n in merges}
@@ -252,10 +258,8 @@ def held_out(frames, exposures, merges=("panolight", "opencv")) -> dict:
             errors["panolight"].append(np.abs(_codes_of(ours * (e[k] / t[ref]), table) - actual)[well])
         if "opencv" not in errors:
             continue
-        bgr = [np.ascontiguousarray(f[..., ::-1]) for f in rest]
-        curve = cv2.createCalibrateDebevec().process(bgr, t.astype(np.float32))  # (256, 1, 3), BGR
-        theirs = cv2.createMergeDebevec().process(bgr, t.astype(np.float32), curve)[..., ::-1].astype(np.float64)
-        errors["opencv"].append(np.abs(_codes_of(theirs * e[k], curve[:, 0, ::-1]) - actual)[well])
+        theirs, curve = opencv_merge(rest, t)
+        errors["opencv"].append(np.abs(_codes_of(theirs * e[k], curve) - actual)[well])
     pooled = {n: np.concatenate(v) for n, v in errors.items() if v}
     return {n: {"median": float(np.median(v)), "mean": float(np.mean(v))} for n, v in pooled.items()}
 
